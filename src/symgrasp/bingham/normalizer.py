@@ -46,6 +46,7 @@ Methods:
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from functools import cache
@@ -177,7 +178,7 @@ def _s3_rule(device: torch.device) -> tuple[Tensor, Tensor]:
     nodes, weights = _gauss_legendre(_S3_NODES, device)
     ends = [_S3_PANEL_RATIO**k for k in range(_S3_PANELS)] + [0.0]
     all_nodes, all_weights = [], []
-    for hi, lo in zip(ends[:-1], ends[1:], strict=True):
+    for hi, lo in itertools.pairwise(ends):
         all_nodes.append(lo + (hi - lo) * nodes)
         all_weights.append((hi - lo) * weights)
     return torch.cat(all_nodes), torch.cat(all_weights)
@@ -284,4 +285,6 @@ def second_moments(eigenvalues: Tensor, method: str = "auto") -> Tensor:
             "second_moments: `eigenvalues` must have trailing size 3 or 4, "
             f"got shape {tuple(eigenvalues.shape)}"
         )
-    return _log_c_and_moments(eigenvalues.detach(), resolve_method(method, eigenvalues.shape[-1]))[1]
+    return _log_c_and_moments(eigenvalues.detach(), resolve_method(method, eigenvalues.shape[-1]))[
+        1
+    ]

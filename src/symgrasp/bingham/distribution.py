@@ -1,0 +1,241 @@
+"""The Bingham distribution on S² and S³ in the style of ``torch.distributions``.
+
+    B(A)(v) = exp(vᵀAv) / C(λ(A)),   v ∈ S^{d−1},  A ∈ Sym_d        (Ko et al. 2024, Sec. 3.1)
+
+with C the normalising constant under the **surface measure** (`log_normalizer`). A and
+A + cI are the same distribution, and B(A)(v) = B(A)(−v): the antipodal symmetry that lets one
+parameter set stand for both 180°-flipped grasps of a parallel gripper.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cached_property
+
+import torch
+
+from symgrasp.bingham.normalizer import log_normalizer, resolve_method, second_moments
+from symgrasp.bingham.sampling import sample_in_eigenbasis
+
+Tensor = torch.Tensor
+
+_SYMMETRY_TOLERANCE = 1e-5
+_UNIT_TOLERANCE = 1e-4
+
+
+def _check_matrix(A: Tensor, name: str, full: bool) -> None:
+    if A.ndim < 2 or A.shape[-1] != A.shape[-2] or A.shape[-1] not in (3, 4):
+        raise ValueError(f"`{name}` must be [..., 3, 3] or [..., 4, 4], got shape {tuple(A.shape)}")
+    if not full:
+        return
+    if not torch.isfinite(A).all():
+        raise ValueError(
+            f"`{name}` must be finite, got non-finite entries (shape {tuple(A.shape)})"
+        )
+    scale = A.abs().amax(dim=(-2, -1)).clamp(min=1.0)
+    asymmetry = (A - A.transpose(-1, -2)).abs().amax(dim=(-2, -1)) / scale
+    if (asymmetry > _SYMMETRY_TOLERANCE).any():
+        raise ValueError(
+            f"`{name}` must be symmetric, got relative asymmetry {asymmetry.max().item():.3g} "
+            f"(shape {tuple(A.shape)})"
+        )
+
+
+def _check_vector(v: Tensor, d: int, name: str, full: bool) -> None:
+    if v.ndim == 0 or v.shape[-1] != d:
+        raise ValueError(f"`{name}` must be [..., {d}], got shape {tuple(v.shape)}")
+    if full:
+        deviation = (v.norm(dim=-1) - 1).abs()
+        if not torch.isfinite(v).all() or (deviation > _UNIT_TOLERANCE).any():
+            raise ValueError(
+                f"`{name}` must hold finite unit vectors, got |‖v‖ − 1| up to "
+                f"{deviation.max().item():.3g} (shape {tuple(v.shape)})"
+            )
+
+
+def nll(A: Tensor, v: Tensor, method: str = "auto", validate_args: bool = False) -> Tensor:
+    """Bingham negative log-likelihood −vᵀAv + log C(λ(A))  (Ko et al. 2024, Eq. eq:defBNLL).
+
+    The gradient reaches A through ``eigvalsh`` only, so it is d nll/dA = E[vvᵀ] − vvᵀ and stays
+    finite at degenerate spectra (A = 0, λ₁ = λ₂), where a backward through eigenvectors is NaN.
+
+    Args:
+        A: ``[..., d, d]`` symmetric, d = 3 or 4.
+        v: ``[..., d]`` unit vectors; batch dimensions broadcast with A's.
+        method: normaliser method, see `log_normalizer`.
+        validate_args: check symmetry, finiteness and unit norm (trailing sizes are always checked).
+
+    Returns:
+        ``[...]`` the per-element loss.
+    """
+    _check_matrix(A, "A", validate_args)
+    _check_vector(v, A.shape[-1], "v", validate_args)
+    quadratic = torch.einsum("...i,...ij,...j->...", v, A, v)
+    return log_normalizer(torch.linalg.eigvalsh(A), method) - quadratic
+
+
+class Bingham:
+    """Bingham distribution with parameter matrix A.
+
+    Args:
+        A: ``[*batch_shape, d, d]``, symmetric, d = 3 (S²) or 4 (S³).
+        validate_args: check symmetry and finiteness of A and unit norm of values passed to
+            `log_prob` (off by default: the hot path checks nothing but trailing sizes).
+        method: normaliser method used by `log_prob` and `entropy`, see `log_normalizer`.
+    """
+
+    def __init__(self, A: Tensor, validate_args: bool = False, method: str = "auto") -> None:
+        _check_matrix(A, "A", validate_args)
+        resolve_method(method, A.shape[-1])
+        self.A = A
+        self.method = method
+        self.validate_args = validate_args
+
+    @property
+    def dim(self) -> int:
+        """d, the ambient dimension (3 for S², 4 for S³)."""
+        return self.A.shape[-1]
+
+    @property
+    def batch_shape(self) -> torch.Size:
+        return self.A.shape[:-2]
+
+    @property
+    def event_shape(self) -> torch.Size:
+        return self.A.shape[-1:]
+
+    @cached_property
+    def _eigh(self) -> tuple[Tensor, Tensor]:
+        return torch.linalg.eigh(self.A)
+
+    @property
+    def eigenvalues(self) -> Tensor:
+        """``[..., d]`` in ascending order (not shifted)."""
+        return self._eigh[0]
+
+    @property
+    def eigenvectors(self) -> Tensor:
+        """``[..., d, d]``; column i belongs to ``eigenvalues[..., i]``."""
+        return self._eigh[1]
+
+    @property
+    def mode(self) -> Tensor:
+        """``[..., d]``: the eigenvector of the largest eigenvalue (Eq. eq:modequaternion).
+
+        −mode is a mode too; the sign returned makes the largest-magnitude component positive.
+        """
+        mode = self.eigenvectors[..., -1]
+        pivot = mode.gather(-1, mode.abs().argmax(-1, keepdim=True))
+        return mode * torch.where(pivot < 0, -1.0, 1.0).to(mode.dtype)
+
+    @property
+    def confidence(self) -> Tensor:
+        """``[...]``: Σᵢ (λ_max − λᵢ), i.e. (λ₃−λ₂)+(λ₃−λ₁) on S² (Ko et al. 2024, Sec. 3.3)."""
+        lam = self.eigenvalues
+        return (lam[..., -1:] - lam).sum(-1)
+
+    def log_prob(self, v: Tensor) -> Tensor:
+        """``[...]`` log density of unit vectors ``v [..., d]`` (surface measure)."""
+        return -nll(self.A, v, self.method, self.validate_args)
+
+    def entropy(self) -> Tensor:
+        """``[...]`` differential entropy log C − Σᵢ λᵢ E[vᵢ²] (not differentiable)."""
+        lam = self.eigenvalues.detach().to(torch.float64)
+        log_c = log_normalizer(lam, self.method)
+        return (log_c - (lam * second_moments(lam, self.method)).sum(-1)).to(self.A.dtype)
+
+    def sample(
+        self,
+        sample_shape: tuple[int, ...] | torch.Size = (),
+        generator: torch.Generator | None = None,
+    ) -> Tensor:
+        """Exact samples, ``[*sample_shape, *batch_shape, d]`` (ACG rejection, `sampling`)."""
+        samples, _ = self._sample_with_count(sample_shape, generator)
+        return samples
+
+    def acceptance_rate(
+        self, num_samples: int = 1000, generator: torch.Generator | None = None
+    ) -> Tensor:
+        """``[...]`` fraction of ACG candidates the sampler accepts, measured on fresh draws."""
+        _, drawn = self._sample_with_count((num_samples,), generator)
+        return num_samples / drawn.to(torch.float64)
+
+    def _sample_with_count(
+        self, sample_shape: tuple[int, ...] | torch.Size, generator: torch.Generator | None
+    ) -> tuple[Tensor, Tensor]:
+        n = math.prod(sample_shape)
+        lam, vectors = (t.detach().to(torch.float64) for t in self._eigh)
+        concentrations = (lam[..., -1:] - lam).reshape(-1, self.dim)
+        x, drawn = sample_in_eigenbasis(concentrations, n, generator)  # [B, n, d]
+        v = torch.einsum("bij,bnj->nbi", vectors.reshape(-1, self.dim, self.dim), x)
+        v = v.reshape(*sample_shape, *self.batch_shape, self.dim).to(self.A.dtype)
+        return v, drawn.reshape(self.batch_shape)
+
+    def percentile_angle(self, p: float, axis: int) -> Tensor:
+        """Approximate θᵢ^(p) (Ko et al. 2024, Appx. A, Eq. eq:approx_percentile).
+
+        The angle θ for which the band {v : |⟨v, dᵢ⟩| ≤ sin(θ/2)} around the great circle
+        orthogonal to eigenvector dᵢ holds probability p: θᵢ^(p) ≈ 2 erf⁻¹(p)/√(λ_max − λᵢ).
+        Accurate when the concentrations are large.
+
+        Args:
+            p: probability in (0, 1).
+            axis: eigenvector index i in ascending eigenvalue order, 0 ≤ i < d − 1.
+        """
+        self._check_percentile_args(p, axis)
+        lam = self.eigenvalues
+        return 2 * torch.special.erfinv(lam.new_tensor(p)) / (lam[..., -1] - lam[..., axis]).sqrt()
+
+    def percentile_angle_mc(
+        self,
+        p: float,
+        axis: int,
+        num_samples: int = 100_000,
+        generator: torch.Generator | None = None,
+    ) -> Tensor:
+        """Monte-Carlo θᵢ^(p): 2 arcsin of the p-quantile of |⟨v, dᵢ⟩| over exact samples."""
+        self._check_percentile_args(p, axis)
+        v = self.sample((num_samples,), generator)
+        cosine = torch.einsum("n...i,...i->n...", v, self.eigenvectors[..., axis]).abs()
+        return 2 * torch.asin(torch.quantile(cosine.to(torch.float64), p, dim=0).clamp(max=1)).to(
+            v.dtype
+        )
+
+    def _check_percentile_args(self, p: float, axis: int) -> None:
+        if not 0 < p < 1:
+            raise ValueError(f"percentile_angle: `p` must be in (0, 1), got {p}")
+        if not 0 <= axis < self.dim - 1:
+            raise ValueError(f"percentile_angle: `axis` must be in [0, {self.dim - 2}], got {axis}")
+
+    def __repr__(self) -> str:
+        return f"Bingham(batch_shape={tuple(self.batch_shape)}, dim={self.dim})"
+
+
+def fit(v: Tensor, steps: int = 100) -> Bingham:
+    """Maximum-likelihood Bingham fit to unit vectors ``v [N, d]``.
+
+    The eigenvectors of A are those of the scatter matrix S = mean vvᵀ; the eigenvalues solve
+    E[vᵢ²] = Sᵢᵢ, the minimum of the convex −Σ λᵢ Sᵢᵢ + log C(λ), found by L-BFGS over
+    log-concentrations (λ_d = 0).
+    """
+    _check_vector(v, v.shape[-1], "v", full=True)
+    if v.ndim != 2 or v.shape[-1] not in (3, 4):
+        raise ValueError(f"fit: `v` must be [N, 3] or [N, 4], got shape {tuple(v.shape)}")
+    scatter = torch.einsum("ni,nj->ij", v, v).to(torch.float64) / v.shape[0]
+    moments, vectors = torch.linalg.eigh(scatter)
+    target = moments[:-1].clamp(min=1e-12)
+    # Start from the concentrated-limit answer κᵢ ≈ 1/(2 E[vᵢ²]).
+    log_kappa = torch.log(1 / (2 * target)).clone().requires_grad_(True)
+    optimiser = torch.optim.LBFGS([log_kappa], max_iter=steps, line_search_fn="strong_wolfe")
+
+    def objective() -> Tensor:
+        optimiser.zero_grad()
+        lam = torch.cat([-log_kappa.exp(), log_kappa.new_zeros(1)])
+        loss = log_normalizer(lam) - (lam[:-1] * target).sum()
+        loss.backward()
+        return loss
+
+    optimiser.step(objective)
+    lam = torch.cat([-log_kappa.detach().exp(), log_kappa.new_zeros(1)])
+    A = vectors @ torch.diag(lam) @ vectors.T
+    return Bingham(A.to(v.dtype))
