@@ -1,0 +1,223 @@
+"""triu, nll, the Bingham class and its sampler."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import torch
+
+from symgrasp.bingham import (
+    Bingham,
+    fit,
+    log_normalizer,
+    nll,
+    optimal_b,
+    second_moments,
+    sym_to_triu,
+    triu_to_sym,
+)
+
+F64 = torch.float64
+
+
+def random_symmetric(batch: int, d: int, scale: float, seed: int) -> torch.Tensor:
+    generator = torch.Generator().manual_seed(seed)
+    m = torch.randn(batch, d, d, generator=generator, dtype=F64) * scale
+    return (m + m.transpose(-1, -2)) / 2
+
+
+def uniform_sphere(n: int, d: int, seed: int) -> torch.Tensor:
+    v = torch.randn(n, d, generator=torch.Generator().manual_seed(seed), dtype=F64)
+    return v / v.norm(dim=-1, keepdim=True)
+
+
+# --- triu ----------------------------------------------------------------------------------
+
+
+def test_triu_order_and_round_trip():
+    A = triu_to_sym(torch.arange(6.0))
+    torch.testing.assert_close(A, torch.tensor([[0.0, 1, 2], [1, 3, 4], [2, 4, 5]]))
+    a = torch.randn(5, 2, 10)
+    torch.testing.assert_close(sym_to_triu(triu_to_sym(a)), a)
+    assert triu_to_sym(torch.randn(7, 6)).shape == (7, 3, 3)
+
+
+def test_triu_bad_sizes():
+    with pytest.raises(ValueError, match=r"`a`.*6 or 10"):
+        triu_to_sym(torch.zeros(4, 7))
+    with pytest.raises(ValueError, match="`A`"):
+        sym_to_triu(torch.zeros(2, 3))
+
+
+# --- nll -------------------------------------------------------------------------------------
+
+
+def test_nll_gradient_is_moment_difference_and_finite_at_degenerate_spectra():
+    v = torch.tensor([[0.6, 0.0, 0.8], [0.0, 1.0, 0.0]], dtype=F64)
+    # A = 0 and a doubly degenerate spectrum, where a backward through eigenvectors is NaN.
+    A = torch.stack(
+        [torch.zeros(3, 3, dtype=F64), torch.diag(torch.tensor([-4.0, -4.0, 0.0], dtype=F64))]
+    )
+    A.requires_grad_(True)
+    nll(A, v).sum().backward()
+    assert torch.isfinite(A.grad).all()
+    # d nll/dA = E[vvᵀ] − vvᵀ; at A = 0, E[vvᵀ] = I/3.
+    torch.testing.assert_close(A.grad[0], torch.eye(3, dtype=F64) / 3 - torch.outer(v[0], v[0]))
+    moments = second_moments(torch.tensor([-4.0, -4.0, 0.0], dtype=F64))
+    torch.testing.assert_close(A.grad[1], torch.diag(moments) - torch.outer(v[1], v[1]))
+
+
+def test_nll_at_zero_is_log_area_and_float32_gradient_is_finite():
+    A = torch.zeros(4, 3, 3, requires_grad=True)
+    loss = nll(A, uniform_sphere(4, 3, 0).float())
+    loss.sum().backward()
+    torch.testing.assert_close(loss, torch.full((4,), math.log(4 * math.pi)))
+    assert torch.isfinite(A.grad).all()
+
+
+def test_nll_invariances():
+    A = random_symmetric(8, 3, 10.0, 1)
+    v = uniform_sphere(8, 3, 2)
+    base = nll(A, v)
+    torch.testing.assert_close(nll(A, -v), base, rtol=0, atol=0)  # antipodal: bit-exact
+    torch.testing.assert_close(nll(A + 7.5 * torch.eye(3, dtype=F64), v), base)  # shift
+    R = torch.linalg.qr(torch.randn(3, 3, dtype=F64))[0]
+    torch.testing.assert_close(nll(R @ A @ R.T, v @ R.T), base)  # rotation
+
+
+def test_density_integrates_to_one():
+    """E_uniform[p(v)] · |S²| = 1: Monte Carlo under the uniform distribution, an independent check."""
+    d = Bingham(torch.diag(torch.tensor([-6.0, -2.0, 0.0], dtype=F64)))
+    v = uniform_sphere(400_000, 3, 3)
+    integral = d.log_prob(v).exp().mean() * 4 * math.pi
+    assert integral.item() == pytest.approx(1.0, abs=0.01)
+
+
+def test_nll_validation():
+    A, v = torch.zeros(3, 3), torch.tensor([1.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="`A` must be symmetric"):
+        nll(torch.triu(torch.ones(3, 3)), v, validate_args=True)
+    with pytest.raises(ValueError, match="`A` must be finite"):
+        nll(torch.full((3, 3), float("nan")), v, validate_args=True)
+    with pytest.raises(ValueError, match="`v` must hold finite unit vectors"):
+        nll(A, 2 * v, validate_args=True)
+    with pytest.raises(ValueError, match=r"`v` must be \[\.\.\., 3\]"):
+        nll(A, torch.zeros(4))  # trailing sizes are checked even without validate_args
+    with pytest.raises(ValueError, match="`A` must be"):
+        Bingham(torch.zeros(2, 3))
+    nll(torch.triu(torch.ones(3, 3)), 2 * v)  # unchecked hot path: no error
+
+
+# --- the distribution --------------------------------------------------------------------------
+
+
+def test_mode_and_confidence_on_hand_made_matrices():
+    d = Bingham(torch.diag(torch.tensor([-5.0, 1.0, -3.0], dtype=F64)))
+    torch.testing.assert_close(d.mode, torch.tensor([0.0, 1.0, 0.0], dtype=F64))
+    assert d.confidence.item() == pytest.approx(6.0 + 4.0)
+    # A = −κ(I − e eᵀ) + shift: mode e (sign-canonical), confidence 2κ.
+    e = torch.tensor([-2.0, 3.0, -6.0], dtype=F64) / 7
+    A = -20.0 * (torch.eye(3, dtype=F64) - torch.outer(e, e)) + 3.0 * torch.eye(3, dtype=F64)
+    d = Bingham(A)
+    torch.testing.assert_close(d.mode, -e)  # largest-magnitude component made positive
+    assert d.confidence.item() == pytest.approx(40.0)
+    assert d.batch_shape == () and d.event_shape == (3,)
+
+
+def test_entropy():
+    assert Bingham(torch.zeros(3, 3, dtype=F64)).entropy().item() == pytest.approx(
+        math.log(4 * math.pi)
+    )
+    assert Bingham(torch.zeros(4, 4, dtype=F64)).entropy().item() == pytest.approx(
+        math.log(2 * math.pi**2)
+    )
+    d = Bingham(torch.diag(torch.tensor([-30.0, -4.0, 0.0], dtype=F64)))
+    samples = d.sample((200_000,), generator=torch.Generator().manual_seed(0))
+    monte_carlo = -d.log_prob(samples).mean()
+    assert d.entropy().item() == pytest.approx(monte_carlo.item(), abs=0.01)
+
+
+@pytest.mark.parametrize(
+    "lam", [[-50.0, -10.0, 0.0], [-0.3, 0.0, 0.0], [-2e4, -3.0, 0.0], [-40.0, -9.0, -1.0, 0.0]]
+)
+def test_sample_second_moments_match_the_gradient_of_log_c(lam):
+    lam = torch.tensor(lam, dtype=F64)
+    d = len(lam)
+    R = torch.linalg.qr(torch.randn(d, d, dtype=F64, generator=torch.Generator().manual_seed(5)))[0]
+    dist = Bingham(R @ torch.diag(lam) @ R.T)
+    n = 200_000
+    v = dist.sample((n,), generator=torch.Generator().manual_seed(6))
+    assert v.shape == (n, d)
+    torch.testing.assert_close(v.norm(dim=-1), torch.ones(n, dtype=F64))
+    in_eigenbasis = (v @ R).square()
+    expected = second_moments(lam)
+    # Five standard errors of each mean of vᵢ² (variance ≤ E[vᵢ⁴] ≤ E[vᵢ²]).
+    tolerance = 5 * (expected / n).sqrt() + 1e-12
+    assert ((in_eigenbasis.mean(0) - expected).abs() <= tolerance).all()
+
+
+def test_samples_are_antipodally_symmetric():
+    dist = Bingham(torch.diag(torch.tensor([-30.0, -5.0, 0.0], dtype=F64)))
+    n = 100_000
+    v = dist.sample((n,), generator=torch.Generator().manual_seed(7))
+    positive = (v[:, 2] > 0).double().mean().item()
+    assert abs(positive - 0.5) < 5 * 0.5 / math.sqrt(n)  # five binomial standard errors
+    assert v.mean(0).abs().max().item() < 5 / math.sqrt(n)
+
+
+def test_sampler_batch_shapes_reproducibility_and_acceptance():
+    A = random_symmetric(6, 3, 30.0, 8).reshape(2, 3, 3, 3)
+    dist = Bingham(A)
+    a = dist.sample((4, 5), generator=torch.Generator().manual_seed(9))
+    b = dist.sample((4, 5), generator=torch.Generator().manual_seed(9))
+    assert a.shape == (4, 5, 2, 3, 3)
+    torch.testing.assert_close(a, b, rtol=0, atol=0)
+    rate = dist.acceptance_rate(2000, generator=torch.Generator().manual_seed(10))
+    assert rate.shape == (2, 3)
+    assert (rate > 0.45).all() and (rate <= 1).all()
+    assert Bingham(torch.zeros(3, 3)).sample().shape == (3,)
+
+
+def test_optimal_b_solves_its_equation():
+    kappa = torch.tensor(
+        [[0.0, 0.0, 0.0], [0.0, 5.0, 50.0], [0.0, 1e7, 1e7], [0.0, 1.0, 2.0, 3.0]][:3], dtype=F64
+    )
+    b = optimal_b(kappa)
+    torch.testing.assert_close(
+        (1 / (b.unsqueeze(-1) + 2 * kappa)).sum(-1), torch.ones(3, dtype=F64)
+    )
+    assert b[0].item() == pytest.approx(3.0)
+
+
+def test_percentile_angle_approximation_matches_monte_carlo_when_concentrated():
+    dist = Bingham(torch.diag(torch.tensor([-2000.0, -500.0, 0.0], dtype=F64)))
+    generator = torch.Generator().manual_seed(11)
+    for axis in (0, 1):
+        approx = dist.percentile_angle(0.99, axis)
+        monte_carlo = dist.percentile_angle_mc(0.99, axis, num_samples=100_000, generator=generator)
+        assert approx.item() == pytest.approx(monte_carlo.item(), rel=0.03)
+    with pytest.raises(ValueError, match="`p`"):
+        dist.percentile_angle(1.5, 0)
+    with pytest.raises(ValueError, match="`axis`"):
+        dist.percentile_angle(0.5, 2)
+
+
+def test_fit_recovers_parameters():
+    R = torch.linalg.qr(torch.randn(3, 3, dtype=F64, generator=torch.Generator().manual_seed(12)))[
+        0
+    ]
+    truth = Bingham(R @ torch.diag(torch.tensor([-80.0, -15.0, 0.0], dtype=F64)) @ R.T)
+    estimate = fit(truth.sample((100_000,), generator=torch.Generator().manual_seed(13)))
+    lam = estimate.eigenvalues - estimate.eigenvalues[-1]
+    torch.testing.assert_close(
+        lam, torch.tensor([-80.0, -15.0, 0.0], dtype=F64), rtol=0.03, atol=1e-9
+    )
+    assert abs(torch.dot(estimate.mode, truth.mode).item()) > 0.9999
+
+
+def test_log_prob_consistent_with_normalizer():
+    A = random_symmetric(5, 4, 5.0, 14)
+    v = uniform_sphere(5, 4, 15)
+    expected = torch.einsum("bi,bij,bj->b", v, A, v) - log_normalizer(torch.linalg.eigvalsh(A))
+    torch.testing.assert_close(Bingham(A).log_prob(v), expected)
