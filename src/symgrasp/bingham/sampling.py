@@ -21,28 +21,26 @@ _NEWTON_MAX_STEPS = 60
 _NEWTON_TOLERANCE = 1e-13
 
 
+def _sum_last(t: Tensor) -> Tensor:
+    """Sum over a last axis of size 3 or 4, unrolled: a reduction kernel over so few entries
+    is several times slower than the elementwise adds."""
+    return sum(t.unbind(-1))  # type: ignore[return-value]
+
+
 def optimal_b(concentrations: Tensor) -> Tensor:
     """Root b ∈ [1, q] of Σᵢ 1/(b + 2κᵢ) = 1 for ``[..., q]`` concentrations κ ≥ 0 (one is 0)."""
     b = torch.ones_like(concentrations[..., 0])
     two_kappa = 2 * concentrations
     for _ in range(_NEWTON_MAX_STEPS):
-        inv = 1 / (b.unsqueeze(-1) + two_kappa)
-        excess = inv.sum(-1) - 1
+        inv = (b.unsqueeze(-1) + two_kappa).reciprocal()
+        excess = _sum_last(inv) - 1
         # f(b) = Σ 1/(b+2κ) − 1 is convex and decreasing, and f(1) ≥ 0, so Newton steps from
         # b = 1 increase monotonically towards the root and never overshoot.
-        b = b + excess / inv.square().sum(-1)
+        b = b + excess / _sum_last(inv.square())
         if excess.numel() == 0 or excess.abs().max() < _NEWTON_TOLERANCE:
             break
     q = concentrations.shape[-1]
     return b.clamp(1.0, float(q))
-
-
-def _weighted_sum(squares: Tensor, weights: Tensor) -> Tensor:
-    """Σᵢ wᵢ yᵢ² over the last axis, unrolled like ``norm2`` below."""
-    total = squares[..., 0] * weights[..., 0]
-    for i in range(1, squares.shape[-1]):
-        total = total + squares[..., i] * weights[..., i]
-    return total
 
 
 def sample_in_eigenbasis(
@@ -63,6 +61,7 @@ def sample_in_eigenbasis(
     device, dtype = concentrations.device, concentrations.dtype
     b = optimal_b(concentrations)
     omega = 1 + 2 * concentrations / b.unsqueeze(-1)
+    inv_sqrt_omega = omega.rsqrt()
     log_m = -(q - b) / 2 + q / 2 * torch.log(q / b)
     out = torch.empty(rows, n, q, device=device, dtype=dtype)
     filled = torch.zeros(rows, dtype=torch.long, device=device)
@@ -74,10 +73,11 @@ def sample_in_eigenbasis(
         # one round, and the few that fall short get another.
         m = 2 * int(need.max()) + 2
         z = torch.randn(active.numel(), m, q, generator=generator, device=device, dtype=dtype)
-        y2 = z.square() / omega[active].unsqueeze(1)  # y ~ N(0, Ω⁻¹), x = y/|y|
-        norm2 = sum(y2.unbind(-1))  # unrolled: a reduction over 3 or 4 entries is slow
-        kappa_term = _weighted_sum(y2, concentrations[active].unsqueeze(1)) / norm2
-        omega_term = _weighted_sum(y2, omega[active].unsqueeze(1)) / norm2
+        y = z * inv_sqrt_omega[active].unsqueeze(1)  # y ~ N(0, Ω⁻¹); the candidate is x = y/|y|
+        y2 = y.square()
+        norm2 = _sum_last(y2)
+        kappa_term = _sum_last(y2 * concentrations[active].unsqueeze(1)) / norm2
+        omega_term = _sum_last(y2 * omega[active].unsqueeze(1)) / norm2
         # log of Bingham(x) / (M · ACG(x)), both unnormalised; ≤ 0 up to rounding.
         log_ratio = -kappa_term + q / 2 * torch.log(omega_term) - log_m[active].unsqueeze(1)
         exponential = torch.empty_like(log_ratio).exponential_(generator=generator)  # −log U
@@ -86,8 +86,7 @@ def sample_in_eigenbasis(
         keep = accepted & (rank <= need.unsqueeze(-1))
         slot = filled[active].unsqueeze(-1) + rank - 1
         flat_index = (active.unsqueeze(-1) * n + slot)[keep]
-        x = z[keep] / omega[active].sqrt().unsqueeze(1).expand_as(z)[keep]
-        out.view(rows * n, q)[flat_index] = x / x.norm(dim=-1, keepdim=True)
+        out.view(rows * n, q)[flat_index] = y[keep] / norm2[keep].sqrt().unsqueeze(-1)
         # Candidates up to the last one kept count as drawn; the rest were never needed.
         done = rank[:, -1] >= need
         drawn[active] += torch.where(done, (rank < need.unsqueeze(-1)).sum(-1) + 1, m)

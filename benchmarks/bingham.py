@@ -1,0 +1,182 @@
+"""Benchmark of the Bingham core: speed and accuracy of every normaliser method, and the sampler.
+
+Run: ``.venv/bin/python benchmarks/bingham.py`` (``make bench``). Writes
+``benchmarks/results/bingham.json`` and prints a Markdown table (copied into docs/bingham.md).
+
+All methods run in one process on the same random eigenvalues: B = 100 000 float64 eigenvalue
+sets with log-uniform concentrations in [1e-3, 1e6] (one eigenvalue 0), timed for the value and
+its gradient (forward + backward), median of repeats. Accuracy is the maximum relative error of C
+against mpmath (`symgrasp.bingham.reference`) on a log-spaced grid over [−1e6, 0]^{d−1}.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from symgrasp.bingham import Bingham, log_normalizer
+from symgrasp.bingham.reference import log_normalizer_mpmath
+
+RESULTS = Path(__file__).parent / "results" / "bingham.json"
+METHODS = {3: ["quadrature", "paper"], 4: ["bessel", "paper"]}
+
+
+def machine() -> dict:
+    cpu = platform.processor()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return {
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "torch_threads": torch.get_num_threads(),
+        "torch": torch.__version__,
+        "python": platform.python_version(),
+    }
+
+
+def random_eigenvalues(batch: int, d: int, seed: int) -> torch.Tensor:
+    generator = torch.Generator().manual_seed(seed)
+    log_kappa = torch.rand(batch, d - 1, generator=generator, dtype=torch.float64) * 9 - 3
+    return torch.cat([-(10**log_kappa), torch.zeros(batch, 1, dtype=torch.float64)], -1)
+
+
+def time_value_and_gradient(lam: torch.Tensor, method: str, repeats: int) -> float:
+    """Median seconds for log C and its gradient over the whole batch."""
+    times = []
+    for _ in range(repeats):
+        x = lam.clone().requires_grad_(True)
+        start = time.perf_counter()
+        log_normalizer(x, method).sum().backward()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def accuracy_grid(d: int, points: int) -> list[list[float]]:
+    values = [0.0, *(-np.logspace(-3, 6, points)).tolist()]
+    rows = [sorted(t) for t in itertools.product(values, repeat=d - 1)]
+    unique = sorted({tuple(r) for r in rows})
+    return [[*r, 0.0] for r in unique]
+
+
+def max_relative_error(grid: list[list[float]], reference: torch.Tensor, method: str) -> float:
+    log_c = log_normalizer(torch.tensor(grid, dtype=torch.float64), method)
+    return (torch.expm1(log_c - reference)).abs().max().item()
+
+
+def sampler_throughput(batch: int, d: int, per_distribution: int, seed: int, repeats: int) -> dict:
+    """Samples per second for ``batch`` distinct random distributions (eigh included)."""
+    generator = torch.Generator().manual_seed(seed)
+    lam = random_eigenvalues(batch, d, seed)
+    q = torch.linalg.qr(torch.randn(batch, d, d, generator=generator, dtype=torch.float64))[0]
+    A = q @ torch.diag_embed(lam) @ q.transpose(-1, -2)
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        Bingham(A).sample((per_distribution,), generator=generator)
+        times.append(time.perf_counter() - start)
+    rate = Bingham(A).acceptance_rate(200, generator=generator)
+    seconds = statistics.median(times)
+    return {
+        "distributions": batch,
+        "samples_per_distribution": per_distribution,
+        "seconds": seconds,
+        "samples_per_second": batch * per_distribution / seconds,
+        "acceptance_rate_mean": rate.mean().item(),
+        "acceptance_rate_min": rate.min().item(),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--batch", type=int, default=100_000, help="eigenvalue sets timed (default 100000)"
+    )
+    parser.add_argument(
+        "--repeats", type=int, default=5, help="timing repeats, median reported (default 5)"
+    )
+    parser.add_argument(
+        "--grid", type=int, default=25, help="S² accuracy grid points per axis (default 25)"
+    )
+    parser.add_argument(
+        "--grid-s3", type=int, default=8, help="S³ accuracy grid points per axis (default 8)"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument(
+        "--out", type=Path, default=RESULTS, help=f"JSON output (default {RESULTS})"
+    )
+    args = parser.parse_args()
+
+    result: dict = {
+        "command": " ".join([Path(sys.executable).name, *sys.argv]),
+        "machine": machine(),
+    }
+    result["setup"] = {"batch": args.batch, "dtype": "float64", "device": "cpu", "seed": args.seed}
+    result["normalizer"] = {}
+    for d, methods in METHODS.items():
+        lam = random_eigenvalues(args.batch, d, args.seed)
+        grid = accuracy_grid(d, args.grid if d == 3 else args.grid_s3)
+        reference = torch.tensor(
+            [log_normalizer_mpmath(g) for g in tqdm(grid, desc=f"mpmath reference S{d - 1}")],
+            dtype=torch.float64,
+        )
+        for method in methods:
+            log_normalizer(lam[:1000], method)  # warm-up
+            repeats = args.repeats if method != "paper" else max(1, args.repeats // 2)
+            seconds = time_value_and_gradient(lam, method, repeats)
+            result["normalizer"][f"S{d - 1}/{method}"] = {
+                "us_per_constant_with_gradient": seconds / args.batch * 1e6,
+                "max_relative_error": max_relative_error(grid, reference, method),
+                "grid_points": len(grid),
+            }
+        fast, paper = (result["normalizer"][f"S{d - 1}/{m}"] for m in methods)
+        fast["speedup_over_paper"] = (
+            paper["us_per_constant_with_gradient"] / fast["us_per_constant_with_gradient"]
+        )
+    result["sampler"] = {
+        "S2": sampler_throughput(args.batch, 3, 10, args.seed, args.repeats),
+        "S3": sampler_throughput(args.batch, 4, 10, args.seed, args.repeats),
+    }
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_suffix(".tmp")
+    tmp.write_text(json.dumps(result, indent=2) + "\n")
+    tmp.replace(args.out)
+
+    print(
+        f"\nmachine: {result['machine']['cpu']}, {result['machine']['torch_threads']} threads, torch {result['machine']['torch']}"
+    )
+    print(
+        f"\n| normaliser | µs per constant + gradient (B = {args.batch}) | max rel. error of C vs mpmath | speed-up vs paper |"
+    )
+    print("|---|---|---|---|")
+    for name, r in result["normalizer"].items():
+        speedup = f"{r['speedup_over_paper']:.0f}×" if "speedup_over_paper" in r else "—"
+        print(
+            f"| {name} | {r['us_per_constant_with_gradient']:.2f} | {r['max_relative_error']:.1e} ({r['grid_points']} points) | {speedup} |"
+        )
+    print("\n| sampler | distributions | samples/s | acceptance rate (mean, min) |")
+    print("|---|---|---|---|")
+    for name, r in result["sampler"].items():
+        print(
+            f"| {name} | {r['distributions']} × {r['samples_per_distribution']} | {r['samples_per_second']:.3g} | {r['acceptance_rate_mean']:.3f}, {r['acceptance_rate_min']:.3f} |"
+        )
+    print(f"\nwrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
