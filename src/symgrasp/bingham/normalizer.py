@@ -122,7 +122,6 @@ _PAPER_N = 200
 _PAPER_N_MIN = 15
 _PAPER_R = 2.5
 _PAPER_OMEGA = 0.5
-_PAPER_CHUNK = 4096  # rows per chunk: bounds memory at [chunk, d, 2N+2] complex128
 
 
 @cache
@@ -140,7 +139,8 @@ def _paper_constants(device: torch.device) -> tuple[float, float, Tensor, Tensor
     return c, h, t, coefficients
 
 
-def _paper_chunk(lam: Tensor) -> tuple[Tensor, Tensor]:
+def _paper(lam: Tensor) -> tuple[Tensor, Tensor]:
+    """log C and E[vᵢ²] by the paper's contour sum for sorted, shifted eigenvalues ``[..., d]``."""
     d = lam.shape[-1]
     c, h, t, coefficients = _paper_constants(lam.device)
     z = torch.complex(c - lam.unsqueeze(-1), t.expand(*lam.shape, -1))  # [..., d, M]
@@ -150,17 +150,6 @@ def _paper_chunk(lam: Tensor) -> tuple[Tensor, Tensor]:
     value = prefactor * weighted.sum(-1).real
     gradient = prefactor * (weighted.unsqueeze(-2) / (2 * z)).sum(-1).real
     return torch.log(value), gradient / value.unsqueeze(-1)
-
-
-def _paper(lam: Tensor) -> tuple[Tensor, Tensor]:
-    """log C and E[vᵢ²] by the paper's contour sum, chunked over the batch."""
-    flat = lam.reshape(-1, lam.shape[-1])
-    parts = [_paper_chunk(chunk) for chunk in flat.split(_PAPER_CHUNK)]
-    if not parts:
-        return lam.new_empty(lam.shape[:-1]), lam.new_empty(lam.shape)
-    log_c = torch.cat([p[0] for p in parts]).reshape(lam.shape[:-1])
-    moments = torch.cat([p[1] for p in parts]).reshape(lam.shape)
-    return log_c, moments
 
 
 # ---------------------------------------------------------------------------------------------
@@ -221,13 +210,24 @@ _KERNELS: dict[tuple[str, int], _Kernel] = {
 _AUTO = {3: "quadrature", 4: "bessel"}
 
 
+def _chunk_rows(device: torch.device) -> int:
+    # On the CPU, chunks of 4096 rows keep the [rows, nodes] temporaries in cache: twice as fast
+    # as one pass over 10⁵ rows (measured). On a GPU, large chunks keep it busy.
+    return 4096 if device.type == "cpu" else 1 << 18
+
+
 def _log_c_and_moments(eigenvalues: Tensor, method: str) -> tuple[Tensor, Tensor]:
     """log C and ∂ log C/∂λ (in the input's order) in float64, for any order and shift."""
     lam = eigenvalues.to(torch.float64)
     sorted_lam, order = lam.sort(dim=-1)
     top = sorted_lam[..., -1:]
-    log_c, moments = _KERNELS[(method, lam.shape[-1])](sorted_lam - top)
-    return log_c + top.squeeze(-1), torch.empty_like(moments).scatter_(-1, order, moments)
+    kernel = _KERNELS[(method, lam.shape[-1])]
+    flat = (sorted_lam - top).reshape(-1, lam.shape[-1])
+    parts = [kernel(chunk) for chunk in flat.split(_chunk_rows(lam.device))]
+    log_c = torch.cat([p[0] for p in parts]) if parts else flat.new_empty(0)
+    moments = torch.cat([p[1] for p in parts]) if parts else flat.new_empty(0, lam.shape[-1])
+    log_c = log_c.reshape(lam.shape[:-1]) + top.squeeze(-1)
+    return log_c, torch.empty_like(lam).scatter_(-1, order, moments.reshape(lam.shape))
 
 
 class _LogNormalizer(torch.autograd.Function):
