@@ -25,7 +25,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from symgrasp.bingham import Bingham, log_normalizer
+from symgrasp.bingham import Bingham, eigh3, log_normalizer, nll, triu_to_sym
 from symgrasp.bingham.normalizer import _S2_NODES, _S2_WINDOW, _gauss_legendre
 from symgrasp.bingham.reference import log_normalizer_mpmath
 
@@ -130,6 +130,35 @@ def sampler_throughput(batch: int, d: int, per_distribution: int, seed: int, rep
     }
 
 
+def loss_and_eigen_timings(batch: int, seed: int, repeats: int) -> dict:
+    """µs per element: the S² eigensolvers, and the 2D-Bingham NLL with its backward pass
+    (float32 network output → triu → nll, as in training)."""
+    generator = torch.Generator().manual_seed(seed)
+    a = torch.randn(batch, 6, generator=generator) * 10
+    v = torch.nn.functional.normalize(torch.randn(batch, 3, generator=generator), dim=-1)
+    A = triu_to_sym(a).double()
+
+    def nll_step() -> None:
+        x = a.clone().requires_grad_(True)
+        nll(triu_to_sym(x), v).sum().backward()
+
+    def median_us(fn) -> float:
+        fn()
+        times = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - start)
+        return statistics.median(times) / batch * 1e6
+
+    return {
+        "batch": batch,
+        "eigh3_us": median_us(lambda: eigh3(A)),
+        "torch_linalg_eigh_us": median_us(lambda: torch.linalg.eigh(A)),
+        "nll_s2_float32_forward_backward_us": median_us(nll_step),
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -178,6 +207,7 @@ def main() -> None:
         fast["speedup_over_paper"] = (
             paper["us_per_constant_with_gradient"] / fast["us_per_constant_with_gradient"]
         )
+    result["loss"] = loss_and_eigen_timings(65_536, args.seed, args.repeats)
     result["sampler"] = {
         "S2": sampler_throughput(args.batch, 3, 10, args.seed, args.repeats),
         "S3": sampler_throughput(args.batch, 4, 10, args.seed, args.repeats),
@@ -205,6 +235,14 @@ def main() -> None:
         print(
             f"| {name} | {r['us_per_constant_with_moments']:.2f} | {r['max_relative_error']:.1e} |"
         )
+    r = result["loss"]
+    print(f"\n| S² at B = {r['batch']} | µs per element |")
+    print("|---|---|")
+    print(f"| `eigh3` (closed form) | {r['eigh3_us']:.3f} |")
+    print(f"| `torch.linalg.eigh` | {r['torch_linalg_eigh_us']:.3f} |")
+    print(
+        f"| `nll` forward + backward (float32 input) | {r['nll_s2_float32_forward_backward_us']:.3f} |"
+    )
     print("\n| sampler | distributions | samples/s | acceptance rate (mean, min) |")
     print("|---|---|---|---|")
     for name, r in result["sampler"].items():

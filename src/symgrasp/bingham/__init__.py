@@ -5,7 +5,8 @@ measure (C(0) = 4π on S², 2π² on S³); A is symmetric d×d, d = 3 or 4. Eige
 ascending; internally they are shifted so the largest is 0.
 """
 
-from symgrasp.bingham.distribution import Bingham, fit, nll
+from symgrasp.bingham.distribution import Bingham, eigh, fit, nll
+from symgrasp.bingham.eigen import eigh3
 from symgrasp.bingham.normalizer import METHODS, log_normalizer, second_moments
 from symgrasp.bingham.sampling import optimal_b
 from symgrasp.bingham.symmetric import sym_to_triu, triu_to_sym
@@ -13,6 +14,8 @@ from symgrasp.bingham.symmetric import sym_to_triu, triu_to_sym
 __all__ = [
     "METHODS",
     "Bingham",
+    "eigh",
+    "eigh3",
     "fit",
     "log_normalizer",
     "nll",

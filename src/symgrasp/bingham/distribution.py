@@ -13,8 +13,15 @@ import math
 from functools import cached_property
 
 import torch
+from torch.autograd.function import once_differentiable
 
-from symgrasp.bingham.normalizer import log_normalizer, resolve_method, second_moments
+from symgrasp.bingham.eigen import eigh3
+from symgrasp.bingham.normalizer import (
+    _log_c_and_moments,
+    log_normalizer,
+    resolve_method,
+    second_moments,
+)
 from symgrasp.bingham.sampling import sample_in_eigenbasis
 
 Tensor = torch.Tensor
@@ -53,11 +60,44 @@ def _check_vector(v: Tensor, d: int, name: str, full: bool) -> None:
             )
 
 
+def eigh(A: Tensor) -> tuple[Tensor, Tensor]:
+    """Eigenvalues (ascending) and eigenvectors of symmetric ``[..., d, d]``, not differentiable.
+
+    The closed form `eigh3` for d = 3 (4× faster than LAPACK on a CPU, orthonormal to rounding
+    even at repeated eigenvalues), ``torch.linalg.eigh`` for d = 4.
+    """
+    if A.shape[-1] == 3:
+        return eigh3(A)
+    return torch.linalg.eigh(A.detach())
+
+
+class _LogNormalizerOfMatrix(torch.autograd.Function):
+    """log C(λ(A)) with the gradient V diag(E[vᵢ²]) Vᵀ = E[vvᵀ]: one eigendecomposition in the
+    forward pass and none in the backward pass. The gradient needs no eigenvector derivative,
+    so it is finite at repeated eigenvalues, where a backward through ``eigh`` is NaN."""
+
+    @staticmethod
+    def forward(ctx, A: Tensor, method: str) -> Tensor:  # type: ignore[override]
+        lam, vectors = eigh(A)
+        log_c, moments = _log_c_and_moments(lam, method)
+        ctx.save_for_backward(vectors.to(torch.float64), moments)
+        return log_c.to(A.dtype)
+
+    @staticmethod
+    @once_differentiable
+    def backward(ctx, grad_output: Tensor) -> tuple[Tensor, None]:  # type: ignore[override]
+        vectors, moments = ctx.saved_tensors
+        second_moment_matrix = (vectors * moments.unsqueeze(-2)) @ vectors.transpose(-1, -2)
+        return (grad_output[..., None, None] * second_moment_matrix).to(grad_output.dtype), None
+
+
 def nll(A: Tensor, v: Tensor, method: str = "auto", validate_args: bool = False) -> Tensor:
     """Bingham negative log-likelihood −vᵀAv + log C(λ(A))  (Ko et al. 2024, Eq. eq:defBNLL).
 
-    The gradient reaches A through ``eigvalsh`` only, so it is d nll/dA = E[vvᵀ] − vvᵀ and stays
-    finite at degenerate spectra (A = 0, λ₁ = λ₂), where a backward through eigenvectors is NaN.
+    The gradient is d nll/dA = E[vvᵀ] − vvᵀ (exponential-family identity), computed from one
+    eigendecomposition; it stays finite at degenerate spectra (A = 0, λ₁ = λ₂), where a backward
+    through ``eigh`` eigenvectors is NaN. Only the upper triangle of A is read on S². Not twice
+    differentiable.
 
     Args:
         A: ``[..., d, d]`` symmetric, d = 3 or 4.
@@ -71,7 +111,7 @@ def nll(A: Tensor, v: Tensor, method: str = "auto", validate_args: bool = False)
     _check_matrix(A, "A", validate_args)
     _check_vector(v, A.shape[-1], "v", validate_args)
     quadratic = torch.einsum("...i,...ij,...j->...", v, A, v)
-    return log_normalizer(torch.linalg.eigvalsh(A), method) - quadratic
+    return _LogNormalizerOfMatrix.apply(A, resolve_method(method, A.shape[-1])) - quadratic
 
 
 class Bingham:
@@ -106,16 +146,16 @@ class Bingham:
 
     @cached_property
     def _eigh(self) -> tuple[Tensor, Tensor]:
-        return torch.linalg.eigh(self.A)
+        return eigh(self.A)
 
     @property
     def eigenvalues(self) -> Tensor:
-        """``[..., d]`` in ascending order (not shifted)."""
+        """``[..., d]`` in ascending order (not shifted); not differentiable (use `log_prob`)."""
         return self._eigh[0]
 
     @property
     def eigenvectors(self) -> Tensor:
-        """``[..., d, d]``; column i belongs to ``eigenvalues[..., i]``."""
+        """``[..., d, d]``; column i belongs to ``eigenvalues[..., i]``; a rotation on S²."""
         return self._eigh[1]
 
     @property

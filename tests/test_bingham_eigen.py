@@ -1,0 +1,80 @@
+"""The closed-form 3×3 eigensolver against LAPACK, at generic and degenerate spectra."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from symgrasp.bingham import eigh3, nll, triu_to_sym
+
+F64 = torch.float64
+
+
+def rotations(n: int, seed: int) -> torch.Tensor:
+    q = torch.linalg.qr(
+        torch.randn(n, 3, 3, generator=torch.Generator().manual_seed(seed), dtype=F64)
+    )[0]
+    return q
+
+
+def assert_decomposes(A: torch.Tensor) -> None:
+    lam, V = eigh3(A)
+    scale = A.abs().amax(dim=(-2, -1), keepdim=True).clamp(min=1e-300)
+    torch.testing.assert_close(
+        lam / scale.squeeze(-1), torch.linalg.eigvalsh(A) / scale.squeeze(-1), rtol=0, atol=1e-13
+    )
+    torch.testing.assert_close(
+        (A @ V - V * lam.unsqueeze(-2)) / scale, torch.zeros_like(A), rtol=0, atol=1e-13
+    )
+    torch.testing.assert_close(
+        V.transpose(-1, -2) @ V, torch.eye(3, dtype=F64).expand_as(A), rtol=0, atol=1e-13
+    )
+    torch.testing.assert_close(
+        torch.linalg.det(V), torch.ones(A.shape[:-2], dtype=F64), rtol=0, atol=1e-13
+    )
+
+
+def test_random_matrices_at_any_scale():
+    m = torch.randn(20_000, 3, 3, generator=torch.Generator().manual_seed(0), dtype=F64)
+    A = m + m.transpose(-1, -2)
+    for scale in (1.0, 1e7, 1e-200):
+        assert_decomposes(A * scale)
+
+
+@pytest.mark.parametrize(
+    "spectrum",
+    [
+        (1, 1, 1),
+        (0, 0, 0),
+        (-3, -3, 5),
+        (1, 2, 2),
+        (1, 1 + 1e-9, 2),
+        (-1e6, -1e6 + 1e-3, 0),
+        (1, 2, 2 + 1e-12),
+        (-50, 0, 0),
+    ],
+)
+def test_repeated_and_nearly_repeated_eigenvalues(spectrum):
+    Q = rotations(2000, 1)
+    A = Q @ torch.diag(torch.tensor(spectrum, dtype=F64)) @ Q.transpose(-1, -2)
+    assert_decomposes(A)
+
+
+def test_reads_the_upper_triangle_and_keeps_dtype():
+    A = triu_to_sym(torch.randn(10, 6, dtype=F64))
+    garbage = A + torch.tril(torch.randn(10, 3, 3, dtype=F64), -1)
+    torch.testing.assert_close(eigh3(garbage)[0], eigh3(A)[0])
+    lam, V = eigh3(A.float())
+    assert lam.dtype == V.dtype == torch.float32
+    with pytest.raises(ValueError, match=r"`A` must be \[\.\.\., 3, 3\]"):
+        eigh3(torch.zeros(4, 4))
+
+
+@pytest.mark.parametrize("d", [3, 4])
+def test_nll_gradcheck_through_triu(d):
+    generator = torch.Generator().manual_seed(2)
+    a = (torch.randn(5, 6 if d == 3 else 10, generator=generator, dtype=F64) * 4).requires_grad_(
+        True
+    )
+    v = torch.nn.functional.normalize(torch.randn(5, d, generator=generator, dtype=F64), dim=-1)
+    assert torch.autograd.gradcheck(lambda x: nll(triu_to_sym(x), v), (a,))
