@@ -41,8 +41,14 @@ class Bingham3D(Representation):
 
     def _decode(self, pred: Tensor) -> Decoded:
         distribution = Bingham(triu_to_sym(pred))
-        return Decoded(quaternion_to_matrix(distribution.mode), distribution.confidence)
+        rotation = quaternion_to_matrix(_unit(distribution.mode))
+        return Decoded(rotation, distribution.confidence)
 
     def _sample(self, pred: Tensor, n: int, generator: torch.Generator | None) -> Tensor:
         q = Bingham(triu_to_sym(pred)).sample((n,), generator).movedim(0, -2)
-        return quaternion_to_matrix(q)
+        return quaternion_to_matrix(_unit(q))
+
+
+def _unit(q: Tensor) -> Tensor:
+    # eigh and the sampler return unit vectors only to ~1e-6 in float32; R needs better.
+    return q / q.norm(dim=-1, keepdim=True)

@@ -96,7 +96,7 @@ def gram_schmidt(x: Tensor, z: Tensor) -> Tensor:
 
     Deterministic fallbacks keep degenerate inputs proper rotations: e_x = (1, 0, 0) where x = 0;
     where z = 0 or z ∥ x (|z_⊥| ≤ 16 ε |z|), e_z is built from the coordinate axis least aligned
-    with e_x (the first such axis on ties) instead of z.
+    with e_x instead of z, preferring z, then y on ties, so that x = z = 0 gives the identity.
 
     Args:
         x: ``[..., 3]`` approach direction, any length.
@@ -115,7 +115,8 @@ def gram_schmidt(x: Tensor, z: Tensor) -> Tensor:
     z_norm = z.norm(dim=-1, keepdim=True)
     perp_norm = z_perp.norm(dim=-1, keepdim=True)
     degenerate = perp_norm <= (_PARALLEL_TOLERANCE_EPS * eps * z_norm).clamp(min=tiny)
-    axis = torch.nn.functional.one_hot(e_x.abs().argmin(-1), 3).to(e_x)
+    least_aligned = 2 - e_x.abs().flip(-1).argmin(-1)  # ties go to z, then y
+    axis = torch.nn.functional.one_hot(least_aligned, 3).to(e_x)
     fallback = _reject(axis, e_x)
     fallback = fallback / fallback.norm(dim=-1, keepdim=True)  # |axis·e_x| ≤ 1/√3: well posed
     e_z = torch.where(degenerate, fallback, z_perp / perp_norm.clamp(min=tiny))
