@@ -66,7 +66,7 @@ def test_bingham2d_learns_the_closing_axis_where_naive_regression_averages_the_m
     finally:
         torch.set_num_threads(threads)
     assert bingham < 5.0
-    assert naive > 20.0 and naive > 5 * bingham
+    assert naive > 10.0 and naive > 5 * bingham  # 17–40° over seeds 0–4, bingham2d ≈ 1°
 
 
 if __name__ == "__main__":

@@ -16,11 +16,10 @@ sample of B(A); Gram–Schmidt then keeps e_x (Sec. 3.3). The confidence is
 from __future__ import annotations
 
 import torch
-import torch.nn.functional as F
 
 from symgrasp.bingham import Bingham, nll, triu_to_sym
 from symgrasp.rotation.base import Decoded, Representation
-from symgrasp.rotation.geometry import gram_schmidt
+from symgrasp.rotation.geometry import gram_schmidt, unit
 
 Tensor = torch.Tensor
 
@@ -32,9 +31,9 @@ class Bingham2D(Representation):
     """[a (6), x (3)]: a 2D Bingham over the closing axis e_z and the approach axis e_x.
 
     ``a`` is the upper triangle of A row by row (`symgrasp.bingham.triu_to_sym`). With K targets
-    the loss is the mean over valid targets. The cosine term uses
-    ``torch.nn.functional.cosine_similarity`` (eps = 1e-8): its gradient at x = 0 is the finite
-    −e_x/1e-8, so a zero-initialised x head starts with large steps.
+    the loss is the mean over valid targets. The cosine is x̂·e_x with x̂ = x / max(|x|, 1e-8)
+    (`unit`): its gradient at x = 0 is the finite −e_x/1e-8, so a zero-initialised x head starts
+    with large steps.
     """
 
     name = "bingham2d"
@@ -45,7 +44,7 @@ class Bingham2D(Representation):
     def _target_losses(self, pred: Tensor, R: Tensor) -> Tensor:
         # A is [..., 1, 3, 3] against K targets: `nll` decomposes it once, not K times.
         A, x = triu_to_sym(pred[..., :6]), pred[..., 6:]
-        approach = 1 - F.cosine_similarity(x, R[..., 0], dim=-1)
+        approach = 1 - (unit(x) * R[..., 0]).sum(-1)
         return approach + nll(A, R[..., 2])
 
     def _decode(self, pred: Tensor) -> Decoded:

@@ -79,6 +79,15 @@ def matrix_to_quaternion(R: Tensor) -> Tensor:
     return best / best.norm(dim=-1, keepdim=True)
 
 
+def unit(v: Tensor, eps: float = 1e-8) -> Tensor:
+    """v / max(|v|, eps) over the last axis (``torch.nn.functional.normalize``).
+
+    The direction inside losses: exact for |v| ≥ eps, and differentiable with a finite gradient
+    everywhere, also at v = 0 (where it is I/eps).
+    """
+    return torch.nn.functional.normalize(v, dim=-1, eps=eps)
+
+
 def normalize(v: Tensor, fallback: Tensor) -> Tensor:
     """v/|v|, or ``fallback`` (a unit vector broadcastable to v) where |v| = 0."""
     norm = v.norm(dim=-1, keepdim=True)

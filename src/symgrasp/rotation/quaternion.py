@@ -8,7 +8,6 @@ flipped twin as in VGN: 1 − max(|⟨q̂, q⟩|, |⟨q̂, q ⊗ i⟩|). Decodin
 from __future__ import annotations
 
 import torch
-import torch.nn.functional as F
 
 from symgrasp.rotation.base import Decoded, Representation
 from symgrasp.rotation.geometry import (
@@ -16,6 +15,7 @@ from symgrasp.rotation.geometry import (
     matrix_to_quaternion,
     normalize,
     quaternion_to_matrix,
+    unit,
 )
 
 Tensor = torch.Tensor
@@ -24,7 +24,7 @@ Tensor = torch.Tensor
 class Quaternion(Representation):
     """[x, y, z, w]; loss minimised over the flip, min over K targets.
 
-    ⟨q̂, q⟩ is ``torch.nn.functional.cosine_similarity`` (eps = 1e-8): finite gradient at 0.
+    q̂ = pred / max(|pred|, 1e-8) (`unit`): the gradient at pred = 0 is finite.
     """
 
     name = "quaternion"
@@ -33,9 +33,9 @@ class Quaternion(Representation):
 
     def _target_losses(self, pred: Tensor, R: Tensor) -> Tensor:
         q = matrix_to_quaternion(R)
+        q_hat = unit(pred)
         alignment = torch.maximum(
-            F.cosine_similarity(pred, q, dim=-1).abs(),
-            F.cosine_similarity(pred, flip_quaternion(q), dim=-1).abs(),
+            (q_hat * q).sum(-1).abs(), (q_hat * flip_quaternion(q)).sum(-1).abs()
         )
         return 1 - alignment
 

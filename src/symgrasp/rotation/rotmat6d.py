@@ -23,10 +23,9 @@ from __future__ import annotations
 from typing import ClassVar
 
 import torch
-import torch.nn.functional as F
 
 from symgrasp.rotation.base import Decoded, Representation
-from symgrasp.rotation.geometry import gram_schmidt
+from symgrasp.rotation.geometry import gram_schmidt, unit
 
 Tensor = torch.Tensor
 
@@ -34,8 +33,8 @@ Tensor = torch.Tensor
 class RotMat6D(Representation):
     """[x (3), z (3)] regressing e_x and e_z; loss minimised over the flip, min over K targets.
 
-    The cosines use ``torch.nn.functional.cosine_similarity`` (eps = 1e-8), whose gradient at a
-    zero output is finite but large (1e8).
+    cos(x, e) = x̂·e with x̂ = x / max(|x|, 1e-8) (`unit`; e is a column of a rotation, so
+    unit): at x = 0 the gradient is finite but large (1e8).
     """
 
     name = "rotmat6d"
@@ -44,8 +43,8 @@ class RotMat6D(Representation):
     flip_symmetric: ClassVar[bool] = True
 
     def _target_losses(self, pred: Tensor, R: Tensor) -> Tensor:
-        approach = 1 - F.cosine_similarity(pred[..., :3], R[..., 0], dim=-1)
-        closing = F.cosine_similarity(pred[..., 3:], R[..., 2], dim=-1)
+        approach = 1 - (unit(pred[..., :3]) * R[..., 0]).sum(-1)
+        closing = (unit(pred[..., 3:]) * R[..., 2]).sum(-1)
         return approach + 1 - (closing.abs() if self.flip_symmetric else closing)
 
     def _decode(self, pred: Tensor) -> Decoded:
