@@ -11,11 +11,13 @@ The loss is the sum of one cosine term per column,
     L(R) = (1 − cos(x, e_x)) + (1 − cos(z, e_z)),
 
 the approach term being the same as ``bingham2d``'s so that the two differ only in how e_z is
-modelled (and equal to ¼ of the squared error of the unit-normalised columns). ``rotmat6d``
+modelled (and 1 − cos(x, e) = ½ |x/|x| − e|², half the squared error of the unit-normalised
+column). ``rotmat6d``
 evaluates it for the ground truth and its flipped twin (e_z → −e_z) and keeps the smaller, as S4G
 and VGN do (Sec. 4): min(L(R), L(R·flip)) = (1 − cos(x, e_x)) + (1 − |cos(z, e_z)|).
-``rotmat6d_naive`` uses L(R) alone: the ablation where a network shown both twins regresses
-their mean, e_z ≈ 0, and decodes an arbitrary closing axis.
+``rotmat6d_naive`` uses L(R) alone: the ablation where a network shown both twins is pulled
+towards +e_z and −e_z equally (the two gradients cancel in expectation), so its closing axis is
+left arbitrary — mode averaging.
 """
 
 from __future__ import annotations
