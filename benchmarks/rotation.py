@@ -1,6 +1,6 @@
 """Throughput of the rotation representations: loss + backward and decode, on CPU.
 
-    python benchmarks/rotation.py [--batch 65536] [--threads 1 2] [--repeats 5]
+    python benchmarks/rotation.py [--batch 65536] [--threads 1] [--repeats 7]
 
 For every representation and K ∈ {1, 8} ground-truth rotations per element, times
 ``loss(pred, R_gt, mask).sum().backward()`` on a batch of B float32 elements, and ``decode``
@@ -107,7 +107,7 @@ def _cpu_model() -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--batch", type=int, default=65_536)
-    parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--threads", type=int, nargs="+", default=[1])
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args()
