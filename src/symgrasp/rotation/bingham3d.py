@@ -19,7 +19,12 @@ import torch
 
 from symgrasp.bingham import Bingham, nll, triu_to_sym
 from symgrasp.rotation.base import Decoded, Representation
-from symgrasp.rotation.geometry import flip_quaternion, matrix_to_quaternion, quaternion_to_matrix
+from symgrasp.rotation.geometry import (
+    flip_quaternion,
+    matrix_to_quaternion,
+    quaternion_to_matrix,
+    unit,
+)
 
 Tensor = torch.Tensor
 
@@ -41,14 +46,10 @@ class Bingham3D(Representation):
 
     def _decode(self, pred: Tensor) -> Decoded:
         distribution = Bingham(triu_to_sym(pred))
-        rotation = quaternion_to_matrix(_unit(distribution.mode))
+        # eigh returns unit vectors only to ~1e-6 in float32; the rotation needs better.
+        rotation = quaternion_to_matrix(unit(distribution.mode))
         return Decoded(rotation, distribution.confidence)
 
     def _sample(self, pred: Tensor, n: int, generator: torch.Generator | None) -> Tensor:
         q = Bingham(triu_to_sym(pred)).sample((n,), generator).movedim(0, -2)
-        return quaternion_to_matrix(_unit(q))
-
-
-def _unit(q: Tensor) -> Tensor:
-    # eigh and the sampler return unit vectors only to ~1e-6 in float32; R needs better.
-    return q / q.norm(dim=-1, keepdim=True)
+        return quaternion_to_matrix(unit(q))

@@ -133,6 +133,6 @@ def gram_schmidt(x: Tensor, z: Tensor) -> Tensor:
     return torch.stack([e_x, e_y, e_z], dim=-1)
 
 
-def _reject(v: Tensor, unit: Tensor) -> Tensor:
-    """v minus its component along the unit vector ``unit``."""
-    return v - (v * unit).sum(-1, keepdim=True) * unit
+def _reject(v: Tensor, direction: Tensor) -> Tensor:
+    """v minus its component along the unit vector ``direction``."""
+    return v - (v * direction).sum(-1, keepdim=True) * direction
