@@ -284,4 +284,6 @@ def second_moments(eigenvalues: Tensor, method: str = "auto") -> Tensor:
             "second_moments: `eigenvalues` must have trailing size 3 or 4, "
             f"got shape {tuple(eigenvalues.shape)}"
         )
-    return _log_c_and_moments(eigenvalues.detach(), resolve_method(method, eigenvalues.shape[-1]))[1]
+    return _log_c_and_moments(eigenvalues.detach(), resolve_method(method, eigenvalues.shape[-1]))[
+        1
+    ]

@@ -37,7 +37,9 @@ def triu_to_sym(a: torch.Tensor) -> torch.Tensor:
         ``[..., 3, 3]`` or ``[..., 4, 4]``; differentiable in ``a``.
     """
     if a.ndim == 0 or a.shape[-1] not in _DIM_OF_TRIU:
-        raise ValueError(f"triu_to_sym: `a` must have trailing size 6 or 10, got shape {tuple(a.shape)}")
+        raise ValueError(
+            f"triu_to_sym: `a` must have trailing size 6 or 10, got shape {tuple(a.shape)}"
+        )
     d = _DIM_OF_TRIU[a.shape[-1]]
     index = _triu_index(d, a.device)
     return a[..., index.flatten()].unflatten(-1, (d, d))
@@ -46,7 +48,9 @@ def triu_to_sym(a: torch.Tensor) -> torch.Tensor:
 def sym_to_triu(A: torch.Tensor) -> torch.Tensor:
     """Upper triangle of ``[..., d, d]`` (d = 3 or 4), row by row: the inverse of `triu_to_sym`."""
     if A.ndim < 2 or A.shape[-1] != A.shape[-2] or A.shape[-1] not in (3, 4):
-        raise ValueError(f"sym_to_triu: `A` must be [..., 3, 3] or [..., 4, 4], got shape {tuple(A.shape)}")
+        raise ValueError(
+            f"sym_to_triu: `A` must be [..., 3, 3] or [..., 4, 4], got shape {tuple(A.shape)}"
+        )
     d = A.shape[-1]
     rows, cols = torch.triu_indices(d, d, device=A.device)
     return A[..., rows, cols]

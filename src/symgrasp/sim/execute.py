@@ -21,8 +21,12 @@ PREGRASP_DISTANCE = 0.10
 LIFT_HEIGHT = 0.30
 """Lift along world +z [m]."""
 
-BLOCKED_ERROR = 0.01
-"""The hand counts as blocked when it lags its commanded pose by this much [m]."""
+BLOCKED_ERROR = 0.004
+"""The hand counts as blocked when it lags its commanded pose by this much [m] ..."""
+
+BLOCKED_FORCE = 20.0
+"""... or when the open hand is pressed by more than this [N] on its way in (what a wrist
+force sensor would flag: fingers landing on top of an object); the approach stops there."""
 
 
 class Outcome(enum.Enum):
@@ -30,7 +34,7 @@ class Outcome(enum.Enum):
 
     SUCCESS = "success"
     PREGRASP_COLLISION = "pregrasp_collision"  # the open hand at pre-grasp touches something
-    APPROACH_COLLISION = "approach_collision"  # blocked on the way in, or hit the table
+    APPROACH_COLLISION = "approach_collision"  # blocked or pressed on the way in
     NO_CONTACT = "no_contact"  # the fingers closed on nothing
     SLIPPED = "slipped"  # something was grasped but nothing is held after lift and hold
     MULTIPLE = "multiple"  # more than one object was lifted
@@ -46,6 +50,17 @@ class GraspResult:
     @property
     def success(self) -> bool:
         return self.outcome is Outcome.SUCCESS
+
+
+def top_grasp(position: np.ndarray, yaw: float = 0.0) -> np.ndarray:
+    """``T_world_tcp`` of a vertical grasp: ``e_x`` = world −z, closing axis ``e_z`` at angle
+    ``yaw`` [rad] from world +x in the table plane, TCP at ``position`` (3,) [m]."""
+    e_x = np.array([0.0, 0.0, -1.0])
+    e_z = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    T = np.eye(4)
+    T[:3, :3] = np.c_[e_x, np.cross(e_z, e_x), e_z]
+    T[:3, 3] = position
+    return T
 
 
 def _check_pose(grasp_pose: np.ndarray) -> np.ndarray:
@@ -88,8 +103,8 @@ def _trial(world: World, T: np.ndarray, spec: GripperSpec, hold_time: float) -> 
     if world.hand_in_collision():
         return GraspResult(Outcome.PREGRASP_COLLISION)
 
-    reached = world.move_hand(T, duration=0.25, abort_error=BLOCKED_ERROR)
-    if not reached or world.hand_touches_table():
+    lag = world.move_hand(T, duration=0.25, stop_force=BLOCKED_FORCE)
+    if lag > BLOCKED_ERROR:
         return GraspResult(Outcome.APPROACH_COLLISION)
 
     start_z = world.object_positions()[:, 2].copy()
@@ -109,3 +124,35 @@ def _trial(world: World, T: np.ndarray, spec: GripperSpec, hold_time: float) -> 
     if len(held) == 1:
         return GraspResult(Outcome.SUCCESS, held[0])
     return GraspResult(Outcome.SLIPPED)
+
+
+def pull_out_force(
+    world: World,
+    object_index: int,
+    direction: np.ndarray,
+    max_force: float = 300.0,
+    rate: float = 600.0,
+    slip: float = 0.01,
+) -> float:
+    """Force [N] at which a held object is pulled ``slip`` metres out of the hand.
+
+    A force along ``direction`` (world frame) on the object's centre of mass ramps up at
+    ``rate`` N/s while the hand holds still; returns ``max_force`` if the object never moves.
+    """
+    u = np.asarray(direction, dtype=float)
+    if u.shape != (3,) or np.linalg.norm(u) == 0:
+        raise ValueError("direction must be a non-zero 3-vector")
+    u = u / np.linalg.norm(u)
+    T_hand = world.hand_pose()
+    start = np.linalg.inv(T_hand) @ np.r_[world.object_positions()[object_index], 1.0]
+    dt = world.model.opt.timestep
+    force = 0.0
+    while force < max_force:
+        force += rate * dt
+        world.apply_force(object_index, force * u)
+        world.step(dt)
+        now = np.linalg.inv(world.hand_pose()) @ np.r_[world.object_positions()[object_index], 1.0]
+        if np.linalg.norm(now[:3] - start[:3]) > slip:
+            break
+    world.apply_force(object_index, np.zeros(3))
+    return min(force, max_force)

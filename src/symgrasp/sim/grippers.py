@@ -69,10 +69,11 @@ FRANKA = GripperSpec(
     close_time=0.2,
 )
 
-# Robotiq geometry: proximal link length, pivot offset from the centre plane, pad length.
-_R_LINK, _R_PIVOT, _R_PAD = 0.05, 0.0125, 0.035
-_R_OPEN = float(np.arcsin((0.0425 - _R_PIVOT) / _R_LINK))  # link angle when fully open
-_R_CLOSED = float(np.arcsin(-_R_PIVOT / _R_LINK))  # pads touching
+# Robotiq geometry: proximal link length, pivot offset from the centre plane, pad length,
+# and how far the pad face stands inward of the link (so pads, not links, pinch).
+_R_LINK, _R_PIVOT, _R_PAD, _R_INSET = 0.05, 0.0125, 0.035, 0.006
+_R_OPEN = float(np.arcsin((0.0425 + _R_INSET - _R_PIVOT) / _R_LINK))  # link angle, fully open
+_R_CLOSED = float(np.arcsin((_R_INSET - _R_PIVOT) / _R_LINK))  # pads touching
 _R_PIVOT_X = -(_R_LINK * np.cos(_R_OPEN) + _R_PAD / 2)  # puts the open pad centre at the TCP
 _R_CURL_RATIO = 0.2  # tendon = proximal + ratio · curl
 
@@ -84,8 +85,8 @@ ROBOTIQ_2F85 = GripperSpec(
     finger_width=0.022,
     tip_beyond_tcp=_R_PAD / 2,
     grip_force=60.0,
-    close_ctrl=5.0,
-    close_time=0.35,
+    close_ctrl=2.5,
+    close_time=0.6,
 )
 
 
@@ -174,10 +175,10 @@ def _robotiq_finger(side: str, sign: int) -> str:
                 conaffinity="0"/>
           <body name="{PREFIX}distal_{side}" gravcomp="1">
             <joint name="{PREFIX}curl_{side}" axis="0 {sign} 0" range="0 1.3" stiffness="0.5"
-                   springref="-1.0" damping="0.08" armature="0.002"/>
+                   springref="-1.0" damping="0.3" armature="0.002"/>
             <geom name="{PREFIX}pad_{side}" class="finger" type="box" mass="0.02"
                   size="{_R_PAD / 2} {ROBOTIQ_2F85.finger_width / 2} 0.003"
-                  pos="{_R_PAD / 2} 0 {sign * 0.003}"/>
+                  pos="{_R_PAD / 2} 0 {sign * (0.003 - _R_INSET)}"/>
           </body>
         </body>
       </body>"""

@@ -8,7 +8,7 @@ sampling and ray casting), so both always describe the same shape.
 Families drawn by :func:`object_set`:
 
 - training and test: ``box``, ``cylinder`` (cans), ``bottle`` (body + neck), ``l_shape``,
-  ``sphere``, ``capsule``, ``disc``, ``ellipsoid``;
+  ``sphere``, ``capsule``, ``disc`` (``ellipsoid`` exists but is in no set, see below);
 - test only: ``mug`` (cylinder + handle), ``t_shape`` (drill-like), ``cup`` (hollow: a ring
   of thin walls on a base).
 """
@@ -291,7 +291,9 @@ FAMILIES: dict[str, Family] = {
     "t_shape": _t_shape,
     "cup": _cup,
 }
-TRAIN_FAMILIES = ("box", "cylinder", "bottle", "l_shape", "sphere", "capsule", "disc", "ellipsoid")
+# "ellipsoid" is built but left out of the sets: MuJoCo's general convex collider makes
+# ellipsoids gain energy on the table with our stiff contacts (measured: 2 of 6 drops fly off).
+TRAIN_FAMILIES = ("box", "cylinder", "bottle", "l_shape", "sphere", "capsule", "disc")
 TEST_FAMILIES = (*TRAIN_FAMILIES, "mug", "t_shape", "cup")
 
 LARGE_BOX_SIZE = (0.07, 0.2, 0.03)

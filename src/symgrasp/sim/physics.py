@@ -41,6 +41,11 @@ STIFF_SOLIMP = "0.95 0.99 0.001"
 impedance): a 70 N squeeze then penetrates well under a millimetre instead of centimetres,
 which keeps grasped objects from being spat out when the fingers relax."""
 
+OBJECT_SOLREF = "0.02 1"
+"""Objects keep MuJoCo's default softness among themselves and on the table (stiffer settings
+made light piled objects explode); finger geoms carry ``solmix=1000`` so that a finger–object
+contact takes the fingers' stiff parameters."""
+
 WELD_SOLREF = STIFF_SOLREF
 """Stiff mocap weld: the hand follows its commanded pose within a millimetre under load."""
 
@@ -62,10 +67,11 @@ def option_xml() -> str:
     <joint solreflimit="{STIFF_SOLREF}" solimplimit="{STIFF_SOLIMP}"/>
     <equality solref="{STIFF_SOLREF}" solimp="{STIFF_SOLIMP}"/>
     <default class="object">
-      <geom condim="4" solref="{STIFF_SOLREF}" solimp="{STIFF_SOLIMP}"/>
+      <geom condim="4" solref="{OBJECT_SOLREF}"/>
     </default>
     <default class="finger">
       <geom condim="4" friction="{friction}" group="{HAND_GROUP}" solref="{STIFF_SOLREF}"
+            solmix="1000"
             solimp="{STIFF_SOLIMP}" rgba="0.15 0.15 0.15 1"/>
     </default>
     <default class="hand">

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation
+from scipy.spatial.transform import Rotation, Slerp
 
 from symgrasp.sim.grippers import PREFIX, GripperSpec, get_gripper, hand_xml, open_joint_positions
 from symgrasp.sim.objects import ObjectSpec, object_set
@@ -32,6 +32,9 @@ PARK_POSITION = (0.15, 0.15, 1.0)
 """Where the idle hand waits, far above the workspace [m]."""
 
 SCENES = ("pile", "packed")
+
+PILE_BOX_HALF = 0.1
+"""Inner half-width of the bottomless box a pile is dropped into [m]."""
 
 
 def pose_to_qpos(T: np.ndarray) -> np.ndarray:
@@ -50,13 +53,14 @@ def qpos_to_pose(q: np.ndarray) -> np.ndarray:
 
 def _table_xml() -> str:
     c = WORKSPACE_SIZE / 2
+    # a plane is a half-space for collision: nothing can be pushed through it
     return (
-        f'<geom name="table" class="table" type="box" size="0.5 0.5 0.025" '
-        f'pos="{c} {c} {TABLE_HEIGHT - 0.025}"/>'
+        f'<geom name="table" class="table" type="plane" size="0.5 0.5 0.01" '
+        f'pos="{c} {c} {TABLE_HEIGHT}"/>'
     )
 
 
-def _walls_xml(half: float = 0.08, height: float = 0.25) -> str:
+def _walls_xml(half: float = PILE_BOX_HALF, height: float = 0.25) -> str:
     """A bottomless box around the workspace centre that holds a pile while it falls."""
     c, t = WORKSPACE_SIZE / 2, 0.005
     z = TABLE_HEIGHT + height / 2
@@ -210,6 +214,14 @@ class World:
             self.model, self.data, nstep=max(1, round(duration / self.model.opt.timestep))
         )
 
+    def apply_force(self, index: int, force: np.ndarray) -> None:
+        """Apply a constant world-frame ``force`` [N] at object ``index``'s centre of mass."""
+        self.data.xfrc_applied[self._obj_body[index]] = np.r_[force, 0.0, 0.0, 0.0]
+
+    def set_gravity(self, gravity: np.ndarray) -> None:
+        """Set the gravity vector [m/s²] (e.g. zero for a free-floating pull-out test)."""
+        self.model.opt.gravity[:] = gravity
+
     def at_rest(self, linear: float = 5e-3, angular: float = 0.1) -> bool:
         """Whether every object moves slower than ``linear`` [m/s] and ``angular`` [rad/s]."""
         _, qvel = self._object_states()
@@ -288,6 +300,15 @@ class World:
         """Whether the hand touches the table or any object."""
         return bool(self._hand_contacts())
 
+    def hand_contact_force(self) -> float:
+        """Total normal force [N] that the table and objects exert on the hand."""
+        total, wrench = 0.0, np.zeros(6)
+        for i, c in enumerate(self.data.contact[: self.data.ncon]):
+            if self._hand_geom[c.geom1] != self._hand_geom[c.geom2]:
+                mujoco.mj_contactForce(self.model, self.data, i, wrench)
+                total += wrench[0]
+        return total
+
     def hand_touches_table(self) -> bool:
         """Whether the hand touches the table."""
         table = self.model.geom("table").id
@@ -298,13 +319,19 @@ class World:
         return sorted({int(self._geom_object[o]) for _, o in self._hand_contacts()} - {-1})
 
     def move_hand(
-        self, T_target: np.ndarray, duration: float, abort_error: float | None = None
-    ) -> bool:
+        self,
+        T_target: np.ndarray,
+        duration: float,
+        settle: float = 0.02,
+        stop_force: float | None = None,
+    ) -> float:
         """Move the hand's set-point from its current pose to ``T_target`` along a straight line
-        (slerp for the rotation) with a smooth time law, taking ``duration`` seconds.
+        (slerp for the rotation) with a smooth time law over ``duration`` seconds, then hold it
+        for ``settle`` seconds.
 
-        Returns False (stopping early) when the hand lags its set-point by more than
-        ``abort_error`` metres, i.e. it is blocked; True otherwise.
+        Returns how far [m] the hand then lags its set-point: near zero unless it is blocked;
+        infinity if the motion stopped early because the contact force on the hand exceeded
+        ``stop_force`` [N] (a guarded move, as a robot's collision detection does).
         """
         self._require_hand()
         d = self.data
@@ -314,30 +341,21 @@ class World:
         n = max(1, round(duration / self.model.opt.timestep))
         s = np.linspace(0.0, 1.0, n + 1)[1:]
         s = 3 * s**2 - 2 * s**3
-        xyzw = _slerp(rots, s)
-        base = self.model.body(f"{PREFIX}base").id
+        xyzw = Slerp([0.0, 1.0], rots)(s).as_quat()
         for k in range(n):
             d.mocap_pos[0] = p0 + s[k] * (q1[:3] - p0)
             d.mocap_quat[0] = xyzw[k, [3, 0, 1, 2]]
             mujoco.mj_step(self.model, d)
-            if abort_error is not None and (
-                np.linalg.norm(d.xpos[base] - d.mocap_pos[0]) > abort_error
-            ):
-                return False
-        return True
+            if stop_force is not None and k % 5 == 0 and self.hand_contact_force() > stop_force:
+                return float("inf")
+        self.step(settle)
+        return float(np.linalg.norm(self.hand_pose()[:3, 3] - d.mocap_pos[0]))
 
     def actuate(self, close: bool, duration: float | None = None) -> None:
         """Close (or open) the fingers for ``duration`` s (default: the gripper's close time)."""
         gripper = self._require_hand()
         self.data.ctrl[:] = gripper.close_ctrl if close else -gripper.close_ctrl
         self.step(gripper.close_time if duration is None else duration)
-
-
-def _slerp(rots: Rotation, s: np.ndarray) -> np.ndarray:
-    """Quaternions ``[x, y, z, w]`` (len(s), 4) interpolating two rotations at fractions s."""
-    from scipy.spatial.transform import Slerp
-
-    return Slerp([0.0, 1.0], rots)(s).as_quat()
 
 
 def _random_rotation(rng: np.random.Generator) -> np.ndarray:
@@ -365,7 +383,8 @@ def pile_scene(
         z += radius
         R = _random_rotation(rng)
         poses[i, :3, :3] = R
-        poses[i, :3, 3] = np.r_[rng.uniform(c - 0.03, c + 0.03, size=2), z] - R @ centre
+        jitter = max(0.0, PILE_BOX_HALF - radius - 0.002)  # the ball starts inside the walls
+        poses[i, :3, 3] = np.r_[rng.uniform(c - jitter, c + jitter, size=2), z] - R @ centre
         z += radius + 0.005
     world = World(objects, poses, gripper=gripper, walls=True)
     world.settle(max_settle)

@@ -1,0 +1,111 @@
+"""Physics sanity of grasp trials: each case has an answer known without the simulator."""
+
+import numpy as np
+import pytest
+
+from symgrasp.sim import World, execute_grasp, get_gripper, large_box
+from symgrasp.sim.execute import Outcome, pull_out_force, top_grasp
+from symgrasp.sim.objects import ObjectSpec, Part
+from symgrasp.sim.world import TABLE_HEIGHT
+
+GRIPPERS = ["franka", "robotiq-2f85"]
+CENTRE = np.array([0.15, 0.15])
+
+
+def _box(half: tuple[float, float, float], mass: float = 0.2, friction: float = 0.8):
+    return ObjectSpec("box", "box", (Part("box", half, (0, 0, half[2])),), mass, friction)
+
+
+def _grasp_height(gripper: str, top: float) -> float:
+    """TCP height that puts the fingertips 1.5 cm below an object top at ``top`` [m]."""
+    return top + 0.015 - get_gripper(gripper).tip_beyond_tcp
+
+
+def _settled(obj: ObjectSpec, gripper: str) -> World:
+    world = World([obj], gripper=gripper)
+    world.settle(0.5)
+    return world
+
+
+@pytest.mark.parametrize("gripper", GRIPPERS)
+def test_centred_top_grasp_on_a_box_succeeds_and_removes_it(gripper):
+    world = _settled(_box((0.025, 0.025, 0.03)), gripper)
+    pose = top_grasp(np.r_[CENTRE, _grasp_height(gripper, TABLE_HEIGHT + 0.06)])
+    result = execute_grasp(world, pose, gripper)
+    assert result.outcome is Outcome.SUCCESS
+    assert result.object_index == 0
+    assert world.objects == []
+
+
+@pytest.mark.parametrize("gripper", GRIPPERS)
+def test_grasp_7cm_beside_the_box_closes_on_nothing(gripper):
+    world = _settled(_box((0.025, 0.025, 0.03)), gripper)
+    # shifted along e_y (finger width direction): box half-width 2.5 cm + pad half-width ≤ 1.1 cm
+    pose = top_grasp(np.r_[CENTRE + np.array([0.0, 0.07]), _grasp_height(gripper, TABLE_HEIGHT + 0.06)])
+    assert execute_grasp(world, pose, gripper).outcome is Outcome.NO_CONTACT
+    assert len(world.objects) == 1
+
+
+@pytest.mark.parametrize("gripper", GRIPPERS)
+def test_heavy_low_friction_box_slips(gripper):
+    # 2 kg needs 19.6 N of friction; μ = 0.1 and ≤ 70 N per side give at most 14 N
+    world = _settled(_box((0.025, 0.025, 0.03), mass=2.0, friction=0.02), gripper)
+    pose = top_grasp(np.r_[CENTRE, _grasp_height(gripper, TABLE_HEIGHT + 0.06)])
+    assert execute_grasp(world, pose, gripper).outcome is Outcome.SLIPPED
+
+
+@pytest.mark.parametrize("gripper", GRIPPERS)
+def test_large_box_needs_the_right_yaw(gripper):
+    """70 mm wide box: fits across the 80/85 mm opening, but not along its 200 mm length."""
+    top = TABLE_HEIGHT + 0.03
+    position = np.r_[CENTRE, _grasp_height(gripper, top)]
+    world = _settled(large_box(), gripper)
+    wrong = execute_grasp(world, top_grasp(position, yaw=np.pi / 2), gripper)
+    assert wrong.outcome is Outcome.APPROACH_COLLISION
+    right = execute_grasp(world, top_grasp(position, yaw=0.0), gripper)
+    assert right.outcome is Outcome.SUCCESS
+
+
+def _held_ball(depth: float) -> tuple[World, np.ndarray]:
+    """A free-floating ball (r = 3 cm, μ = 0.3, no gravity) closed on by the Robotiq with the
+    TCP ``depth`` metres past the ball centre along the approach direction."""
+    ball = ObjectSpec("ball", "sphere", (Part("sphere", (0.03,)),), 0.2, 0.3)
+    T = np.eye(4)
+    T[:3, 3] = (0.15, 0.15, 0.25)
+    world = World([ball], T[None], gripper="robotiq-2f85")
+    world.set_gravity(np.zeros(3))
+    pose = top_grasp(T[:3, 3] + (0.0, 0.0, -depth))
+    world.set_hand_pose(pose)
+    world.actuate(close=True)
+    return world, pose
+
+
+def test_robotiq_power_grasp_resists_more_pull_out_than_a_pinch():
+    """Fingertip pinch: pads on the ball's far half, held by friction alone. Power grasp:
+    ball against the proximal links, pads curled around it (enveloping)."""
+    pinch_world, pose = _held_ball(depth=-0.01)
+    power_world, _ = _held_ball(depth=0.015)
+    assert pinch_world.objects_in_hand() == [0]
+    assert power_world.objects_in_hand() == [0]
+    curl = power_world.model.joint("hand_curl_left").qposadr[0]
+    assert power_world.data.qpos[curl] > 0.03  # the pad curled in
+    out = pose[:3, 0]  # pulling along e_x, away from the palm
+    pinch = pull_out_force(pinch_world, 0, out)
+    power = pull_out_force(power_world, 0, out)
+    assert power > 1.3 * pinch
+
+
+def test_grasp_trials_are_deterministic():
+    results = []
+    for _ in range(2):
+        world = _settled(_box((0.02, 0.03, 0.03)), "robotiq-2f85")
+        pose = top_grasp(np.r_[CENTRE + 0.004, _grasp_height("robotiq-2f85", 0.11)], yaw=0.3)
+        execute_grasp(world, pose, "robotiq-2f85", remove=False)
+        results.append(world.object_poses())
+    np.testing.assert_array_equal(results[0], results[1])
+
+
+def test_bad_grasp_pose_is_rejected():
+    world = _settled(_box((0.02, 0.02, 0.02)), "franka")
+    with pytest.raises(ValueError, match="grasp_pose"):
+        execute_grasp(world, np.eye(3), "franka")
