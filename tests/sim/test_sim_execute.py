@@ -41,7 +41,8 @@ def test_centred_top_grasp_on_a_box_succeeds_and_removes_it(gripper):
 def test_grasp_7cm_beside_the_box_closes_on_nothing(gripper):
     world = _settled(_box((0.025, 0.025, 0.03)), gripper)
     # shifted along e_y (finger width direction): box half-width 2.5 cm + pad half-width ≤ 1.1 cm
-    pose = top_grasp(np.r_[CENTRE + np.array([0.0, 0.07]), _grasp_height(gripper, TABLE_HEIGHT + 0.06)])
+    beside = CENTRE + np.array([0.0, 0.07])
+    pose = top_grasp(np.r_[beside, _grasp_height(gripper, TABLE_HEIGHT + 0.06)])
     assert execute_grasp(world, pose, gripper).outcome is Outcome.NO_CONTACT
     assert len(world.objects) == 1
 
