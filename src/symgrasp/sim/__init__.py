@@ -1,5 +1,11 @@
 """The MuJoCo simulation world: procedural objects, the two grippers, scenes, grasp trials."""
 
+import os
+
+# MuJoCo picks its OpenGL backend when it is first imported; on a headless machine EGL is
+# the one that can work. An explicit MUJOCO_GL in the environment wins.
+os.environ.setdefault("MUJOCO_GL", "egl")
+
 from symgrasp.sim.execute import GraspResult, Outcome, execute_grasp
 from symgrasp.sim.grippers import FRANKA, GRIPPERS, ROBOTIQ_2F85, GripperSpec, get_gripper
 from symgrasp.sim.objects import OBJECT_SETS, ObjectSpec, Part, large_box, object_set

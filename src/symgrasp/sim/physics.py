@@ -35,6 +35,9 @@ OBJECT_TORSION_ROLL = (0.005, 0.0001)
 HAND_GROUP = 2
 """Geom group of the hand: excluded from depth images."""
 
+HIDDEN_GROUP = 3
+"""Geom group of things no camera sees: the table's collision plane, the pile walls."""
+
 STIFF_SOLREF = "0.004 1"
 STIFF_SOLIMP = "0.95 0.99 0.001"
 """Stiff, nearly hard contacts, joint limits and equalities (time constant 2 steps, 99 %
@@ -58,9 +61,10 @@ def option_xml() -> str:
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{TIMESTEP}" integrator="implicitfast" cone="elliptic" impratio="10"
           solver="Newton" iterations="30" ls_iterations="10"/>
+  <statistic extent="1" center="0.15 0.15 0.15"/>
   <visual>
     <global offwidth="1280" offheight="960"/>
-    <map znear="0.01" zfar="5"/>
+    <map znear="0.01" zfar="5"/>  <!-- × extent 1: depth from 1 cm to 5 m -->
     <quality shadowsize="1024"/>
   </visual>
   <default>

@@ -20,7 +20,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from symgrasp.sim.grippers import PREFIX, GripperSpec, get_gripper, hand_xml, open_joint_positions
 from symgrasp.sim.objects import ObjectSpec, object_set
-from symgrasp.sim.physics import HAND_GROUP, option_xml
+from symgrasp.sim.physics import HAND_GROUP, HIDDEN_GROUP, option_xml
 
 WORKSPACE_SIZE = 0.30
 """Edge of the cubic workspace [m]."""
@@ -53,10 +53,13 @@ def qpos_to_pose(q: np.ndarray) -> np.ndarray:
 
 def _table_xml() -> str:
     c = WORKSPACE_SIZE / 2
-    # a plane is a half-space for collision: nothing can be pushed through it
+    # Collision: a plane, a half-space that nothing can be pushed through; hidden, because
+    # MuJoCo's renderer and ray caster disagree on a plane's finite extent. Looks: a box.
     return (
         f'<geom name="table" class="table" type="plane" size="0.5 0.5 0.01" '
-        f'pos="{c} {c} {TABLE_HEIGHT}"/>'
+        f'pos="{c} {c} {TABLE_HEIGHT}" group="{HIDDEN_GROUP}" rgba="0 0 0 0"/>'
+        f'<geom name="table_top" class="table" type="box" size="0.5 0.5 0.02" '
+        f'pos="{c} {c} {TABLE_HEIGHT - 0.02}" contype="0" conaffinity="0"/>'
     )
 
 
@@ -72,7 +75,7 @@ def _walls_xml(half: float = PILE_BOX_HALF, height: float = 0.25) -> str:
     ]
     return "".join(
         f'<geom name="wall_{i}" type="box" size="{sx} {sy} {height / 2}" pos="{x} {y} {z}" '
-        f'rgba="1 1 1 0.2" group="3"/>'
+        f'rgba="1 1 1 0.2" group="{HIDDEN_GROUP}"/>'
         for i, (x, y, sx, sy) in enumerate(walls)
     )
 
