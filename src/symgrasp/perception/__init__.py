@@ -1,9 +1,5 @@
 """Perception: pinhole camera, depth rendering of the simulated world, TSDF fusion."""
 
-import os
-
-os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported; see symgrasp.sim
-
 from symgrasp.perception.camera import CameraIntrinsic, default_extrinsic, look_at
 from symgrasp.perception.noise import add_depth_noise
 from symgrasp.perception.render import (

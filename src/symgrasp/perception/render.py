@@ -133,8 +133,8 @@ class GLRenderer:
 
 @functools.cache
 def gl_available() -> bool:
-    """Whether MuJoCo can open an OpenGL context here (set ``MUJOCO_GL`` to egl or osmesa
-    before importing mujoco on a headless machine; :mod:`symgrasp.sim` defaults it to egl)."""
+    """Whether MuJoCo can open an OpenGL context here (:mod:`symgrasp.sim.gl_backend` picks
+    the backend before mujoco is imported)."""
     model = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
     try:
         mujoco.Renderer(model, 8, 8).close()

@@ -1,10 +1,9 @@
 """The MuJoCo simulation world: procedural objects, the two grippers, scenes, grasp trials."""
 
-import os
+from symgrasp.sim.gl_backend import choose_gl_backend
 
-# MuJoCo picks its OpenGL backend when it is first imported; on a headless machine EGL is
-# the one that can work. An explicit MUJOCO_GL in the environment wins.
-os.environ.setdefault("MUJOCO_GL", "egl")
+choose_gl_backend()  # before anything imports mujoco, hence the late imports below
+# ruff: noqa: E402
 
 from symgrasp.sim.execute import GraspResult, Outcome, execute_grasp
 from symgrasp.sim.grippers import FRANKA, GRIPPERS, ROBOTIQ_2F85, GripperSpec, get_gripper
