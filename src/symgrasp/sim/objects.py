@@ -341,6 +341,8 @@ def object_set(name: str, n: int, seed: int = 0) -> list[ObjectSpec]:
         raise ValueError(f"name must be one of {OBJECT_SETS}, got {name!r}")
     if n < 0:
         raise ValueError(f"n must be a non-negative count, got {n}")
+    if seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed}")
     rng = np.random.default_rng([seed, _SET_STREAM[name]])
     if name == "large-box":
         return [large_box(f"large_box_{i}") for i in range(n)]
