@@ -173,10 +173,12 @@ class ObjectSpec:
         """Height of the object standing upright [m]."""
         return float(self.mesh().bounds[1, 2])
 
-    @property
-    def footprint_radius(self) -> float:
-        """Radius of the smallest z-axis cylinder about the origin that holds the object [m]."""
-        return float(np.max(np.linalg.norm(self.mesh().vertices[:, :2], axis=1)))
+    def footprint(self) -> tuple[np.ndarray, float]:
+        """Smallest-ish circle holding the upright object seen from above: its centre (2,) in
+        the object frame (the bounding-box centre) and its radius [m]."""
+        xy = self.mesh().vertices[:, :2]
+        centre = (xy.min(axis=0) + xy.max(axis=0)) / 2
+        return centre, float(np.max(np.linalg.norm(xy - centre, axis=1)))
 
 
 def _quat_about(axis: str, angle: float) -> tuple[float, float, float, float]:

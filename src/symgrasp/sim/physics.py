@@ -26,7 +26,7 @@ TIMESTEP = 0.002
 FINGER_FRICTION = (0.1, 0.005, 0.0)
 """Sliding, torsional, rolling friction of finger geoms (the object's sliding value wins)."""
 
-TABLE_FRICTION = (0.1, 0.005, 0.0002)
+TABLE_FRICTION = (0.1, 0.005, 0.003)
 """Sliding, torsional, rolling friction of the table."""
 
 OBJECT_TORSION_ROLL = (0.005, 0.0001)
@@ -60,7 +60,7 @@ def option_xml() -> str:
     return f"""
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{TIMESTEP}" integrator="implicitfast" cone="elliptic" impratio="10"
-          solver="Newton" iterations="30" ls_iterations="10"/>
+          solver="Newton" iterations="50" ls_iterations="20"/>
   <statistic extent="1" center="0.15 0.15 0.15"/>
   <visual>
     <global offwidth="1280" offheight="960"/>

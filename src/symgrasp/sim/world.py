@@ -402,26 +402,28 @@ def packed_scene(
     seed: int = 0,
     gripper: GripperSpec | str | None = None,
     max_settle: float = 1.0,
-    attempts: int = 50,
+    attempts: int = 200,
 ) -> World:
     """Stand ``objects`` upright at random non-overlapping places with random yaw and settle.
     Objects that find no free place in ``attempts`` tries are left out."""
     rng = np.random.default_rng(seed)
-    margin = 0.06
-    placed: list[tuple[ObjectSpec, np.ndarray, float]] = []
+    placed: list[tuple[ObjectSpec, np.ndarray]] = []
+    circles: list[tuple[np.ndarray, float]] = []  # footprint circles taken so far
     for obj in objects:
-        r = obj.footprint_radius
+        centre, r = obj.footprint()
+        margin = min(r + 0.01, WORKSPACE_SIZE / 2)
         for _ in range(attempts):
             xy = rng.uniform(margin, WORKSPACE_SIZE - margin, size=2)
-            if all(np.linalg.norm(xy - p[:2, 3]) > r + rp + 0.005 for _, p, rp in placed):
+            if all(np.linalg.norm(xy - c) > r + rc + 0.005 for c, rc in circles):
                 T = np.eye(4)
                 T[:3, :3] = Rotation.from_euler("z", rng.uniform(0, 2 * np.pi)).as_matrix()
-                T[:3, 3] = (*xy, TABLE_HEIGHT + 0.001)
-                placed.append((obj, T, r))
+                T[:3, 3] = (*(xy - T[:2, :2] @ centre), TABLE_HEIGHT + 0.001)
+                placed.append((obj, T))
+                circles.append((xy, r))
                 break
     world = World(
-        [o for o, _, _ in placed],
-        np.array([T for _, T, _ in placed]).reshape(-1, 4, 4),
+        [o for o, _ in placed],
+        np.array([T for _, T in placed]).reshape(-1, 4, 4),
         gripper=gripper,
     )
     world.settle(max_settle)
