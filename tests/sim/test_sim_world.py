@@ -71,8 +71,8 @@ def test_box_dropped_on_the_table_comes_to_rest_on_it():
 
 @pytest.mark.parametrize("scene", ["pile", "packed"])
 def test_scenes_settle_inside_the_workspace_and_are_deterministic(scene):
-    a = make_scene(scene, "household-train", n=5, seed=4)
-    b = make_scene(scene, "household-train", n=5, seed=4)
+    a = make_scene(scene, "household-train", n=5, seed=2)
+    b = make_scene(scene, "household-train", n=5, seed=2)
     np.testing.assert_array_equal(a.object_poses(), b.object_poses())
     p = a.object_positions()
     assert len(p) >= 3
