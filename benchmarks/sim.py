@@ -80,6 +80,7 @@ def _machine() -> dict[str, object]:
         "torch": torch.__version__,
         "mujoco_gl": os.environ.get("MUJOCO_GL", ""),
         "gl_available": gl_available(),
+        "load_average_1min_at_start": os.getloadavg()[0],
     }
 
 
@@ -88,6 +89,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=20, help="timed runs per case")
     parser.add_argument("--out", default="benchmarks/results/sim.json", help="JSON output path")
     args = parser.parse_args()
+    machine = _machine()  # before the load we create ourselves
 
     results: dict[str, object] = {}
     for gripper in ("franka", "robotiq-2f85"):
@@ -138,9 +140,12 @@ def main() -> None:
             results[name]["meets_target"] = results[name]["median_ms"] <= target
 
     report = {
-        "command": " ".join([Path(sys.executable).name, *sys.argv]),
+        "command": " ".join(
+            [f"PYTHONPATH={os.environ['PYTHONPATH']}"] * ("PYTHONPATH" in os.environ)
+            + [Path(sys.executable).name, *sys.argv]
+        ),
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "machine": _machine(),
+        "machine": machine,
         "results": results,
     }
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
