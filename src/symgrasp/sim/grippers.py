@@ -80,7 +80,7 @@ _R_CURL_RATIO = 0.2  # tendon = proximal + ratio · curl
 ROBOTIQ_2F85 = GripperSpec(
     name="robotiq-2f85",
     max_width=0.085,
-    finger_depth=float(_R_PAD / 2 - _R_PIVOT_X + 0.005),
+    finger_depth=float(_R_PAD / 2 - _R_PIVOT_X),
     tcp_offset=0.145,
     finger_width=0.022,
     tip_beyond_tcp=_R_PAD / 2,
