@@ -145,7 +145,7 @@ def pull_out_force(
     u = u / np.linalg.norm(u)
     T_hand = world.hand_pose()
     start = np.linalg.inv(T_hand) @ np.r_[world.object_positions()[object_index], 1.0]
-    dt = world.model.opt.timestep
+    dt = world.timestep
     force = 0.0
     while force < max_force:
         force += rate * dt

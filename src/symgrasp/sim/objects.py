@@ -168,11 +168,6 @@ class ObjectSpec:
             normals = np.vstack([normals, mesh.face_normals[face[~inside]]])
         return points[:n], normals[:n]
 
-    @property
-    def height(self) -> float:
-        """Height of the object standing upright [m]."""
-        return float(self.mesh().bounds[1, 2])
-
     def footprint(self) -> tuple[np.ndarray, float]:
         """Smallest-ish circle holding the upright object seen from above: its centre (2,) in
         the object frame (the bounding-box centre) and its radius [m]."""

@@ -211,6 +211,11 @@ class World:
         """Object origins in the world, (n, 3) [m]."""
         return self.data.xpos[self._obj_body].copy().reshape(-1, 3)
 
+    @property
+    def timestep(self) -> float:
+        """Physics step [s]."""
+        return float(self.model.opt.timestep)
+
     def step(self, duration: float) -> None:
         """Advance the simulation by ``duration`` seconds."""
         mujoco.mj_step(
@@ -311,11 +316,6 @@ class World:
                 mujoco.mj_contactForce(self.model, self.data, i, wrench)
                 total += wrench[0]
         return total
-
-    def hand_touches_table(self) -> bool:
-        """Whether the hand touches the table."""
-        table = self.model.geom("table").id
-        return any(other == table for _, other in self._hand_contacts())
 
     def objects_in_hand(self) -> list[int]:
         """Indices of objects that touch the hand, sorted."""
