@@ -130,3 +130,14 @@ def test_depth_noise_is_seeded_keeps_holes_and_has_the_requested_size():
     residual = a[10:] - 0.5
     assert 0.001 < residual.std() < 0.02
     assert not np.array_equal(a, add_depth_noise(depth, seed=2))
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here")
+def test_tsdf_fusion_on_cuda_matches_cpu():
+    T = look_at((0.15, 0.15, 0.6), (0.15, 0.15, 0.0), up=(1.0, 0.0, 0.0))
+    depth = _plane_depth(0.45)
+    depth[40:80, 60:100] = 0.4  # a step, so the grid is not trivially uniform
+    cpu, cuda = TSDFVolume(), TSDFVolume(device="cuda")
+    cpu.integrate(depth, SMALL, T)
+    cuda.integrate(depth, SMALL, T)
+    torch.testing.assert_close(cuda.grid().cpu(), cpu.grid(), atol=1e-5, rtol=0)

@@ -67,6 +67,18 @@ def test_large_box_needs_the_right_yaw(gripper):
     assert right.outcome is Outcome.SUCCESS
 
 
+@pytest.mark.parametrize("gripper", GRIPPERS)
+def test_oblique_side_grasp_on_a_tall_box_succeeds(gripper):
+    """Approach along +x tilted 30° down, closing along y: any SE(3) grasp can be executed."""
+    world = _settled(_box((0.025, 0.025, 0.06)), gripper)
+    tilt = np.deg2rad(30)
+    e_x, e_z = np.array([np.cos(tilt), 0.0, -np.sin(tilt)]), np.array([0.0, 1.0, 0.0])
+    pose = np.eye(4)
+    pose[:3, :3] = np.c_[e_x, np.cross(e_z, e_x), e_z]
+    pose[:3, 3] = (*CENTRE, TABLE_HEIGHT + 0.07)
+    assert execute_grasp(world, pose, gripper).outcome is Outcome.SUCCESS
+
+
 def _held_ball(depth: float) -> tuple[World, np.ndarray]:
     """A free-floating ball (r = 3 cm, μ = 0.3, no gravity) closed on by the Robotiq with the
     TCP ``depth`` metres past the ball centre along the approach direction."""
