@@ -76,6 +76,7 @@ _R_OPEN = float(np.arcsin((0.0425 + _R_INSET - _R_PIVOT) / _R_LINK))  # link ang
 _R_CLOSED = float(np.arcsin((_R_INSET - _R_PIVOT) / _R_LINK))  # pads touching
 _R_PIVOT_X = -(_R_LINK * np.cos(_R_OPEN) + _R_PAD / 2)  # puts the open pad centre at the TCP
 _R_CURL_RATIO = 0.2  # tendon = proximal + ratio · curl
+_R_LEVER = 0.06  # distance from the proximal pivot to the pad centre along e_x [m]
 
 ROBOTIQ_2F85 = GripperSpec(
     name="robotiq-2f85",
@@ -196,7 +197,7 @@ def robotiq_xml() -> HandXml:
     )
     # Integrating actuator: ctrl is the speed of the set-point, so the squeeze only builds
     # up once the finger is blocked (this is what lets the spring keep the pads parallel).
-    kp, torque = 30.0, ROBOTIQ_2F85.grip_force * 0.06
+    kp, torque = 30.0, ROBOTIQ_2F85.grip_force * _R_LEVER
     actuator = "".join(
         f'<general name="{PREFIX}drive_{s}" tendon="{PREFIX}drive_{s}" dyntype="integrator" '
         f'gainprm="{kp}" biastype="affine" biasprm="0 {-kp} -0.3" actlimited="true" '
