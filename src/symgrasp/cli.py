@@ -56,8 +56,9 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
 
         world = make_scene(args.scene, args.objects, n=args.n, seed=args.seed)
         stem = f"{args.scene}_{args.objects}_seed{args.seed}"
-        paths = save_scene_pictures(world, args.out, stem)
+        paths, renderer = save_scene_pictures(world, args.out, stem)
         print(f"{len(world.objects)} objects settled: {', '.join(o.name for o in world.objects)}")
+        print(f"depth renderer: {renderer}")
         for kind, path in paths.items():
             print(f"{kind}: {path}")
 

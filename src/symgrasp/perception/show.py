@@ -32,9 +32,9 @@ def _plot_meshes(world: World, path: Path) -> None:
 
 def save_scene_pictures(
     world: World, out: str | Path, stem: str, intrinsic: CameraIntrinsic | None = None
-) -> dict[str, Path]:
+) -> tuple[dict[str, Path], str]:
     """Write ``{stem}_color.png`` and ``{stem}_depth.png`` of ``world`` seen from the default
-    camera into ``out``; returns the paths by kind and the renderer used."""
+    camera into ``out``; returns the paths by kind and the name of the depth renderer."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     intrinsic = intrinsic or CameraIntrinsic()
@@ -53,4 +53,4 @@ def save_scene_pictures(
     ax.axis("off")
     fig.savefig(paths["depth"], dpi=100, bbox_inches="tight")
     plt.close(fig)
-    return paths
+    return paths, renderer.name
