@@ -79,6 +79,27 @@ def test_oblique_side_grasp_on_a_tall_box_succeeds(gripper):
     assert execute_grasp(world, pose, gripper).outcome is Outcome.SUCCESS
 
 
+def _robotiq_closed_on(obj: ObjectSpec, depth: float) -> float:
+    """Curl angle [rad] of the left pad after the Robotiq closes on a free-floating ``obj``
+    whose origin lies ``depth`` metres past the TCP toward the palm (no gravity)."""
+    T = np.eye(4)
+    T[:3, 3] = (0.15, 0.15, 0.25)
+    world = World([obj], T[None], gripper="robotiq-2f85")
+    world.set_gravity(np.zeros(3))
+    world.set_hand_pose(top_grasp(T[:3, 3] + (0.0, 0.0, -depth)))
+    world.actuate(close=True)
+    assert world.objects_in_hand() == [0]
+    return float(world.data.qpos[world.model.joint("hand_curl_left").qposadr[0]])
+
+
+def test_robotiq_pads_stay_parallel_in_a_pinch_and_curl_when_the_proximal_link_is_blocked():
+    pinched = ObjectSpec("b", "box", (Part("box", (0.025, 0.02, 0.02)),), 0.2, 0.8)
+    assert abs(_robotiq_closed_on(pinched, depth=0.0)) < 0.01
+    # a 5 cm plate near the palm stops the proximal links; the pads wrap in below it
+    plate = ObjectSpec("p", "box", (Part("box", (0.025, 0.03, 0.006)),), 0.5, 0.8)
+    assert _robotiq_closed_on(plate, depth=0.025) > 0.15
+
+
 def _held_ball(depth: float) -> tuple[World, np.ndarray]:
     """A free-floating ball (r = 3 cm, μ = 0.3, no gravity) closed on by the Robotiq with the
     TCP ``depth`` metres past the ball centre along the approach direction."""
