@@ -8,7 +8,7 @@ sampling and ray casting), so both always describe the same shape.
 Families drawn by :func:`object_set`:
 
 - training and test: ``box``, ``cylinder`` (cans), ``bottle`` (body + neck), ``l_shape``,
-  ``sphere``, ``capsule``, ``disc`` (``ellipsoid`` exists but is in no set, see below);
+  ``sphere``, ``capsule``, ``disc``, ``ellipsoid``;
 - test only: ``mug`` (cylinder + handle), ``t_shape`` (drill-like), ``cup`` (hollow: a ring
   of thin walls on a base).
 """
@@ -182,7 +182,6 @@ def _quat_about(axis: str, angle: float) -> tuple[float, float, float, float]:
 
 
 _Y90 = _quat_about("y", np.pi / 2)  # turns a local-z cylinder/capsule to lie along x
-_X90 = _quat_about("x", np.pi / 2)  # ... along y
 
 # Each family maps a generator to parts, base at z = 0. Sizes keep at least one
 # grasp width ≤ 7 cm so that both grippers (80 and 85 mm) can close on the object.
@@ -288,9 +287,7 @@ FAMILIES: dict[str, Family] = {
     "t_shape": _t_shape,
     "cup": _cup,
 }
-# "ellipsoid" is built but left out of the sets: MuJoCo's general convex collider makes
-# ellipsoids gain energy on the table with our stiff contacts (measured: 2 of 6 drops fly off).
-TRAIN_FAMILIES = ("box", "cylinder", "bottle", "l_shape", "sphere", "capsule", "disc")
+TRAIN_FAMILIES = ("box", "cylinder", "bottle", "l_shape", "sphere", "capsule", "disc", "ellipsoid")
 TEST_FAMILIES = (*TRAIN_FAMILIES, "mug", "t_shape", "cup")
 
 LARGE_BOX_SIZE = (0.07, 0.2, 0.03)
