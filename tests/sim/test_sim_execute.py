@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from symgrasp.sim import World, execute_grasp, get_gripper, large_box
+from symgrasp.sim import World, execute_grasp, get_gripper, large_box, make_scene
 from symgrasp.sim.execute import Outcome, pull_out_force, top_grasp
 from symgrasp.sim.objects import ObjectSpec, Part
 from symgrasp.sim.world import TABLE_HEIGHT
@@ -143,3 +143,19 @@ def test_bad_grasp_pose_is_rejected():
     world = _settled(_box((0.02, 0.02, 0.02)), "franka")
     with pytest.raises(ValueError, match="grasp_pose"):
         execute_grasp(world, np.eye(3), "franka")
+
+
+def test_successful_grasp_in_a_scene_removes_only_the_lifted_object():
+    world = make_scene("packed", "blocks", n=4, seed=0, gripper="franka")
+    before = world.object_poses()
+    target = 1
+    T = before[target]
+    half = np.asarray(world.objects[target].parts[0].size)  # blocks are ≤ 6 cm wide
+    top = T[2, 3] + 2 * half[2]
+    yaw = np.arctan2(T[1, 0], T[0, 0])  # close across the block's local x
+    pose = top_grasp(np.r_[T[:2, 3], _grasp_height("franka", top)], yaw)
+    result = execute_grasp(world, pose, "franka")
+    assert result.outcome is Outcome.SUCCESS and result.object_index == target
+    others = np.delete(before, target, axis=0)
+    assert len(world.objects) == len(before) - 1
+    np.testing.assert_allclose(world.object_poses()[:, :3, 3], others[:, :3, 3], atol=2e-3)
