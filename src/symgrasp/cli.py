@@ -30,7 +30,9 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
         help="look at the simulated world",
         description="Tools around the MuJoCo world of symgrasp.sim.",
     )
-    actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
+    actions = parser.add_subparsers(
+        dest="action", required=True, metavar="ACTION", help="what to do (show)"
+    )
     show = actions.add_parser(
         "show",
         help="write pictures of a scene",
