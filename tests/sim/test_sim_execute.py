@@ -79,6 +79,32 @@ def test_oblique_side_grasp_on_a_tall_box_succeeds(gripper):
     assert execute_grasp(world, pose, gripper).outcome is Outcome.SUCCESS
 
 
+def _yaw_tolerance(gripper: str, box_width: float) -> float:
+    """Largest yaw [rad] at which the open pads' inner corners still clear a box of
+    ``box_width`` centred between them (paper Appx. D: 22.6° for the 2F-85 and 70 mm)."""
+    spec = get_gripper(gripper)
+    half_open, half_pad = spec.max_width / 2, spec.finger_width / 2
+    corner = np.hypot(half_open, half_pad)
+    return np.arccos(box_width / 2 / corner) - np.arctan2(half_pad, half_open)
+
+
+@pytest.mark.parametrize("gripper", GRIPPERS)
+def test_large_box_yaw_tolerance_matches_the_geometry(gripper):
+    tolerance = _yaw_tolerance(gripper, 0.07)
+    if gripper == "robotiq-2f85":
+        assert np.rad2deg(tolerance) == pytest.approx(22.6, abs=0.2)
+    position = np.r_[CENTRE, _grasp_height(gripper, TABLE_HEIGHT + 0.03)]
+    margin = np.deg2rad(2.0)
+    inside = execute_grasp(
+        _settled(large_box(), gripper), top_grasp(position, tolerance - margin), gripper
+    )
+    outside = execute_grasp(
+        _settled(large_box(), gripper), top_grasp(position, tolerance + margin), gripper
+    )
+    assert inside.outcome is Outcome.SUCCESS
+    assert outside.outcome is Outcome.APPROACH_COLLISION
+
+
 def _robotiq_closed_on(obj: ObjectSpec, depth: float) -> float:
     """Curl angle [rad] of the left pad after the Robotiq closes on a free-floating ``obj``
     whose origin lies ``depth`` metres past the TCP toward the palm (no gravity)."""
