@@ -185,3 +185,17 @@ def test_successful_grasp_in_a_scene_removes_only_the_lifted_object():
     others = np.delete(before, target, axis=0)
     assert len(world.objects) == len(before) - 1
     np.testing.assert_allclose(world.object_poses()[:, :3, 3], others[:, :3, 3], atol=2e-3)
+
+
+@pytest.mark.parametrize("gripper", GRIPPERS)
+def test_flipped_grasp_is_the_same_grasp(gripper):
+    """R · diag(1, −1, −1) swaps the fingers of a symmetric hand: same outcome, same lift."""
+    pose = top_grasp(np.r_[CENTRE + 0.005, _grasp_height(gripper, TABLE_HEIGHT + 0.06)], 0.4)
+    flipped = pose.copy()
+    flipped[:3, :3] = pose[:3, :3] @ np.diag([1.0, -1.0, -1.0])
+    lifted = []
+    for T in (pose, flipped):
+        world = _settled(_box((0.02, 0.03, 0.03)), gripper)
+        assert execute_grasp(world, T, gripper, remove=False).outcome is Outcome.SUCCESS
+        lifted.append(world.object_positions()[0])
+    np.testing.assert_allclose(lifted[0], lifted[1], atol=2e-3)
