@@ -3,9 +3,10 @@
 Why these values:
 
 - ``cone="elliptic"`` with ``impratio="10"``: the default pyramidal cone with impratio 1
-  lets a squeezed object creep slowly out of the fingers (friction is soft relative to the
-  normal force). An elliptic cone and a tenfold stiffer friction impedance hold a grasped
-  object still for seconds, as a real rubber pad does.
+  lets a squeezed object creep out of the fingers (friction is soft relative to the normal
+  force): a held 0.6 kg box slid 1.5–2.5 mm in 3 s, against 0.13–0.18 mm with these.
+- 50 Newton iterations: with 30, piles of light objects at impratio 10 did not converge and
+  some objects flew off.
 - ``condim 4`` on fingers and objects: torsional friction, so an object pinched off its
   centre of mass does not spin about the closing axis like a pendulum.
 - ``condim 6`` on the table: rolling friction, so cylinders, capsules and spheres come to
@@ -45,9 +46,9 @@ impedance): a 70 N squeeze then penetrates well under a millimetre instead of ce
 which keeps grasped objects from being spat out when the fingers relax."""
 
 OBJECT_SOLREF = "0.02 1"
-"""Objects keep MuJoCo's default softness among themselves and on the table (stiffer settings
-made light piled objects explode); finger geoms carry ``solmix=1000`` so that a finger–object
-contact takes the fingers' stiff parameters."""
+"""Objects keep MuJoCo's default softness among themselves and on the table (with the stiff
+values piles settled less calmly); finger geoms carry ``solmix=1000`` so that a
+finger–object contact takes the fingers' stiff parameters."""
 
 WELD_SOLREF = STIFF_SOLREF
 """Stiff mocap weld: the hand follows its commanded pose within a millimetre under load."""
