@@ -160,7 +160,9 @@ def test_grasp_trials_are_deterministic():
     results = []
     for _ in range(2):
         world = _settled(_box((0.02, 0.03, 0.03)), "robotiq-2f85")
-        pose = top_grasp(np.r_[CENTRE + 0.004, _grasp_height("robotiq-2f85", 0.11)], yaw=0.3)
+        pose = top_grasp(
+            np.r_[CENTRE + 0.004, _grasp_height("robotiq-2f85", TABLE_HEIGHT + 0.06)], yaw=0.3
+        )
         execute_grasp(world, pose, "robotiq-2f85", remove=False)
         results.append(world.object_poses())
     np.testing.assert_array_equal(results[0], results[1])
