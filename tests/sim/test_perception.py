@@ -13,6 +13,7 @@ from symgrasp.perception import (
     default_extrinsic,
     gl_available,
     look_at,
+    make_renderer,
 )
 from symgrasp.sim import World
 from symgrasp.sim.objects import ObjectSpec, Part
@@ -141,3 +142,10 @@ def test_tsdf_fusion_on_cuda_matches_cpu():
     cpu.integrate(depth, SMALL, T)
     cuda.integrate(depth, SMALL, T)
     torch.testing.assert_close(cuda.grid().cpu(), cpu.grid(), atol=1e-5, rtol=0)
+
+
+def test_renderer_choice_is_automatic_and_reported():
+    assert make_renderer(SMALL).name == ("gl" if gl_available() else "raycast")
+    assert make_renderer(SMALL, backend="raycast").name == "raycast"
+    with pytest.raises(ValueError, match="backend"):
+        make_renderer(SMALL, backend="vulkan")
