@@ -24,6 +24,49 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(run=run)
 
 
+def _add_sim(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "sim",
+        help="look at the simulated world",
+        description="Tools around the MuJoCo world of symgrasp.sim.",
+    )
+    actions = parser.add_subparsers(
+        dest="action", required=True, metavar="ACTION", help="what to do (show)"
+    )
+    show = actions.add_parser(
+        "show",
+        help="write pictures of a scene",
+        description="Build and settle a scene, then write a colour view (OpenGL render, or a "
+        "matplotlib fallback without GL) and the depth image from the default camera.",
+    )
+    show.add_argument(
+        "--scene", choices=["pile", "packed"], default="pile", help="scene kind (default: pile)"
+    )
+    show.add_argument(
+        "--objects",
+        default="household-train",
+        choices=["household-train", "household-test", "large-box", "blocks"],
+        help="object set to draw from (default: household-train)",
+    )
+    show.add_argument("--n", type=int, default=5, help="number of objects (default: 5)")
+    show.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    show.add_argument("--out", default="out/sim", help="output folder (default: out/sim)")
+
+    def run(args: argparse.Namespace) -> None:
+        from symgrasp.perception.show import save_scene_pictures
+        from symgrasp.sim import make_scene
+
+        world = make_scene(args.scene, args.objects, n=args.n, seed=args.seed)
+        stem = f"{args.scene}_{args.objects}_seed{args.seed}"
+        paths, renderer = save_scene_pictures(world, args.out, stem)
+        print(f"{len(world.objects)} objects settled: {', '.join(o.name for o in world.objects)}")
+        print(f"depth renderer: {renderer}")
+        for kind, path in paths.items():
+            print(f"{kind}: {path}")
+
+    show.set_defaults(run=run)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="symgrasp",
@@ -32,6 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _add_demo(subparsers)
+    _add_sim(subparsers)
     return parser
 
 

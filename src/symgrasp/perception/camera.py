@@ -1,0 +1,85 @@
+"""Pinhole camera: intrinsics, look-at extrinsics and the default view of the workspace.
+
+Camera frames follow OpenCV: ``x`` right, ``y`` down, ``z`` forward along the optical axis.
+Pixel ``(u, v)`` (column, row) has its centre at integer coordinates, so a point ``p`` in the
+camera frame projects to ``u = fx · x / z + cx``, ``v = fy · y / z + cy``. A depth image
+holds the ``z`` coordinate [m] of the surface seen by each pixel, 0 where nothing is seen.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from symgrasp.sim.world import WORKSPACE_SIZE
+
+DEFAULT_EYE_OFFSET = (0.5, 0.0, 0.5)
+"""Default camera position relative to the workspace centre [m] (GIGA/VGN-like side view)."""
+
+
+@dataclass(frozen=True)
+class CameraIntrinsic:
+    """Image size [px] and pinhole parameters [px]."""
+
+    width: int = 640
+    height: int = 480
+    fx: float = 540.0
+    fy: float = 540.0
+    cx: float = 320.0
+    cy: float = 240.0
+
+    def __post_init__(self) -> None:
+        if self.width <= 0 or self.height <= 0:
+            raise ValueError(f"width and height must be positive, got {self.width}×{self.height}")
+        if self.fx <= 0 or self.fy <= 0:
+            raise ValueError(f"fx and fy must be positive, got {self.fx}, {self.fy}")
+
+    @property
+    def K(self) -> np.ndarray:
+        """The 3×3 calibration matrix."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    def pixel_rays(self) -> np.ndarray:
+        """Ray of every pixel in the camera frame, scaled to ``z = 1``: (height, width, 3).
+
+        ``depth[v, u] * rays[v, u]`` is the 3D point seen by pixel ``(u, v)``.
+        """
+        u, v = np.meshgrid(np.arange(self.width), np.arange(self.height))
+        return np.stack(
+            [(u - self.cx) / self.fx, (v - self.cy) / self.fy, np.ones(u.shape)], axis=-1
+        )
+
+    def scaled(self, factor: float) -> CameraIntrinsic:
+        """The same camera at ``factor`` times the resolution (e.g. 0.25 for a thumbnail)."""
+        return CameraIntrinsic(
+            round(self.width * factor),
+            round(self.height * factor),
+            self.fx * factor,
+            self.fy * factor,
+            (self.cx + 0.5) * factor - 0.5,
+            (self.cy + 0.5) * factor - 0.5,
+        )
+
+
+def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray = (0.0, 0.0, 1.0)) -> np.ndarray:
+    """``T_world_camera`` of a camera at ``eye`` looking at ``target`` with image-up ≈ ``up``."""
+    eye, target, up = (np.asarray(a, dtype=float) for a in (eye, target, up))
+    forward = target - eye
+    if np.linalg.norm(forward) < 1e-9:
+        raise ValueError("eye and target must be different points")
+    z = forward / np.linalg.norm(forward)
+    x = np.cross(z, up)
+    if np.linalg.norm(x) < 1e-9:
+        raise ValueError("up must not be parallel to the viewing direction")
+    x /= np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, :3] = np.c_[x, np.cross(z, x), z]
+    T[:3, 3] = eye
+    return T
+
+
+def default_extrinsic(offset: np.ndarray = DEFAULT_EYE_OFFSET) -> np.ndarray:
+    """``T_world_camera`` looking at the workspace centre from ``centre + offset`` [m]."""
+    centre = np.full(3, WORKSPACE_SIZE / 2)
+    return look_at(centre + np.asarray(offset, dtype=float), centre)

@@ -1,0 +1,119 @@
+"""Truncated signed distance fusion of depth images into a dense voxel grid, in torch.
+
+The grid covers the cube ``origin + [0, size]³`` with ``resolution³`` voxels; voxel
+``[i, j, k]`` has its centre at ``origin + (i + ½, j + ½, k + ½) · voxel_size`` (``i`` along
+world x). Values are the signed distance to the nearest surface along the viewing ray divided
+by the truncation distance and clipped to [-1, 1]: positive in front of the surface (free
+space seen by a camera), negative behind it. Unobserved voxels have weight 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from symgrasp.perception.camera import CameraIntrinsic
+from symgrasp.sim.world import WORKSPACE_SIZE
+
+
+class TSDFVolume:
+    """A dense TSDF grid (default: 40³ voxels of 7.5 mm over the 0.30 m workspace).
+
+    Args:
+        size: edge of the cube [m].
+        resolution: voxels per edge.
+        truncation_voxels: truncation distance in voxels.
+        origin: (3,) world position of the cube's corner [m].
+        device: torch device of the grid (fusion runs there).
+    """
+
+    def __init__(
+        self,
+        size: float = WORKSPACE_SIZE,
+        resolution: int = 40,
+        truncation_voxels: float = 4.0,
+        origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        device: str | torch.device = "cpu",
+    ) -> None:
+        if size <= 0 or resolution <= 0 or truncation_voxels <= 0:
+            raise ValueError(
+                f"size, resolution and truncation_voxels must be positive, "
+                f"got {size}, {resolution}, {truncation_voxels}"
+            )
+        self.size, self.resolution = float(size), int(resolution)
+        self.voxel_size = self.size / self.resolution
+        self.truncation = truncation_voxels * self.voxel_size
+        self.device = torch.device(device)
+        self.origin = torch.tensor(origin, dtype=torch.float32, device=self.device)
+        shape = (self.resolution,) * 3
+        self.tsdf = torch.ones(shape, device=self.device)
+        self.weight = torch.zeros(shape, device=self.device)
+        idx = torch.arange(self.resolution, device=self.device, dtype=torch.float32)
+        grid = torch.stack(torch.meshgrid(idx, idx, idx, indexing="ij"), dim=-1)
+        self._centres = ((grid + 0.5) * self.voxel_size + self.origin).reshape(-1, 3)
+
+    def integrate(
+        self,
+        depth: np.ndarray | torch.Tensor,
+        intrinsic: CameraIntrinsic,
+        T_world_camera: np.ndarray | torch.Tensor,
+    ) -> None:
+        """Fuse depth images (V, H, W) or (H, W) [m, 0 = no return] seen from poses
+        ``T_world_camera`` (V, 4, 4) or (4, 4), all at once, by weighted averaging."""
+        depth = torch.as_tensor(depth, dtype=torch.float32, device=self.device)
+        T = torch.as_tensor(T_world_camera, dtype=torch.float32, device=self.device)
+        if depth.ndim == 2:
+            depth = depth[None]
+        if T.ndim == 2:
+            T = T[None]
+        if depth.shape[1:] != (intrinsic.height, intrinsic.width):
+            raise ValueError(
+                f"depth must be (V, {intrinsic.height}, {intrinsic.width}), "
+                f"got {tuple(depth.shape)}"
+            )
+        if T.shape != (depth.shape[0], 4, 4):
+            raise ValueError(
+                f"T_world_camera must be ({depth.shape[0]}, 4, 4), got {tuple(T.shape)}"
+            )
+
+        # voxel centres in every camera frame: p_cam = Rᵀ (p − t)
+        p = torch.einsum("vji,vnj->vni", T[:, :3, :3], self._centres[None] - T[:, None, :3, 3])
+        z = p[..., 2]
+        safe_z = z.clamp_min(1e-6)
+        u = torch.round(intrinsic.fx * p[..., 0] / safe_z + intrinsic.cx).long()
+        v = torch.round(intrinsic.fy * p[..., 1] / safe_z + intrinsic.cy).long()
+        inside = (z > 0) & (u >= 0) & (u < intrinsic.width) & (v >= 0) & (v < intrinsic.height)
+        views = torch.arange(depth.shape[0], device=self.device)[:, None].expand_as(u)
+        d = depth[views, v.clamp(0, intrinsic.height - 1), u.clamp(0, intrinsic.width - 1)]
+        sdf = d - z
+        # seen, and not hidden deeper than the truncation band behind the surface
+        valid = inside & (d > 0) & (sdf >= -self.truncation)
+        observed = (sdf / self.truncation).clamp(max=1.0) * valid
+        added = valid.float().sum(dim=0).reshape(self.tsdf.shape)
+        total = self.weight + added
+        fused = (
+            self.tsdf * self.weight + observed.sum(dim=0).reshape(self.tsdf.shape)
+        ) / total.clamp_min(1)
+        self.tsdf = torch.where(total > 0, fused, self.tsdf)
+        self.weight = total
+
+    def grid(self) -> torch.Tensor:
+        """The TSDF values (R, R, R) in [-1, 1]; unobserved voxels read 1 (free)."""
+        return self.tsdf.clone()
+
+    def point_cloud(self) -> torch.Tensor:
+        """Surface points (M, 3) [m]: zero crossings of the TSDF between neighbouring observed
+        voxels inside the truncation band, linearly interpolated."""
+        points = []
+        centres = self._centres.reshape(*self.tsdf.shape, 3)
+        for axis in range(3):
+            a = self.tsdf.narrow(axis, 0, self.resolution - 1)
+            b = self.tsdf.narrow(axis, 1, self.resolution - 1)
+            wa = self.weight.narrow(axis, 0, self.resolution - 1)
+            wb = self.weight.narrow(axis, 1, self.resolution - 1)
+            crossing = (a * b < 0) & (wa > 0) & (wb > 0) & (a.abs() < 1) & (b.abs() < 1)
+            t = (a / (a - b))[crossing][:, None]
+            pa = centres.narrow(axis, 0, self.resolution - 1)[crossing]
+            pb = centres.narrow(axis, 1, self.resolution - 1)[crossing]
+            points.append(pa + t * (pb - pa))
+        return torch.cat(points)

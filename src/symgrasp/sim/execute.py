@@ -1,0 +1,158 @@
+"""Grasp execution: the protocol that labels and evaluates every grasp.
+
+:func:`execute_grasp` places the open hand 10 cm back along ``e_x`` (pre-grasp), approaches
+the grasp pose along a straight line, closes, lifts 30 cm along world +z and holds. It
+only uses the :class:`~symgrasp.sim.world.World` interface, never MuJoCo directly.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+import numpy as np
+
+from symgrasp.sim.grippers import GripperSpec, get_gripper
+from symgrasp.sim.world import PARK_POSITION, World
+
+PREGRASP_DISTANCE = 0.10
+"""Pre-grasp offset back along the approach axis [m]."""
+
+LIFT_HEIGHT = 0.30
+"""Lift along world +z [m]."""
+
+BLOCKED_ERROR = 0.004
+"""The hand counts as blocked when it lags its commanded pose by this much [m] ..."""
+
+BLOCKED_FORCE = 20.0
+"""... or when the open hand is pressed by more than this [N] on its way in (what a wrist
+force sensor would flag: fingers landing on top of an object); the approach stops there."""
+
+
+class Outcome(enum.Enum):
+    """How a grasp trial ended."""
+
+    SUCCESS = "success"
+    PREGRASP_COLLISION = "pregrasp_collision"  # the open hand at pre-grasp touches something
+    APPROACH_COLLISION = "approach_collision"  # blocked or pressed on the way in
+    NO_CONTACT = "no_contact"  # the fingers closed on nothing
+    SLIPPED = "slipped"  # something was grasped but nothing is held after lift and hold
+    MULTIPLE = "multiple"  # more than one object was lifted
+
+
+@dataclass(frozen=True)
+class GraspResult:
+    """Outcome of a trial and the index (before removal) of the lifted object, if any."""
+
+    outcome: Outcome
+    object_index: int | None = None
+
+    @property
+    def success(self) -> bool:
+        return self.outcome is Outcome.SUCCESS
+
+
+def top_grasp(position: np.ndarray, yaw: float = 0.0) -> np.ndarray:
+    """``T_world_tcp`` of a vertical grasp: ``e_x`` = world −z, closing axis ``e_z`` at angle
+    ``yaw`` [rad] from world +x in the table plane, TCP at ``position`` (3,) [m]."""
+    e_x = np.array([0.0, 0.0, -1.0])
+    e_z = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    T = np.eye(4)
+    T[:3, :3] = np.c_[e_x, np.cross(e_z, e_x), e_z]
+    T[:3, 3] = position
+    return T
+
+
+def _check_pose(grasp_pose: np.ndarray) -> np.ndarray:
+    T = np.asarray(grasp_pose, dtype=float)
+    if T.shape != (4, 4) or not np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-5):
+        raise ValueError("grasp_pose must be a 4×4 homogeneous transform with a rotation block")
+    return T
+
+
+def execute_grasp(
+    world: World,
+    grasp_pose: np.ndarray,
+    gripper: GripperSpec | str,
+    hold_time: float = 0.25,
+    remove: bool = True,
+) -> GraspResult:
+    """Run one grasp trial of ``gripper`` at ``grasp_pose`` (``T_world_tcp``) in ``world``.
+
+    Success: exactly one object is lifted above half the lift height and still touches the
+    hand after ``hold_time`` seconds. That object is then removed from the world (unless
+    ``remove`` is False); the hand is parked again.
+    """
+    T = _check_pose(grasp_pose)
+    spec = get_gripper(gripper) if isinstance(gripper, str) else gripper
+    if world.gripper is None or world.gripper.name != spec.name:
+        world.rebuild(gripper=spec)
+    result = _trial(world, T, spec, hold_time)
+    park = np.eye(4)
+    park[:3, 3] = PARK_POSITION
+    if result.success and remove:
+        world.remove_object(result.object_index)
+    world.set_hand_pose(park)
+    return result
+
+
+def _trial(world: World, T: np.ndarray, spec: GripperSpec, hold_time: float) -> GraspResult:
+    pregrasp = T.copy()
+    pregrasp[:3, 3] -= PREGRASP_DISTANCE * T[:3, 0]
+    world.set_hand_pose(pregrasp)
+    if world.hand_in_collision():
+        return GraspResult(Outcome.PREGRASP_COLLISION)
+
+    lag = world.move_hand(T, duration=0.25, stop_force=BLOCKED_FORCE)
+    if lag > BLOCKED_ERROR:
+        return GraspResult(Outcome.APPROACH_COLLISION)
+
+    start_z = world.object_positions()[:, 2].copy()
+    world.actuate(close=True)
+    if not world.objects_in_hand():
+        return GraspResult(Outcome.NO_CONTACT)
+
+    lifted = T.copy()
+    lifted[2, 3] += LIFT_HEIGHT
+    world.move_hand(lifted, duration=0.5)
+    world.step(hold_time)
+
+    raised = np.flatnonzero(world.object_positions()[:, 2] - start_z > LIFT_HEIGHT / 2)
+    held = [i for i in world.objects_in_hand() if i in raised]
+    if len(raised) > 1:
+        return GraspResult(Outcome.MULTIPLE)
+    if len(held) == 1:
+        return GraspResult(Outcome.SUCCESS, held[0])
+    return GraspResult(Outcome.SLIPPED)
+
+
+def pull_out_force(
+    world: World,
+    object_index: int,
+    direction: np.ndarray,
+    max_force: float = 300.0,
+    rate: float = 600.0,
+    slip: float = 0.01,
+) -> float:
+    """Force [N] at which a held object is pulled ``slip`` metres out of the hand.
+
+    A force along ``direction`` (world frame) on the object's centre of mass ramps up at
+    ``rate`` N/s while the hand holds still; returns ``max_force`` if the object never moves.
+    """
+    u = np.asarray(direction, dtype=float)
+    if u.shape != (3,) or np.linalg.norm(u) == 0:
+        raise ValueError("direction must be a non-zero 3-vector")
+    u = u / np.linalg.norm(u)
+    T_hand = world.hand_pose()
+    start = np.linalg.inv(T_hand) @ np.r_[world.object_positions()[object_index], 1.0]
+    dt = world.timestep
+    force = 0.0
+    while force < max_force:
+        force += rate * dt
+        world.apply_force(object_index, force * u)
+        world.step(dt)
+        now = np.linalg.inv(world.hand_pose()) @ np.r_[world.object_positions()[object_index], 1.0]
+        if np.linalg.norm(now[:3] - start[:3]) > slip:
+            break
+    world.apply_force(object_index, np.zeros(3))
+    return min(force, max_force)

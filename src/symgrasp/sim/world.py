@@ -1,0 +1,453 @@
+"""The simulated world: a table, a 0.30 m cubic workspace, objects and one hand (MuJoCo).
+
+World frame = workspace frame: the workspace is ``[0, 0.3]³`` (the 40³ TSDF grid with
+7.5 mm voxels) and the table top is the plane ``z = TABLE_HEIGHT`` inside it, so the
+volume sees the table as VGN's does.
+
+:class:`World` is the backend interface that grasp execution and perception use; a Drake
+world would implement the same methods. Its model is rebuilt from MJCF whenever the set of
+objects changes (an object removed, the pile's walls taken away), carrying the other
+objects' poses and velocities over.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from symgrasp.sim.grippers import PREFIX, GripperSpec, get_gripper, hand_xml, open_joint_positions
+from symgrasp.sim.objects import ObjectSpec, object_set
+from symgrasp.sim.physics import HAND_GROUP, HIDDEN_GROUP, option_xml
+
+WORKSPACE_SIZE = 0.30
+"""Edge of the cubic workspace [m]."""
+
+TABLE_HEIGHT = 0.05
+"""Height of the table top inside the workspace [m]."""
+
+PARK_POSITION = (0.15, 0.15, 1.0)
+"""Where the idle hand waits, far above the workspace [m]."""
+
+SCENES = ("pile", "packed")
+
+PILE_BOX_HALF = 0.1
+"""Inner half-width of the bottomless box a pile is dropped into [m]."""
+
+
+def pose_to_qpos(T: np.ndarray) -> np.ndarray:
+    """4×4 pose → MuJoCo free-joint ``[x, y, z, qw, qx, qy, qz]``."""
+    x, y, z, w = Rotation.from_matrix(T[:3, :3]).as_quat()
+    return np.r_[T[:3, 3], w, x, y, z]
+
+
+def qpos_to_pose(q: np.ndarray) -> np.ndarray:
+    """MuJoCo free-joint ``[x, y, z, qw, qx, qy, qz]`` → 4×4 pose."""
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_quat([q[4], q[5], q[6], q[3]]).as_matrix()
+    T[:3, 3] = q[:3]
+    return T
+
+
+def _table_xml() -> str:
+    c = WORKSPACE_SIZE / 2
+    # Collision: a plane, a half-space that nothing can be pushed through; hidden, because
+    # MuJoCo's renderer and ray caster disagree on a plane's finite extent. Looks: a box.
+    return (
+        f'<geom name="table" class="table" type="plane" size="0.5 0.5 0.01" '
+        f'pos="{c} {c} {TABLE_HEIGHT}" group="{HIDDEN_GROUP}" rgba="0 0 0 0"/>'
+        f'<geom name="table_top" class="table" type="box" size="0.5 0.5 0.02" '
+        f'pos="{c} {c} {TABLE_HEIGHT - 0.02}" contype="0" conaffinity="0"/>'
+    )
+
+
+def _walls_xml(half: float = PILE_BOX_HALF, height: float = 0.25) -> str:
+    """A bottomless box around the workspace centre that holds a pile while it falls."""
+    c, t = WORKSPACE_SIZE / 2, 0.005
+    z = TABLE_HEIGHT + height / 2
+    walls = [
+        (c + half + t, c, t, half + 2 * t),
+        (c - half - t, c, t, half + 2 * t),
+        (c, c + half + t, half + 2 * t, t),
+        (c, c - half - t, half + 2 * t, t),
+    ]
+    return "".join(
+        f'<geom name="wall_{i}" type="box" size="{sx} {sy} {height / 2}" pos="{x} {y} {z}" '
+        f'rgba="1 1 1 0.2" group="{HIDDEN_GROUP}"/>'
+        for i, (x, y, sx, sy) in enumerate(walls)
+    )
+
+
+def _object_xml(index: int, spec: ObjectSpec) -> str:
+    return f"""
+    <body name="obj_{index}">
+      <freejoint name="obj_{index}"/>
+      {spec.geoms_xml()}
+    </body>"""
+
+
+def world_xml(
+    objects: Sequence[ObjectSpec], gripper: GripperSpec | None, walls: bool = False
+) -> str:
+    """The complete MJCF of a world."""
+    hand = hand_xml(gripper) if gripper is not None else None
+    body = "".join(_object_xml(i, o) for i, o in enumerate(objects))
+    light = '<light pos="0.15 0.15 1.5" dir="0 0 -1" directional="true"/>'
+    return f"""
+<mujoco model="symgrasp_world">
+  {option_xml()}
+  <worldbody>
+    {light}
+    {_table_xml()}
+    {_walls_xml() if walls else ""}
+    {body}
+    {hand.worldbody if hand else ""}
+  </worldbody>
+  <tendon>{hand.tendon if hand else ""}</tendon>
+  <equality>{hand.equality if hand else ""}</equality>
+  <actuator>{hand.actuator if hand else ""}</actuator>
+  <contact>{hand.contact if hand else ""}</contact>
+</mujoco>"""
+
+
+class World:
+    """A MuJoCo world with objects on a table and, optionally, one hand.
+
+    Args:
+        objects: the objects, in order; object ``i`` is body ``obj_i``.
+        poses: (n, 4, 4) initial ``T_world_object``; default: all at the workspace centre.
+        gripper: name or spec of the hand to include, or None for no hand.
+        walls: include the removable walls used to drop a pile.
+    """
+
+    def __init__(
+        self,
+        objects: Sequence[ObjectSpec] = (),
+        poses: np.ndarray | None = None,
+        gripper: GripperSpec | str | None = None,
+        walls: bool = False,
+    ) -> None:
+        self.objects = list(objects)
+        self.gripper = get_gripper(gripper) if isinstance(gripper, str) else gripper
+        self.walls = walls
+        if poses is None:
+            poses = np.tile(np.eye(4), (len(self.objects), 1, 1))
+            poses[:, :3, 3] = (WORKSPACE_SIZE / 2, WORKSPACE_SIZE / 2, TABLE_HEIGHT)
+        poses = np.asarray(poses, dtype=float)
+        if poses.shape != (len(self.objects), 4, 4):
+            raise ValueError(
+                f"poses must have shape ({len(self.objects)}, 4, 4), got {poses.shape}"
+            )
+        qpos = np.stack([pose_to_qpos(T) for T in poses]) if len(poses) else np.zeros((0, 7))
+        self._build(qpos, np.zeros((len(self.objects), 6)))
+
+    # -- model --------------------------------------------------------------------------
+
+    def _build(self, obj_qpos: np.ndarray, obj_qvel: np.ndarray) -> None:
+        self.model = mujoco.MjModel.from_xml_string(
+            world_xml(self.objects, self.gripper, self.walls)
+        )
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self._obj_body = np.array([m.body(f"obj_{i}").id for i in range(len(self.objects))])
+        jnt = [m.joint(f"obj_{i}").id for i in range(len(self.objects))]
+        self._obj_qadr = np.array([m.jnt_qposadr[j] for j in jnt], dtype=int)
+        self._obj_vadr = np.array([m.jnt_dofadr[j] for j in jnt], dtype=int)
+        # geom id -> object index (-1 for table, walls and hand)
+        self._geom_object = np.full(m.ngeom, -1)
+        for i, b in enumerate(self._obj_body):
+            self._geom_object[m.geom_bodyid == b] = i
+        self._hand_geom = m.geom_group == HAND_GROUP
+        for i in range(len(self.objects)):
+            self.data.qpos[self._obj_qadr[i] : self._obj_qadr[i] + 7] = obj_qpos[i]
+            self.data.qvel[self._obj_vadr[i] : self._obj_vadr[i] + 6] = obj_qvel[i]
+        if self.gripper is not None:
+            T = np.eye(4)
+            T[:3, 3] = PARK_POSITION
+            self.set_hand_pose(T)
+        mujoco.mj_forward(m, self.data)
+
+    def _object_states(self) -> tuple[np.ndarray, np.ndarray]:
+        qpos = np.array([self.data.qpos[a : a + 7] for a in self._obj_qadr]).reshape(-1, 7)
+        qvel = np.array([self.data.qvel[a : a + 6] for a in self._obj_vadr]).reshape(-1, 6)
+        return qpos, qvel
+
+    def rebuild(
+        self,
+        keep: Sequence[int] | None = None,
+        gripper: GripperSpec | str | bool | None = True,
+        walls: bool | None = None,
+    ) -> None:
+        """Rebuild the model keeping objects ``keep`` (default all) with their states.
+
+        ``gripper=True`` keeps the current hand; a name/spec swaps it; None removes it.
+        ``walls`` (default: unchanged) adds or removes the pile walls.
+        """
+        keep = list(range(len(self.objects))) if keep is None else list(keep)
+        qpos, qvel = self._object_states()
+        self.objects = [self.objects[i] for i in keep]
+        if gripper is not True:
+            self.gripper = get_gripper(gripper) if isinstance(gripper, str) else gripper
+        if walls is not None:
+            self.walls = walls
+        self._build(qpos[keep], qvel[keep])
+
+    def remove_object(self, index: int) -> None:
+        """Remove object ``index`` (e.g. after it was grasped); the others keep their states."""
+        if not 0 <= index < len(self.objects):
+            raise ValueError(f"index must be in [0, {len(self.objects)}), got {index}")
+        self.rebuild([i for i in range(len(self.objects)) if i != index])
+
+    # -- objects ------------------------------------------------------------------------
+
+    def object_poses(self) -> np.ndarray:
+        """``T_world_object`` of every object, (n, 4, 4)."""
+        qpos, _ = self._object_states()
+        return np.stack([qpos_to_pose(q) for q in qpos]) if len(qpos) else np.zeros((0, 4, 4))
+
+    def object_positions(self) -> np.ndarray:
+        """Object origins in the world, (n, 3) [m]."""
+        return self.data.xpos[self._obj_body].copy().reshape(-1, 3)
+
+    @property
+    def timestep(self) -> float:
+        """Physics step [s]."""
+        return float(self.model.opt.timestep)
+
+    def step(self, duration: float) -> None:
+        """Advance the simulation by ``duration`` seconds."""
+        mujoco.mj_step(
+            self.model, self.data, nstep=max(1, round(duration / self.model.opt.timestep))
+        )
+
+    def apply_force(self, index: int, force: np.ndarray) -> None:
+        """Apply a constant world-frame ``force`` [N] at object ``index``'s centre of mass."""
+        self.data.xfrc_applied[self._obj_body[index]] = np.r_[force, 0.0, 0.0, 0.0]
+
+    def set_gravity(self, gravity: np.ndarray) -> None:
+        """Set the gravity vector [m/s²] (e.g. zero for a free-floating pull-out test)."""
+        self.model.opt.gravity[:] = gravity
+
+    def at_rest(self, linear: float = 5e-3, angular: float = 0.1) -> bool:
+        """Whether every object moves slower than ``linear`` [m/s] and ``angular`` [rad/s]."""
+        _, qvel = self._object_states()
+        if not len(qvel):
+            return True
+        return bool(
+            np.all(np.linalg.norm(qvel[:, :3], axis=1) < linear)
+            and np.all(np.linalg.norm(qvel[:, 3:], axis=1) < angular)
+        )
+
+    def settle(self, max_time: float = 2.0, check_every: float = 0.05) -> float:
+        """Simulate until all objects are at rest or ``max_time`` [s]; returns the time taken."""
+        t = 0.0
+        while t < max_time:
+            self.step(check_every)
+            t += check_every
+            if self.at_rest():
+                break
+        return t
+
+    def outside_workspace(self) -> list[int]:
+        """Indices of objects whose origin left the workspace or fell below the table."""
+        p = self.object_positions()
+        out = (
+            (p[:, 0] < 0)
+            | (p[:, 0] > WORKSPACE_SIZE)
+            | (p[:, 1] < 0)
+            | (p[:, 1] > WORKSPACE_SIZE)
+            | (p[:, 2] < TABLE_HEIGHT - 0.02)
+        )
+        return [int(i) for i in np.flatnonzero(out)]
+
+    # -- hand ---------------------------------------------------------------------------
+
+    def _require_hand(self) -> GripperSpec:
+        if self.gripper is None:
+            raise ValueError("this world has no gripper; build it with gripper=<name>")
+        return self.gripper
+
+    def set_hand_pose(self, T_world_tcp: np.ndarray) -> None:
+        """Teleport the hand (at rest, fingers open) so that its TCP frame is ``T_world_tcp``."""
+        gripper = self._require_hand()
+        m, d = self.model, self.data
+        q = pose_to_qpos(np.asarray(T_world_tcp, dtype=float))
+        d.mocap_pos[0], d.mocap_quat[0] = q[:3], q[3:]
+        free = m.joint(f"{PREFIX}free")
+        d.qpos[m.jnt_qposadr[free.id] : m.jnt_qposadr[free.id] + 7] = q
+        for name, value in open_joint_positions(gripper).items():
+            d.qpos[m.jnt_qposadr[m.joint(name).id]] = value
+        hand_dofs = m.body_rootid[m.dof_bodyid] == m.body(f"{PREFIX}base").id
+        d.qvel[hand_dofs] = 0.0
+        d.act[:] = 0.0
+        d.ctrl[:] = -gripper.close_ctrl
+        mujoco.mj_forward(m, d)
+
+    def hand_pose(self) -> np.ndarray:
+        """Current ``T_world_tcp`` of the hand, 4×4."""
+        self._require_hand()
+        b = self.model.body(f"{PREFIX}base").id
+        T = np.eye(4)
+        T[:3, :3] = self.data.xmat[b].reshape(3, 3)
+        T[:3, 3] = self.data.xpos[b]
+        return T
+
+    def _hand_contacts(self) -> list[tuple[int, int]]:
+        """(hand geom, other geom) for every current contact of the hand with the rest."""
+        pairs = []
+        for c in self.data.contact[: self.data.ncon]:
+            g1, g2 = int(c.geom1), int(c.geom2)
+            h1, h2 = self._hand_geom[g1], self._hand_geom[g2]
+            if h1 != h2:
+                pairs.append((g1, g2) if h1 else (g2, g1))
+        return pairs
+
+    def hand_in_collision(self) -> bool:
+        """Whether the hand touches the table or any object."""
+        return bool(self._hand_contacts())
+
+    def hand_contact_force(self) -> float:
+        """Total normal force [N] that the table and objects exert on the hand."""
+        total, wrench = 0.0, np.zeros(6)
+        for i, c in enumerate(self.data.contact[: self.data.ncon]):
+            if self._hand_geom[c.geom1] != self._hand_geom[c.geom2]:
+                mujoco.mj_contactForce(self.model, self.data, i, wrench)
+                total += wrench[0]
+        return total
+
+    def objects_in_hand(self) -> list[int]:
+        """Indices of objects that touch the hand, sorted."""
+        return sorted({int(self._geom_object[o]) for _, o in self._hand_contacts()} - {-1})
+
+    def move_hand(
+        self,
+        T_target: np.ndarray,
+        duration: float,
+        settle: float = 0.02,
+        stop_force: float | None = None,
+    ) -> float:
+        """Move the hand's set-point from its current pose to ``T_target`` along a straight line
+        (slerp for the rotation) with a smooth time law over ``duration`` seconds, then hold it
+        for ``settle`` seconds.
+
+        Returns how far [m] the hand then lags its set-point: near zero unless it is blocked;
+        infinity if the motion stopped early because the contact force on the hand exceeded
+        ``stop_force`` [N] (a guarded move, as a robot's collision detection does).
+        """
+        self._require_hand()
+        d = self.data
+        p0, q0 = d.mocap_pos[0].copy(), d.mocap_quat[0].copy()
+        q1 = pose_to_qpos(np.asarray(T_target, dtype=float))
+        rots = Rotation.from_quat([[q0[1], q0[2], q0[3], q0[0]], [q1[4], q1[5], q1[6], q1[3]]])
+        n = max(1, round(duration / self.model.opt.timestep))
+        s = np.linspace(0.0, 1.0, n + 1)[1:]
+        s = 3 * s**2 - 2 * s**3
+        xyzw = Slerp([0.0, 1.0], rots)(s).as_quat()
+        for k in range(n):
+            d.mocap_pos[0] = p0 + s[k] * (q1[:3] - p0)
+            d.mocap_quat[0] = xyzw[k, [3, 0, 1, 2]]
+            mujoco.mj_step(self.model, d)
+            if stop_force is not None and k % 5 == 0 and self.hand_contact_force() > stop_force:
+                return float("inf")
+        self.step(settle)
+        return float(np.linalg.norm(self.hand_pose()[:3, 3] - d.mocap_pos[0]))
+
+    def actuate(self, close: bool, duration: float | None = None) -> None:
+        """Close (or open) the fingers for ``duration`` s (default: the gripper's close time)."""
+        gripper = self._require_hand()
+        self.data.ctrl[:] = gripper.close_ctrl if close else -gripper.close_ctrl
+        self.step(gripper.close_time if duration is None else duration)
+
+
+def _random_rotation(rng: np.random.Generator) -> np.ndarray:
+    return Rotation.random(random_state=int(rng.integers(2**31))).as_matrix()
+
+
+def pile_scene(
+    objects: Sequence[ObjectSpec],
+    seed: int = 0,
+    gripper: GripperSpec | str | None = None,
+    max_settle: float = 1.5,
+) -> World:
+    """Drop ``objects`` with random orientations into a box at the workspace centre, let them
+    settle, remove the box, settle again, and drop objects that left the workspace."""
+    rng = np.random.default_rng(seed)
+    poses = np.tile(np.eye(4), (len(objects), 1, 1))
+    c = WORKSPACE_SIZE / 2
+    z = TABLE_HEIGHT + 0.02
+    for i, obj in enumerate(objects):
+        # rotate about the bounding-box centre; the object then stays in a ball of this
+        # radius, and stacking the balls keeps the falling objects apart
+        vertices = obj.mesh().vertices
+        centre = vertices.min(axis=0) / 2 + vertices.max(axis=0) / 2
+        radius = float(np.max(np.linalg.norm(vertices - centre, axis=1)))
+        z += radius
+        R = _random_rotation(rng)
+        poses[i, :3, :3] = R
+        jitter = max(0.0, PILE_BOX_HALF - radius - 0.002)  # the ball starts inside the walls
+        poses[i, :3, 3] = np.r_[rng.uniform(c - jitter, c + jitter, size=2), z] - R @ centre
+        z += radius + 0.005
+    world = World(objects, poses, gripper=gripper, walls=True)
+    world.settle(max_settle)
+    world.rebuild(walls=False)
+    world.settle(max_settle)
+    _drop_outside(world)
+    return world
+
+
+def packed_scene(
+    objects: Sequence[ObjectSpec],
+    seed: int = 0,
+    gripper: GripperSpec | str | None = None,
+    max_settle: float = 1.0,
+    attempts: int = 200,
+) -> World:
+    """Stand ``objects`` upright at random non-overlapping places with random yaw and settle.
+    Objects that find no free place in ``attempts`` tries are left out."""
+    rng = np.random.default_rng(seed)
+    placed: list[tuple[ObjectSpec, np.ndarray]] = []
+    circles: list[tuple[np.ndarray, float]] = []  # footprint circles taken so far
+    for obj in objects:
+        centre, r = obj.footprint()
+        margin = min(r + 0.01, WORKSPACE_SIZE / 2)
+        for _ in range(attempts):
+            xy = rng.uniform(margin, WORKSPACE_SIZE - margin, size=2)
+            if all(np.linalg.norm(xy - c) > r + rc + 0.005 for c, rc in circles):
+                T = np.eye(4)
+                T[:3, :3] = Rotation.from_euler("z", rng.uniform(0, 2 * np.pi)).as_matrix()
+                T[:3, 3] = (*(xy - T[:2, :2] @ centre), TABLE_HEIGHT + 0.001)
+                placed.append((obj, T))
+                circles.append((xy, r))
+                break
+    world = World(
+        [o for o, _ in placed],
+        np.array([T for _, T in placed]).reshape(-1, 4, 4),
+        gripper=gripper,
+    )
+    world.settle(max_settle)
+    _drop_outside(world)
+    return world
+
+
+def _drop_outside(world: World) -> None:
+    outside = set(world.outside_workspace())
+    if outside:
+        world.rebuild([i for i in range(len(world.objects)) if i not in outside])
+
+
+def make_scene(
+    scene: str,
+    objects: str | Sequence[ObjectSpec] = "household-train",
+    n: int = 5,
+    seed: int = 0,
+    gripper: GripperSpec | str | None = None,
+) -> World:
+    """A settled ``scene`` ("pile" or "packed") of ``n`` objects drawn from the named object
+    set (or the given objects), with ``gripper`` parked above it."""
+    if scene not in SCENES:
+        raise ValueError(f"scene must be one of {SCENES}, got {scene!r}")
+    specs = object_set(objects, n, seed) if isinstance(objects, str) else list(objects)
+    build = pile_scene if scene == "pile" else packed_scene
+    return build(specs, seed=seed, gripper=gripper)

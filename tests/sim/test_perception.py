@@ -1,0 +1,151 @@
+"""Camera, depth rendering and TSDF fusion against analytic scenes."""
+
+import numpy as np
+import pytest
+import torch
+
+from symgrasp.perception import (
+    CameraIntrinsic,
+    GLRenderer,
+    RaycastRenderer,
+    TSDFVolume,
+    add_depth_noise,
+    default_extrinsic,
+    gl_available,
+    look_at,
+    make_renderer,
+)
+from symgrasp.sim import World
+from symgrasp.sim.objects import ObjectSpec, Part
+from symgrasp.sim.world import TABLE_HEIGHT
+
+SMALL = CameraIntrinsic(160, 120, 135.0, 135.0, 79.5, 59.5)
+
+
+def _box_world() -> World:
+    box = ObjectSpec("b", "box", (Part("box", (0.03, 0.04, 0.05), (0, 0, 0.05)),), 0.2, 0.8)
+    T = np.eye(4)
+    T[:3, 3] = (0.15, 0.15, TABLE_HEIGHT)
+    return World([box], T[None], gripper="franka")
+
+
+def test_look_at_points_the_optical_axis_at_the_target_with_image_down_toward_minus_z():
+    T = look_at((1.0, 0.0, 1.0), (0.0, 0.0, 0.0))
+    np.testing.assert_allclose(T[:3, 2], np.array([-1.0, 0.0, -1.0]) / np.sqrt(2))
+    assert T[2, 1] < 0  # camera y (image down) points down in the world
+    np.testing.assert_allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-12)
+    with pytest.raises(ValueError, match="up"):
+        look_at((0, 0, 1), (0, 0, 0))
+
+
+def test_raycast_depth_of_the_table_seen_straight_down_is_the_camera_height():
+    world = World([])
+    T = look_at((0.15, 0.15, 0.6), (0.15, 0.15, 0.0), up=(1.0, 0.0, 0.0))
+    depth = RaycastRenderer(SMALL).render(world, T)
+    np.testing.assert_allclose(depth, 0.6 - TABLE_HEIGHT, atol=1e-6)
+
+
+def test_raycast_sees_the_box_top_and_not_the_hand():
+    world = _box_world()
+    hand = np.eye(4)
+    hand[:3, 3] = (0.15, 0.15, 0.4)
+    world.set_hand_pose(hand)  # right between the camera and the box
+    T = look_at((0.15, 0.15, 0.6), (0.15, 0.15, 0.0), up=(1.0, 0.0, 0.0))
+    depth = RaycastRenderer(SMALL).render(world, T)
+    assert depth[59, 79] == pytest.approx(0.6 - TABLE_HEIGHT - 0.1, abs=1e-6)
+
+
+@pytest.mark.skipif(not gl_available(), reason="no OpenGL backend (EGL/OSMesa) here")
+def test_gl_and_raycast_depth_agree():
+    world = _box_world()
+    intrinsic = CameraIntrinsic(160, 120, 135.0, 135.0, 70.0, 65.0)  # off-centre principal point
+    T = default_extrinsic()
+    gl = GLRenderer(intrinsic).render(world, T)
+    ray = RaycastRenderer(intrinsic).render(world, T)
+    both = (gl > 0) & (ray > 0)
+    assert both.mean() > 0.5
+    assert np.mean((gl > 0) != (ray > 0)) < 0.01  # same silhouettes, up to edge pixels
+    assert np.median(np.abs(gl - ray)[both]) < 1e-3
+
+
+def _plane_depth(distance: float) -> np.ndarray:
+    return np.full((SMALL.height, SMALL.width), distance, dtype=np.float32)
+
+
+def test_tsdf_of_a_plane_is_the_clipped_signed_distance():
+    """Camera above the volume looking down at a plane 0.1 m above the volume's bottom."""
+    volume = TSDFVolume()
+    eye_height = 0.6
+    T = look_at((0.15, 0.15, eye_height), (0.15, 0.15, 0.0), up=(1.0, 0.0, 0.0))
+    wide = CameraIntrinsic(160, 120, 40.0, 40.0, 79.5, 59.5)  # sees the whole cube
+    volume.integrate(np.full((120, 160), eye_height - 0.1, dtype=np.float32), wide, T)
+    z = (torch.arange(40) + 0.5) * volume.voxel_size
+    expected = ((z - 0.1) / volume.truncation).clamp(max=1.0)  # + above the plane
+    column = volume.grid()[20, 20]
+    seen = volume.weight[20, 20] > 0
+    assert seen.sum() >= 8  # the band in front of the plane and everything above
+    torch.testing.assert_close(column[seen], expected[seen], atol=1e-5, rtol=0)
+    assert not seen[z < 0.1 - volume.truncation].any()  # hidden far behind the surface
+    points = volume.point_cloud()
+    torch.testing.assert_close(points[:, 2], torch.full_like(points[:, 2], 0.1), atol=1e-4, rtol=0)
+
+
+def test_tsdf_from_rendered_views_has_the_box_inside_and_free_space_outside():
+    world = _box_world()
+    volume = TSDFVolume()
+    renderer = RaycastRenderer(SMALL)
+    centre = np.array([0.15, 0.15, 0.15])
+    poses = np.stack(
+        [
+            look_at(centre + 0.5 * np.array([np.cos(a), np.sin(a), 1.0]), centre)
+            for a in (0, 2.1, 4.2)
+        ]
+    )
+    depths = np.stack([renderer.render(world, T) for T in poses])
+    volume.integrate(depths, SMALL, poses)  # batched over the three views
+    grid = volume.grid()
+
+    def at(x, y, z):
+        i, j, k = (int(c / volume.voxel_size) for c in (x, y, z))
+        return grid[i, j, k].item()
+
+    assert at(0.15, 0.15, TABLE_HEIGHT + 0.095) < 0  # just under the box top
+    assert at(0.15, 0.15, TABLE_HEIGHT + 0.14) == pytest.approx(1.0)  # 4 cm above: truncated free
+    assert 0 < at(0.15, 0.15, TABLE_HEIGHT + 0.11) < 1  # within the band above the top
+    points = volume.point_cloud().numpy()
+    on_top = np.abs(points[:, :2] - 0.15).max(axis=1) < 0.02
+    assert np.abs(points[on_top, 2] - (TABLE_HEIGHT + 0.1)).max() < 0.004
+
+
+def test_tsdf_rejects_mismatched_inputs():
+    with pytest.raises(ValueError, match="depth"):
+        TSDFVolume().integrate(np.zeros((10, 10)), SMALL, np.eye(4))
+
+
+def test_depth_noise_is_seeded_keeps_holes_and_has_the_requested_size():
+    depth = _plane_depth(0.5)
+    depth[:10] = 0
+    a, b = add_depth_noise(depth, seed=1), add_depth_noise(depth, seed=1)
+    np.testing.assert_array_equal(a, b)
+    assert np.all(a[:10] == 0)
+    residual = a[10:] - 0.5
+    assert 0.001 < residual.std() < 0.02
+    assert not np.array_equal(a, add_depth_noise(depth, seed=2))
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here")
+def test_tsdf_fusion_on_cuda_matches_cpu():
+    T = look_at((0.15, 0.15, 0.6), (0.15, 0.15, 0.0), up=(1.0, 0.0, 0.0))
+    depth = _plane_depth(0.45)
+    depth[40:80, 60:100] = 0.4  # a step, so the grid is not trivially uniform
+    cpu, cuda = TSDFVolume(), TSDFVolume(device="cuda")
+    cpu.integrate(depth, SMALL, T)
+    cuda.integrate(depth, SMALL, T)
+    torch.testing.assert_close(cuda.grid().cpu(), cpu.grid(), atol=1e-5, rtol=0)
+
+
+def test_renderer_choice_is_automatic_and_reported():
+    assert make_renderer(SMALL).name == ("gl" if gl_available() else "raycast")
+    assert make_renderer(SMALL, backend="raycast").name == "raycast"
+    with pytest.raises(ValueError, match="backend"):
+        make_renderer(SMALL, backend="vulkan")

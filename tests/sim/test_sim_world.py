@@ -1,0 +1,91 @@
+"""Objects and scenes: shapes match their meshes, sets are reproducible, piles settle."""
+
+import numpy as np
+import pytest
+
+from symgrasp.sim import World, large_box, make_scene, object_set
+from symgrasp.sim.objects import TEST_FAMILIES, TRAIN_FAMILIES, ObjectSpec, Part
+from symgrasp.sim.world import TABLE_HEIGHT, WORKSPACE_SIZE
+
+
+def test_mesh_volume_matches_the_primitives():
+    for kind, size in [
+        ("box", (0.01, 0.02, 0.03)),
+        ("cylinder", (0.02, 0.03)),
+        ("capsule", (0.015, 0.02)),
+        ("sphere", (0.025,)),
+        ("ellipsoid", (0.01, 0.02, 0.03)),
+    ]:
+        part = Part(kind, size)
+        assert part.mesh().volume == pytest.approx(part.volume, rel=0.03)
+
+
+def test_large_box_is_the_papers_30x70x200mm_box():
+    extents = large_box().mesh().extents
+    np.testing.assert_allclose(sorted(extents), [0.03, 0.07, 0.2])
+
+
+def test_surface_samples_lie_on_the_union_not_inside_it():
+    t = ObjectSpec(
+        "t", "t", (Part("box", (0.03, 0.01, 0.01)), Part("box", (0.01, 0.03, 0.01))), 0.1, 0.5
+    )
+    points, normals = t.sample_surface(500, seed=1)
+    inside = t.parts[0].contains(points) | t.parts[1].contains(points)
+    assert not inside.any()
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0)
+
+
+def test_object_sets_are_reproducible_and_test_has_its_own_families():
+    a, b = object_set("household-test", 60, seed=3), object_set("household-test", 60, seed=3)
+    assert a == b
+    train = object_set("household-train", 60, seed=3)
+    assert {o.family for o in train} <= set(TRAIN_FAMILIES)
+    only_test = set(TEST_FAMILIES) - set(TRAIN_FAMILIES)
+    assert len(only_test) >= 2 and only_test & {o.family for o in a}
+    assert not {o.parts for o in train} & {o.parts for o in a}
+
+
+def test_every_household_object_fits_some_gripper_width():
+    for obj in object_set("household-test", 100, seed=0):
+        assert min(obj.mesh().extents) <= 0.08, obj.name
+
+
+def test_bad_arguments_raise_value_error_naming_them():
+    with pytest.raises(ValueError, match="name"):
+        object_set("kitchen", 3)
+    with pytest.raises(ValueError, match="size"):
+        Part("box", (0.1, 0.1))
+    with pytest.raises(ValueError, match="scene"):
+        make_scene("heap")
+
+
+def test_box_dropped_on_the_table_comes_to_rest_on_it():
+    box = ObjectSpec("b", "box", (Part("box", (0.02, 0.02, 0.02), (0, 0, 0.02)),), 0.1, 0.6)
+    T = np.eye(4)
+    T[:3, 3] = (0.15, 0.15, TABLE_HEIGHT + 0.1)
+    world = World([box], T[None])
+    world.settle(2.0)
+    assert world.at_rest()
+    assert world.object_positions()[0, 2] == pytest.approx(TABLE_HEIGHT, abs=1e-3)
+
+
+@pytest.mark.parametrize("scene", ["pile", "packed"])
+def test_scenes_settle_inside_the_workspace_and_are_deterministic(scene):
+    a = make_scene(scene, "household-train", n=5, seed=2)
+    b = make_scene(scene, "household-train", n=5, seed=2)
+    np.testing.assert_array_equal(a.object_poses(), b.object_poses())
+    p = a.object_positions()
+    assert len(p) >= 3
+    assert np.all((p[:, :2] >= 0) & (p[:, :2] <= WORKSPACE_SIZE))
+    assert np.all(p[:, 2] > TABLE_HEIGHT - 0.02)
+
+
+def test_removing_an_object_keeps_the_others_where_they_are():
+    world = make_scene("packed", "blocks", n=4, seed=0, gripper="franka")
+    before = world.object_poses()
+    world.remove_object(1)
+    np.testing.assert_allclose(world.object_poses(), np.delete(before, 1, axis=0), atol=1e-9)
+    world.settle(0.2)
+    np.testing.assert_allclose(
+        world.object_poses()[:, :3, 3], np.delete(before, 1, axis=0)[:, :3, 3], atol=1e-3
+    )
