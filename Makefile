@@ -38,6 +38,8 @@ format: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/bingham.py
+	$(PY) benchmarks/rotation.py
+	$(PY) benchmarks/sim.py
 
 clean:
 	rm -rf $(VENV) build dist src/*.egg-info .pytest_cache .ruff_cache
