@@ -55,13 +55,14 @@ def grasp_losses(
     output: GraspOutput,
     batch: dict[str, Tensor],
     representation: Representation,
-    weights: LossWeights = LossWeights(),
+    weights: LossWeights | None = None,
 ) -> dict[str, Tensor]:
     """``{"total", "validity", "score", "rotation"}`` scalar losses of one batch.
 
     The rotation loss runs in float32 (the Bingham normaliser in float64 inside it) whatever
     the network's precision. A batch without valid voxels has score and rotation losses 0.
     """
+    weights = weights or LossWeights()
     index = batch["voxel_index"]
     validity = F.binary_cross_entropy_with_logits(
         output.validity.float(), batch["valid"], reduction="sum"
@@ -73,8 +74,6 @@ def grasp_losses(
         score_error = at_voxels(output.score.float(), index) - at_voxels(batch["score"], index)
         score = score_error.square().mean()
         pred = at_voxels(output.rotation.float(), index)
-        rotation_loss = representation.loss(
-            pred, batch["rotations"], batch["rotation_mask"]
-        ).mean()
+        rotation_loss = representation.loss(pred, batch["rotations"], batch["rotation_mask"]).mean()
     total = weights.validity * validity + weights.score * score + weights.rotation * rotation_loss
     return {"total": total, "validity": validity, "score": score, "rotation": rotation_loss}

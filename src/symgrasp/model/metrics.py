@@ -89,7 +89,9 @@ class MetricAccumulator:
 
     def compute(self) -> dict[str, float]:
         """The metrics named in the module docstring (NaN where undefined)."""
-        parts = {key: torch.cat(value) if value else torch.empty(0) for key, value in self._parts.items()}
+        parts = {
+            key: torch.cat(value) if value else torch.empty(0) for key, value in self._parts.items()
+        }
         ex, ez = parts["ex"], parts["ez"]
         metrics = {
             "validity_ap": average_precision(parts["probability"], parts["valid"]),

@@ -179,7 +179,11 @@ def _labels(boxes: list[_Box], k_max: int, generator: torch.Generator) -> dict[s
             sign = torch.where(torch.rand(n, generator=generator) < 0.5, -1.0, 1.0)
             closing = sign[:, None] * box.narrow
             frame = torch.stack(
-                [approach.expand(n, 3), torch.linalg.cross(closing, approach.expand(n, 3)), closing],
+                [
+                    approach.expand(n, 3),
+                    torch.linalg.cross(closing, approach.expand(n, 3)),
+                    closing,
+                ],
                 dim=-1,
             )
             rotations.append(frame)

@@ -265,11 +265,11 @@ def _train_epoch(
 def evaluate(
     model: GraspNet,
     loader: DataLoader,
-    weights: LossWeights = LossWeights(),
+    weights: LossWeights | None = None,
     device: torch.device | str = "cpu",
 ) -> tuple[dict[str, float], dict[str, float]]:
     """Mean losses (per batch) and `MetricAccumulator` metrics of ``model`` on ``loader``."""
-    device = torch.device(device)
+    device, weights = torch.device(device), weights or LossWeights()
     model.eval()
     accumulator = MetricAccumulator(model.representation)
     sums: dict[str, float] = {}
