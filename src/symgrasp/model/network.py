@@ -9,10 +9,17 @@ encoder–decoder to a 40³ × 16 feature volume, read by three 1×1×1 convolut
 - ``rotation``: the rotation representation's C channels (`symgrasp.rotation`).
 
 Only the rotation head depends on the representation. The network is sized for a CPU: the
-encoder halves the resolution three times (40³ → 20³ → 10³ → 5³) and the decoder adds the
-encoder's features back at each scale (U-Net skips, as sums at 20³ and 10³ and a concatenation
-at 40³), so full-resolution detail survives with only a pointwise layer at 40³. With the default
-widths (8, 16, 32, 64) a forward pass costs ≈ 0.4 GFLOP per volume (`count_flops`).
+encoder halves the resolution three times (40³ → 20³ → 10³ → 5³) with 3×3×3 convolutions, and
+the decoder upsamples trilinearly and adds the encoder's features back at each scale (U-Net
+skips: sums at 10³ and 20³, a concatenation at 40³), so full-resolution detail survives with
+only a pointwise layer at 40³. Every 3×3×3 convolution is followed by GroupNorm (4 groups) and
+ReLU. With the default widths (8, 16, 32, 64) a forward pass costs ≈ 0.39 GFLOP per volume
+(`count_flops`), ≈ 221 k parameters.
+
+Design choices measured on one synthetic scene (500 Adam steps, ``tests/model``): nearest
+upsampling left the validity AP at ≈ 0.6 (blocks of 2³ voxels share their coarse features, and
+valid regions are a voxel or two thick), trilinear reached ≈ 1.0; without GroupNorm the approach
+axis of ``bingham2d`` stayed at ≈ 20° median error after 300 steps, with it ≈ 11° (6° after 500).
 """
 
 from __future__ import annotations
@@ -93,6 +100,8 @@ class GraspNet(nn.Module):
         self.reduce2, self.dec2 = _conv(w3, w2, 1), _conv(w2, w2, 3)
         self.reduce1, self.dec1 = _conv(w2, w1, 1), _conv(w1, w1, 3)
         self.dec0 = _conv(w1 + w0, self.config.features, 1)
+        self.norm0, self.norm1, self.norm2, self.norm3 = (_norm(w) for w in (w0, w1, w2, w3))
+        self.norm_middle, self.norm_dec2, self.norm_dec1 = _norm(w3), _norm(w2), _norm(w1)
         self.score_head = _conv(self.config.features, 1, 1)
         self.validity_head = _conv(self.config.features, 1, 1)
         self.rotation_head = _conv(self.config.features, self.representation.channels, 1)
@@ -107,12 +116,13 @@ class GraspNet(nn.Module):
                 "tsdf must be [B, 1, D, H, W] with D, H, W divisible by 8, "
                 f"got shape {tuple(tsdf.shape)}"
             )
-        e0 = F.relu(self.enc0(tsdf))
-        e1 = F.relu(self.enc1(e0))
-        e2 = F.relu(self.enc2(e1))
-        x = F.relu(self.middle(F.relu(self.enc3(e2))))
-        x = F.relu(self.dec2(_up(self.reduce2(x)) + e2))
-        x = F.relu(self.dec1(_up(self.reduce1(x)) + e1))
+        e0 = F.relu(self.norm0(self.enc0(tsdf)))
+        e1 = F.relu(self.norm1(self.enc1(e0)))
+        e2 = F.relu(self.norm2(self.enc2(e1)))
+        x = F.relu(self.norm3(self.enc3(e2)))
+        x = F.relu(self.norm_middle(self.middle(x)))
+        x = F.relu(self.norm_dec2(self.dec2(_up(self.reduce2(x)) + e2)))
+        x = F.relu(self.norm_dec1(self.dec1(_up(self.reduce1(x)) + e1)))
         return F.relu(self.dec0(torch.cat([_up(x), e0], dim=1)))
 
     def forward(self, tsdf: Tensor) -> GraspOutput:
@@ -140,8 +150,12 @@ class GraspNet(nn.Module):
         return torch.cat([bounded, rotation[:, channels.stop :]], dim=1)
 
 
+def _norm(channels: int) -> nn.GroupNorm:
+    return nn.GroupNorm(min(4, channels), channels)
+
+
 def _up(x: Tensor) -> Tensor:
-    return F.interpolate(x, scale_factor=2, mode="nearest")
+    return F.interpolate(x, scale_factor=2, mode="trilinear", align_corners=False)
 
 
 def count_parameters(model: nn.Module) -> int:

@@ -14,7 +14,7 @@ Grasps of a box with long axis u, narrow axis v (its width fits the gripper) and
 - **top-down**: approach e_x = −z, closing axis e_z = ±v, TCP on the box's long centre line
   1.25–2.75 cm below its top face; score 0.8 at the centre falling to 0.4 at the ends;
 - **end-on**: approach e_x = ∓u into either end face, e_z = ±v, TCP 1.25–2.75 cm inside the
-  face on a vertical line; score 0.3.
+  face on a vertical line from 1 cm above the table to 4.5 cm below the top; score 0.3.
 
 The sign of e_z is drawn at random per grasp, so both twins of the 180° flip appear, across
 voxels and inside one voxel. Grasps are sampled every 2.5 mm along their TCP lines and each
@@ -38,6 +38,10 @@ TABLE_HEIGHT = 0.05
 """[m] z of the table top inside the workspace."""
 GRASP_DEPTHS = (0.0125, 0.02, 0.0275)
 """[m] how far inside the face the TCPs of a synthetic grasp line lie."""
+END_ON_GAP = 0.045
+"""[m] end-on TCPs stay this far below the top face: ≥ 2 voxels from the top-down ones, so no
+voxel mixes the two approach directions (a distribution over e_z would fit such a voxel, but its
+single approach vector could only be their compromise)."""
 SAMPLE_SPACING = 0.0025
 """[m] spacing of grasp samples along their TCP lines."""
 
@@ -131,7 +135,7 @@ def _random_boxes(generator: torch.Generator) -> list[_Box]:
     for _ in range(50 * count):
         if len(boxes) == count:
             break
-        half = torch.tensor([uniform(0.03, 0.06), uniform(0.015, 0.035), uniform(0.025, 0.05)])
+        half = torch.tensor([uniform(0.03, 0.06), uniform(0.015, 0.035), uniform(0.03, 0.05)])
         centre = torch.tensor([uniform(0.08, 0.22), uniform(0.08, 0.22), TABLE_HEIGHT + half[2]])
         radius = half[:2].norm()
         if all((centre[:2] - b.centre[:2]).norm() > radius + b.half[:2].norm() for b in boxes):
@@ -164,7 +168,7 @@ def _grasp_lines(box: _Box) -> list[tuple[Tensor, Tensor, Tensor, float, float]]
         lines.append((top - reach * box.long, top + reach * box.long, -up, 0.8, 0.4))
         for sign in (1.0, -1.0):
             face = box.centre + sign * (long - depth) * box.long
-            bottom, top_end = face - (height - 0.01) * up, face + (height - 0.01) * up
+            bottom, top_end = face - (height - 0.01) * up, face + (height - END_ON_GAP) * up
             lines.append((bottom, top_end, -sign * box.long, 0.3, 0.3))
     return lines
 
