@@ -14,7 +14,7 @@ the decoder upsamples trilinearly and adds the encoder's features back at each s
 skips: sums at 10³ and 20³, a concatenation at 40³), so full-resolution detail survives with
 only a pointwise layer at 40³. Every 3×3×3 convolution is followed by GroupNorm (4 groups) and
 ReLU. With the default widths (8, 16, 32, 64) a forward pass costs ≈ 0.39 GFLOP per volume
-(`count_flops`), ≈ 221 k parameters.
+(`count_flops`), ≈ 222 k parameters.
 
 Design choices measured on one synthetic scene (500 Adam steps, ``tests/model``): nearest
 upsampling left the validity AP at ≈ 0.6 (blocks of 2³ voxels share their coarse features, and

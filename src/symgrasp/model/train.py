@@ -8,9 +8,10 @@ and writes into ``config.out``:
 - ``metrics.csv``: one row per epoch, training losses and validation losses and metrics;
 - ``learning_curve.png``: the same as plots.
 
-Same seed, same result: the weights are initialised from ``config.seed`` and epoch e shuffles
-with a generator seeded from (seed, e), so a run resumed from ``last.pt`` (``resume=True``)
-continues exactly as if it had not stopped. CUDA is used when available (``device="auto"``),
+Same seed, same result: the weights are initialised from ``config.seed``, epoch e shuffles with
+a generator seeded from (seed, e) and selects the dataset's augmentation draws of epoch e
+(``set_epoch``), so a run resumed from ``last.pt`` (``resume=True``) continues exactly as if it
+had not stopped. CUDA is used when available (``device="auto"``),
 with bfloat16 autocast for the network only; the losses run in float32 (float64 inside the
 Bingham normaliser).
 """
@@ -97,7 +98,12 @@ def resolve_device(name: str) -> torch.device:
 
 def open_dataset(config: TrainConfig) -> tuple[Dataset, Dataset, Collate]:
     """The train and val splits of ``config.data`` and their collate function."""
-    from symgrasp.data.dataset import GraspDataset, collate_scenes
+    try:
+        from symgrasp.data.dataset import GraspDataset, collate_scenes
+    except ImportError as error:
+        raise RuntimeError(
+            "symgrasp.data (issue 5) is needed to read a dataset folder; it is not installed"
+        ) from error
 
     train_set = GraspDataset(config.data, split="train", augment=config.augment, seed=config.seed)
     val_set = GraspDataset(config.data, split="val", augment=False, seed=config.seed)
@@ -160,6 +166,8 @@ def train(
     for epoch in range(len(history), config.epochs):
         start = time.perf_counter()
         generator = torch.Generator().manual_seed(config.seed * 1_000_003 + epoch)
+        if hasattr(train_set, "set_epoch"):  # the dataset's augmentation draws of this epoch
+            train_set.set_epoch(epoch)
         train_loader = DataLoader(
             train_set,
             batch_size=config.batch_size,
