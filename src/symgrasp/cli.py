@@ -112,21 +112,24 @@ def _add_train(subparsers: argparse._SubParsersAction) -> None:
     def run(args: argparse.Namespace) -> None:
         from symgrasp.model.train import TrainConfig, train
 
-        config = TrainConfig(
-            data=args.data,
-            out=args.out,
-            representation=args.rep,
-            gripper=args.gripper,
-            epochs=args.epochs,
-            batch_size=args.batch_size,
-            lr=args.lr,
-            seed=args.seed,
-            device=args.device,
-            workers=args.workers,
-            augment=not args.no_augment,
-            resume=args.resume,
-        )
-        history = train(config)
+        try:
+            config = TrainConfig(
+                data=args.data,
+                out=args.out,
+                representation=args.rep,
+                gripper=args.gripper,
+                epochs=args.epochs,
+                batch_size=args.batch_size,
+                lr=args.lr,
+                seed=args.seed,
+                device=args.device,
+                workers=args.workers,
+                augment=not args.no_augment,
+                resume=args.resume,
+            )
+            history = train(config)
+        except ValueError as error:  # bad input: the message is the whole story
+            raise SystemExit(f"error: {error}") from error
         print(f"{len(history)} epochs; checkpoints and metrics in {args.out}")
 
     parser.set_defaults(run=run)

@@ -150,3 +150,8 @@ def test_tiny_overfit_on_one_scene():
     assert result["validity_ap"] > 0.9
     assert result["ex_median_deg"] < 10 and result["ez_median_deg"] < 10
     assert result["confidence_correct"] > 15  # the paper's threshold: correct grasps pass it
+
+
+def test_cli_reports_bad_options_as_errors(tmp_path):
+    with pytest.raises(SystemExit, match="error: epochs must be ≥ 1"):
+        main(["train", "--data", str(tmp_path), "--out", str(tmp_path / "run"), "--epochs", "0"])
