@@ -139,8 +139,8 @@ class GraspNet(nn.Module):
         A voxel whose targets share one closing axis has a Bingham NLL unbounded below: the
         loss keeps rewarding a sharper A, the head's weights and the shared features grow
         without end and the other heads diverge (observed on noise-free labels). Entries
-        of A up to ±`BINGHAM_BOUND` still allow eigenvalue gaps of ≈ 100–200, an angular
-        spread of a few degrees, far above the paper's confidence threshold of 15.
+        of A up to ±`BINGHAM_BOUND` = 20 still allow eigenvalue gaps of ≈ 40, a spread of a few
+        degrees; the paper's BNLL of ±0.5 means gaps of 5–10 (docs/model.md).
         """
         channels = _BINGHAM_CHANNELS.get(self.config.representation)
         if channels is None:
