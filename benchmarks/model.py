@@ -1,0 +1,143 @@
+"""Cost of the grasp detection network per representation, and the reference run's metrics.
+
+    python benchmarks/model.py [--threads 2] [--repeats 5] [--batch 4] [--run runs/NAME]
+
+For every rotation representation: trainable parameters, forward FLOPs per 40³ volume
+(`symgrasp.model.count_flops`), forward latency at batch 1 on the CPU (eval mode, no grad) and
+training throughput on the CPU (scenes per second of forward + loss + backward + Adam step on
+a batch of synthetic scenes, `symgrasp.model.synthetic`). With ``--run``, the last epoch of that
+training run's ``metrics.csv`` and its command are added. Writes ``benchmarks/results/model.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import platform
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import torch
+
+from symgrasp import rotation
+from symgrasp.model import GraspNet, NetworkConfig, count_flops, count_parameters, grasp_losses
+from symgrasp.model.checkpoint import load_checkpoint
+from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
+
+RESULTS = Path(__file__).parent / "results" / "model.json"
+
+
+def _best_seconds(run: Callable[[], object], repeats: int) -> float:
+    """The fastest of ``repeats`` runs after a warm-up: on a shared machine, the least disturbed."""
+    run()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def bench(name: str, batch: dict[str, torch.Tensor], repeats: int) -> dict[str, float]:
+    torch.manual_seed(0)
+    model = GraspNet(NetworkConfig(name))
+    optimizer = torch.optim.Adam(model.parameters(), lr=1e-4)
+    volume = batch["tsdf"][:1]
+
+    @torch.no_grad()
+    def forward() -> None:
+        model(volume)
+
+    def train_step() -> None:
+        losses = grasp_losses(model(batch["tsdf"]), batch, model.representation)
+        optimizer.zero_grad(set_to_none=True)
+        losses["total"].backward()
+        optimizer.step()
+
+    model.eval()
+    forward_seconds = _best_seconds(forward, repeats)
+    model.train()
+    step_seconds = _best_seconds(train_step, repeats)
+    return {
+        "parameters": count_parameters(model),
+        "forward_gflop": count_flops(model) / 1e9,
+        "forward_ms_batch1": forward_seconds * 1e3,
+        "train_step_ms": step_seconds * 1e3,
+        "train_scenes_per_second": len(batch["tsdf"]) / step_seconds,
+    }
+
+
+def reference_run(run: Path) -> dict[str, object]:
+    """The last epoch of a training run folder and the command that reproduces it."""
+    with open(run / "metrics.csv") as file:
+        rows = list(csv.DictReader(file))
+    config = load_checkpoint(run / "last.pt")["config"]
+    command = (
+        f"symgrasp train --data {config['data']} --rep {config['representation']} "
+        f"--gripper {config['gripper']} --out {config['out']} --epochs {config['epochs']} "
+        f"--batch-size {config['batch_size']} --lr {config['lr']} --seed {config['seed']}"
+    )
+    return {"run": str(run), "command": command, "last_epoch": rows[-1], "epochs": len(rows)}
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--threads", type=int, default=2, help="torch CPU threads (default: 2)")
+    parser.add_argument("--repeats", type=int, default=5, help="timed repeats (default: 5)")
+    parser.add_argument(
+        "--batch", type=int, default=4, help="scenes per training step (default: 4)"
+    )
+    parser.add_argument("--run", type=Path, help="a finished training run folder to tabulate")
+    parser.add_argument("--output", type=Path, default=RESULTS, help="where to write the JSON")
+    args = parser.parse_args()
+
+    torch.set_num_threads(args.threads)
+    dataset = SyntheticGraspDataset(args.batch, seed=0)
+    batch = collate_scenes([dataset[i] for i in range(args.batch)])
+    load_before = os.getloadavg()
+    results = {}
+    for name in rotation.NAMES:
+        results[name] = bench(name, batch, args.repeats)
+        print(f"  {name:15s} " + "  ".join(f"{k} {v:,.4g}" for k, v in results[name].items()))
+    report = {
+        "benchmark": "grasp detection network: size, CPU latency and training throughput",
+        "command": " ".join(["python", *sys.argv]),
+        "machine": {
+            "cpu": _cpu_model(),
+            "logical_cpus": os.cpu_count(),
+            "torch_threads": args.threads,
+            "torch": torch.__version__,
+            "python": platform.python_version(),
+            "platform": platform.platform(),
+        },
+        "load_average_1_5_15min": {"before": load_before, "after": os.getloadavg()},
+        "batch": args.batch,
+        "valid_voxels_in_batch": len(batch["voxel_index"]),
+        "repeats": args.repeats,
+        "statistic": "best of repeats after a warm-up (the machine is shared)",
+        "representations": results,
+        "reference_run": reference_run(args.run) if args.run else None,
+    }
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    temporary = args.output.with_suffix(".tmp")
+    temporary.write_text(json.dumps(report, indent=2) + "\n")
+    os.replace(temporary, args.output)
+    print(f"wrote {args.output}")
+
+
+if __name__ == "__main__":
+    main()

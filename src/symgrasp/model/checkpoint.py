@@ -1,0 +1,67 @@
+"""Checkpoints: the weights with everything needed to trust and rebuild them.
+
+A checkpoint is a ``torch.save`` dict holding ``format``, ``symgrasp_version``,
+``representation``, ``gripper``, ``object_set``, ``dataset_hash``, ``network`` (the
+`NetworkConfig` as a dict), ``config`` (the `TrainConfig` as a dict), ``epoch`` (epochs done),
+``history`` (one metrics dict per epoch), ``best_val_loss``, ``model`` and ``optimizer`` state.
+It loads with ``weights_only=True``: plain data and tensors only.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from symgrasp.model.network import GraspNet, NetworkConfig
+
+CHECKPOINT_FORMAT = 1
+
+
+def save_checkpoint(path: str | Path, state: dict[str, Any]) -> None:
+    """Write ``state`` to ``path`` atomically (a temporary file renamed over it)."""
+    path = Path(path)
+    temporary = path.with_name(path.name + ".tmp")
+    torch.save({"format": CHECKPOINT_FORMAT, **state}, temporary)
+    os.replace(temporary, path)
+
+
+def load_checkpoint(
+    path: str | Path,
+    representation: str | None = None,
+    map_location: str | torch.device = "cpu",
+) -> dict[str, Any]:
+    """The checkpoint dict at ``path``.
+
+    Raises:
+        ValueError: the file is not a symgrasp checkpoint of this format, or it was trained
+            for another rotation representation than ``representation`` (when given).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"checkpoint: no file at {path}")
+    state = torch.load(path, map_location=map_location, weights_only=True)
+    if not isinstance(state, dict) or state.get("format") != CHECKPOINT_FORMAT:
+        raise ValueError(
+            f"checkpoint: {path} is not a symgrasp checkpoint of format {CHECKPOINT_FORMAT}"
+        )
+    if representation is not None and state["representation"] != representation:
+        raise ValueError(
+            f"checkpoint: {path} holds a {state['representation']!r} model, "
+            f"but the representation {representation!r} was asked for"
+        )
+    return state
+
+
+def load_model(
+    path: str | Path,
+    representation: str | None = None,
+    map_location: str | torch.device = "cpu",
+) -> tuple[GraspNet, dict[str, Any]]:
+    """The trained `GraspNet` at ``path`` (in eval mode) and its checkpoint dict."""
+    state = load_checkpoint(path, representation, map_location)
+    model = GraspNet(NetworkConfig(**state["network"]))
+    model.load_state_dict(state["model"])
+    return model.to(map_location).eval(), state

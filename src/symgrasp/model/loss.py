@@ -1,0 +1,79 @@
+"""The training loss: validity BCE + score L2 + the representation's rotation loss.
+
+Following the paper (Appx. C, sec:training_details), with a batch from
+`symgrasp.data.dataset.collate_scenes`:
+
+- **validity**: binary cross-entropy of the validity logit against ``valid``, summed over every
+  voxel of the batch and divided by the number of valid voxels;
+- **score**: squared error of the gravity-rejection score at the valid voxels, mean over them
+  (elsewhere the label is 0 by convention, not a measurement; the validity head covers it);
+- **rotation**: ``representation.loss(pred, rotations, rotation_mask)`` (Eq. eq:loss for
+  ``bingham2d``) at the valid voxels, every target of a voxel, mean over the voxels.
+
+All three terms are thus "per valid voxel". Valid voxels are rare (≈ 0.2–2 % of the grid): the
+plain mean over all voxels made the validity term hundreds of times weaker than the rotation
+term per valid voxel, and the shared features learnt only rotations. Dividing the sum by the
+valid count rescales the term but keeps the relative weight of positives and negatives, so the
+predicted probability stays calibrated (unlike class-balanced weights). The total is the
+weighted sum of the three; the default weights are all 1 (``docs/model.md`` says why).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+import torch.nn.functional as F
+
+from symgrasp.model.network import GraspOutput
+from symgrasp.rotation import Representation
+
+Tensor = torch.Tensor
+
+
+@dataclass(frozen=True)
+class LossWeights:
+    """Weights of the three terms in the total loss."""
+
+    validity: float = 1.0
+    score: float = 1.0
+    rotation: float = 1.0
+
+
+def at_voxels(volume: Tensor, voxel_index: Tensor) -> Tensor:
+    """Values of ``volume [B, D, H, W]`` or ``[B, C, D, H, W]`` at ``voxel_index [M, 4]``.
+
+    Returns ``[M]`` or ``[M, C]``; rows of ``voxel_index`` are (b, i, j, k).
+    """
+    b, i, j, k = voxel_index.unbind(1)
+    if volume.ndim == 5:
+        return volume[b, :, i, j, k]
+    return volume[b, i, j, k]
+
+
+def grasp_losses(
+    output: GraspOutput,
+    batch: dict[str, Tensor],
+    representation: Representation,
+    weights: LossWeights | None = None,
+) -> dict[str, Tensor]:
+    """``{"total", "validity", "score", "rotation"}`` scalar losses of one batch.
+
+    The rotation loss runs in float32 (the Bingham normaliser in float64 inside it) whatever
+    the network's precision. A batch without valid voxels has score and rotation losses 0.
+    """
+    weights = weights or LossWeights()
+    index = batch["voxel_index"]
+    validity = F.binary_cross_entropy_with_logits(
+        output.validity.float(), batch["valid"], reduction="sum"
+    ) / max(len(index), 1)
+    if len(index) == 0:
+        zero = output.score.float().sum() * 0 + output.rotation.float().sum() * 0
+        score, rotation_loss = zero, zero
+    else:
+        score_error = at_voxels(output.score.float(), index) - at_voxels(batch["score"], index)
+        score = score_error.square().mean()
+        pred = at_voxels(output.rotation.float(), index)
+        rotation_loss = representation.loss(pred, batch["rotations"], batch["rotation_mask"]).mean()
+    total = weights.validity * validity + weights.score * score + weights.rotation * rotation_loss
+    return {"total": total, "validity": validity, "score": score, "rotation": rotation_loss}

@@ -1,0 +1,333 @@
+"""Training of the grasp detector: one readable loop, configured by a plain dataclass.
+
+``train(TrainConfig(...))`` reads ``symgrasp.data.dataset.GraspDataset`` (train and val splits
+of ``config.data``), trains `GraspNet` with Adam on `grasp_losses`, validates after every epoch
+and writes into ``config.out``:
+
+- ``last.pt`` after every epoch and ``best.pt`` at the lowest validation loss (`checkpoint`);
+- ``metrics.csv``: one row per epoch, training losses and validation losses and metrics;
+- ``learning_curve.png``: the same as plots.
+
+Same seed, same result: the weights are initialised from ``config.seed``, epoch e shuffles with
+a generator seeded from (seed, e) and selects the dataset's augmentation draws of epoch e
+(``set_epoch``), so a run resumed from ``last.pt`` (``resume=True``) continues exactly as if it
+had not stopped. CUDA is used when available (``device="auto"``),
+with bfloat16 autocast for the network only; the losses run in float32 (float64 inside the
+Bingham normaliser).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import torch
+from torch.utils.data import DataLoader, Dataset, RandomSampler
+from tqdm import tqdm
+
+import symgrasp
+from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
+from symgrasp.model.loss import LossWeights, grasp_losses
+from symgrasp.model.metrics import MetricAccumulator
+from symgrasp.model.network import GraspNet, NetworkConfig
+
+Tensor = torch.Tensor
+Collate = Callable[[list[dict[str, Tensor]]], dict[str, Tensor]]
+
+
+@dataclass
+class TrainConfig:
+    """Everything a training run depends on (stored in every checkpoint)."""
+
+    data: str
+    """Dataset folder (`symgrasp.data.dataset.GraspDataset`)."""
+    out: str
+    """Run folder for checkpoints, metrics.csv and learning_curve.png."""
+    representation: str = "bingham2d"
+    gripper: str = "robotiq-2f85"
+    """The gripper the dataset must have been produced for."""
+    epochs: int = 10
+    batch_size: int = 4
+    lr: float = 1e-3
+    seed: int = 0
+    device: str = "auto"
+    """"auto" (CUDA if available, else CPU), "cpu", "cuda" or "cuda:N"."""
+    workers: int = 0
+    augment: bool = True
+    """Let the dataset augment the training split."""
+    resume: bool = False
+    widths: tuple[int, int, int, int] = (8, 16, 32, 64)
+    features: int = 16
+    loss_weights: LossWeights = field(default_factory=LossWeights)
+
+    def __post_init__(self) -> None:
+        for name in ("epochs", "batch_size"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be ≥ 1, got {getattr(self, name)}")
+        if not self.lr > 0:
+            raise ValueError(f"lr must be positive, got {self.lr}")
+        if self.workers < 0:
+            raise ValueError(f"workers must be ≥ 0, got {self.workers}")
+        if isinstance(self.loss_weights, dict):
+            self.loss_weights = LossWeights(**self.loss_weights)
+        self.widths = tuple(self.widths)
+
+    @property
+    def network(self) -> NetworkConfig:
+        return NetworkConfig(self.representation, self.widths, self.features)
+
+
+def resolve_device(name: str) -> torch.device:
+    """``"auto"`` → CUDA when available, else CPU; anything else as given."""
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    try:
+        device = torch.device(name)
+    except RuntimeError:
+        raise ValueError(f"device must be 'auto', 'cpu' or 'cuda[:N]', got {name!r}") from None
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise ValueError(f"device {name!r} asked for, but CUDA is not available")
+    return device
+
+
+def open_dataset(config: TrainConfig) -> tuple[Dataset, Dataset, Collate]:
+    """The train and val splits of ``config.data`` and their collate function."""
+    try:
+        from symgrasp.data.dataset import GraspDataset, collate_scenes
+    except ImportError as error:
+        raise RuntimeError(
+            "symgrasp.data (issue 5) is needed to read a dataset folder; it is not installed"
+        ) from error
+
+    train_set = GraspDataset(config.data, split="train", augment=config.augment, seed=config.seed)
+    val_set = GraspDataset(config.data, split="val", augment=False, seed=config.seed)
+    return train_set, val_set, collate_scenes
+
+
+def check_dataset(dataset: Any, config: TrainConfig) -> None:
+    """Raise ValueError unless ``dataset`` was produced for ``config.gripper``."""
+    if dataset.gripper != config.gripper:
+        raise ValueError(
+            f"dataset {config.data!r} was produced for the gripper {dataset.gripper!r}, "
+            f"but gripper {config.gripper!r} was asked for"
+        )
+
+
+def train(
+    config: TrainConfig,
+    datasets: tuple[Dataset, Dataset, Collate] | None = None,
+) -> list[dict[str, float]]:
+    """Train (or resume) the run ``config`` describes; returns the per-epoch history.
+
+    ``datasets`` = (train split, val split, collate function) replaces `open_dataset` (tests
+    pass the synthetic dataset); each split needs the contract's ``gripper`` and ``manifest``.
+    """
+    train_set, val_set, collate = datasets or open_dataset(config)
+    for dataset in (train_set, val_set):
+        check_dataset(dataset, config)
+    device = resolve_device(config.device)
+    out = Path(config.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    torch.manual_seed(config.seed)
+    if device.type == "cuda":
+        torch.backends.cudnn.benchmark = False
+        torch.use_deterministic_algorithms(True, warn_only=True)
+    model = GraspNet(config.network).to(device)
+    optimizer = torch.optim.Adam(model.parameters(), lr=config.lr)
+    history: list[dict[str, float]] = []
+    best_val_loss = math.inf
+    if config.resume:
+        state = load_checkpoint(out / "last.pt", config.representation, device)
+        _check_resume(state, train_set, config)
+        model.load_state_dict(state["model"])
+        optimizer.load_state_dict(state["optimizer"])
+        history, best_val_loss = state["history"], state["best_val_loss"]
+    elif (out / "last.pt").exists():
+        raise ValueError(f"out {str(out)!r} already holds a run; resume it or choose another out")
+
+    val_loader = DataLoader(
+        val_set, batch_size=config.batch_size, collate_fn=collate, num_workers=config.workers
+    )
+    steps_per_epoch = math.ceil(len(train_set) / config.batch_size)
+    bar = tqdm(
+        total=config.epochs * steps_per_epoch,
+        initial=len(history) * steps_per_epoch,
+        desc="train",
+        unit="step",
+        dynamic_ncols=True,
+    )
+    for epoch in range(len(history), config.epochs):
+        start = time.perf_counter()
+        generator = torch.Generator().manual_seed(config.seed * 1_000_003 + epoch)
+        if hasattr(train_set, "set_epoch"):  # the dataset's augmentation draws of this epoch
+            train_set.set_epoch(epoch)
+        train_loader = DataLoader(
+            train_set,
+            batch_size=config.batch_size,
+            sampler=RandomSampler(train_set, generator=generator),
+            collate_fn=collate,
+            num_workers=config.workers,
+        )
+        bar.set_description(f"epoch {epoch + 1}/{config.epochs}")
+        train_losses = _train_epoch(model, optimizer, train_loader, config, device, bar)
+        val_losses, metrics = evaluate(model, val_loader, config.loss_weights, device)
+        row = {
+            "epoch": epoch + 1,
+            **{f"train_{k}": v for k, v in train_losses.items()},
+            **{f"val_{k}": v for k, v in val_losses.items()},
+            **metrics,
+            "seconds": time.perf_counter() - start,
+        }
+        history.append(row)
+        state = {
+            "symgrasp_version": symgrasp.__version__,
+            "representation": config.representation,
+            "gripper": train_set.gripper,
+            "object_set": train_set.manifest.get("object_set"),
+            "dataset_hash": train_set.manifest.get("dataset_hash"),
+            "network": asdict(config.network),
+            "config": asdict(config),
+            "epoch": epoch + 1,
+            "history": history,
+            "best_val_loss": min(best_val_loss, val_losses["total"]),
+            "model": model.state_dict(),
+            "optimizer": optimizer.state_dict(),
+        }
+        save_checkpoint(out / "last.pt", state)
+        if val_losses["total"] < best_val_loss:
+            best_val_loss = val_losses["total"]
+            save_checkpoint(out / "best.pt", state)
+        write_csv(out / "metrics.csv", history)
+        plot_learning_curve(out / "learning_curve.png", history)
+        bar.write(
+            f"epoch {epoch + 1}: train {train_losses['total']:.4f}  val {val_losses['total']:.4f}  "
+            + "  ".join(f"{k} {v:.4g}" for k, v in metrics.items())
+        )
+    bar.close()
+    return history
+
+
+def _check_resume(state: dict[str, Any], train_set: Any, config: TrainConfig) -> None:
+    if state["gripper"] != train_set.gripper:
+        raise ValueError(
+            f"cannot resume: the checkpoint was trained for the gripper {state['gripper']!r}, "
+            f"the dataset is for {train_set.gripper!r}"
+        )
+    if state["dataset_hash"] != train_set.manifest.get("dataset_hash"):
+        raise ValueError(
+            f"cannot resume: the checkpoint was trained on dataset {state['dataset_hash']!r}, "
+            f"{config.data!r} is {train_set.manifest.get('dataset_hash')!r}"
+        )
+    if asdict(config.network) != state["network"]:
+        raise ValueError(
+            f"cannot resume: network {asdict(config.network)} differs from the checkpoint's "
+            f"{state['network']}"
+        )
+
+
+def _autocast(device: torch.device) -> torch.autocast:
+    """bfloat16 autocast on CUDA; a no-op elsewhere."""
+    return torch.autocast(
+        device_type=device.type, dtype=torch.bfloat16, enabled=device.type == "cuda"
+    )
+
+
+def _to(batch: dict[str, Tensor], device: torch.device) -> dict[str, Tensor]:
+    return {key: value.to(device, non_blocking=True) for key, value in batch.items()}
+
+
+def _train_epoch(
+    model: GraspNet,
+    optimizer: torch.optim.Optimizer,
+    loader: DataLoader,
+    config: TrainConfig,
+    device: torch.device,
+    bar: tqdm,
+) -> dict[str, float]:
+    """One pass over ``loader``; the mean of each loss over its batches."""
+    model.train()
+    sums: dict[str, float] = {}
+    for step, batch in enumerate(loader, start=1):
+        batch = _to(batch, device)
+        with _autocast(device):
+            output = model(batch["tsdf"])
+        losses = grasp_losses(output, batch, model.representation, config.loss_weights)
+        optimizer.zero_grad(set_to_none=True)
+        losses["total"].backward()
+        optimizer.step()
+        for key, value in losses.items():
+            sums[key] = sums.get(key, 0.0) + value.item()
+        bar.set_postfix(loss=f"{sums['total'] / step:.4f}")
+        bar.update()
+    return {key: value / max(len(loader), 1) for key, value in sums.items()}
+
+
+@torch.no_grad()
+def evaluate(
+    model: GraspNet,
+    loader: DataLoader,
+    weights: LossWeights | None = None,
+    device: torch.device | str = "cpu",
+) -> tuple[dict[str, float], dict[str, float]]:
+    """Mean losses (per batch) and `MetricAccumulator` metrics of ``model`` on ``loader``."""
+    device, weights = torch.device(device), weights or LossWeights()
+    model.eval()
+    accumulator = MetricAccumulator(model.representation)
+    sums: dict[str, float] = {}
+    for batch in tqdm(loader, desc="validate", unit="batch", leave=False, dynamic_ncols=True):
+        batch = _to(batch, device)
+        with _autocast(device):
+            output = model(batch["tsdf"])
+        for key, value in grasp_losses(output, batch, model.representation, weights).items():
+            sums[key] = sums.get(key, 0.0) + value.item()
+        accumulator.update(output, batch)
+    return {k: v / max(len(loader), 1) for k, v in sums.items()}, accumulator.compute()
+
+
+def write_csv(path: Path, history: list[dict[str, float]]) -> None:
+    """``history`` as CSV (one row per epoch), written atomically."""
+    columns = list(dict.fromkeys(key for row in history for key in row))
+    temporary = path.with_name(path.name + ".tmp")
+    with open(temporary, "w", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(history)
+    os.replace(temporary, path)
+
+
+def plot_learning_curve(path: Path, history: list[dict[str, float]]) -> None:
+    """Losses and validation metrics against the epoch, as a PNG written atomically."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    epochs = [row["epoch"] for row in history]
+    panels = [
+        ("loss", ["train_total", "val_total"]),
+        ("validity", ["train_validity", "val_validity"]),
+        ("validity AP", ["validity_ap"]),
+        ("score MAE at valid voxels", ["score_mae"]),
+        ("median rotation error [deg]", ["ex_median_deg", "ez_median_deg"]),
+        ("mean confidence", ["confidence_correct", "confidence_wrong"]),
+    ]
+    figure, axes = plt.subplots(2, 3, figsize=(13, 7), constrained_layout=True)
+    for axis, (title, keys) in zip(axes.flat, panels, strict=True):
+        for key in keys:
+            if key in history[0]:
+                axis.plot(epochs, [row[key] for row in history], marker="o", label=key)
+        axis.set_title(title)
+        axis.set_xlabel("epoch")
+        if axis.lines:
+            axis.legend(fontsize="small")
+    temporary = path.with_name(path.stem + ".tmp.png")
+    figure.savefig(temporary, dpi=90)
+    plt.close(figure)
+    os.replace(temporary, path)

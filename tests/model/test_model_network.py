@@ -1,0 +1,80 @@
+"""GraspNet shapes for every representation, its cost against a closed form, bad input."""
+
+import pytest
+import torch
+from torch import nn
+
+from symgrasp import rotation
+from symgrasp.model import GraspNet, NetworkConfig, count_flops, count_parameters, grasp_losses
+from symgrasp.model.network import BINGHAM_BOUND
+from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
+
+
+@pytest.fixture(scope="module")
+def batch():
+    dataset = SyntheticGraspDataset(2, seed=3)
+    return collate_scenes([dataset[0], dataset[1]])
+
+
+@pytest.mark.parametrize("name", rotation.NAMES)
+def test_shapes_and_finite_loss_for_every_representation(name, batch):
+    torch.manual_seed(0)
+    model = GraspNet(NetworkConfig(name))
+    output = model(batch["tsdf"])
+    assert output.score.shape == output.validity.shape == (2, 40, 40, 40)
+    assert output.rotation.shape == (2, rotation.get(name).channels, 40, 40, 40)
+    losses = grasp_losses(output, batch, model.representation)
+    assert all(torch.isfinite(v) for v in losses.values())
+    losses["total"].backward()
+    assert all(torch.isfinite(p.grad).all() for p in model.parameters())
+
+
+def test_flops_match_the_closed_form_and_stay_below_half_a_gigaflop():
+    model = GraspNet(NetworkConfig("bingham2d"))
+    expected, size = 0, {}
+    # Every conv costs 2 · (output voxels) · C_out · C_in · k³; record output sizes by hook.
+    hooks = [
+        m.register_forward_hook(lambda m, i, o: size.__setitem__(m, o.shape[2:].numel()))
+        for m in model.modules()
+        if isinstance(m, nn.Conv3d)
+    ]
+    model(torch.zeros(1, 1, 40, 40, 40))
+    for hook in hooks:
+        hook.remove()
+    for conv, voxels in size.items():
+        expected += 2 * voxels * conv.out_channels * conv.in_channels * conv.kernel_size[0] ** 3
+    assert count_flops(model) == expected
+    assert 2e8 < expected < 5e8
+    assert count_parameters(model) == sum(p.numel() for p in model.parameters())
+
+
+def test_only_the_rotation_head_differs_between_representations():
+    shapes = {
+        name: {k: v.shape for k, v in GraspNet(NetworkConfig(name)).state_dict().items()}
+        for name in ("bingham2d", "quaternion")
+    }
+    differing = {
+        k for k in shapes["bingham2d"] if shapes["bingham2d"][k] != shapes["quaternion"][k]
+    }
+    assert differing == {"rotation_head.weight", "rotation_head.bias"}
+
+
+def test_bingham_parameters_are_bounded_and_the_rest_is_not():
+    model = GraspNet(NetworkConfig("bingham2d"))
+    with torch.no_grad():
+        model.rotation_head.bias.fill_(1e4)
+    rotation_out = model(torch.zeros(1, 1, 8, 8, 8)).rotation
+    assert rotation_out[:, :6].abs().max() <= BINGHAM_BOUND
+    assert rotation_out[:, 6:].min() > 1e3
+
+
+def test_bad_input_raises():
+    model = GraspNet()
+    with pytest.raises(ValueError, match="tsdf must be"):
+        model(torch.zeros(1, 40, 40, 40))
+    with pytest.raises(ValueError, match="divisible by 8"):
+        model(torch.zeros(1, 1, 36, 40, 40))
+    with pytest.raises(ValueError, match="unknown rotation representation"):
+        NetworkConfig("euler")
+    with pytest.raises(ValueError, match="widths"):
+        NetworkConfig(widths=(8, 16, 32))
