@@ -1,0 +1,1 @@
+"""Training data: per-object grasp databases, cluttered scenes with voxel labels, datasets."""
