@@ -10,14 +10,14 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from symgrasp.data.dataset import GraspDataset, load_scene, scene_path  # noqa: E402
-from symgrasp.data.generate import config_from_dict, write_atomic  # noqa: E402
-from symgrasp.data.labels import RESOLUTION, VOXEL_SIZE  # noqa: E402
-from symgrasp.data.scenes import DEPTH_UNIT  # noqa: E402
-from symgrasp.data.validate import validate_labels  # noqa: E402
+from symgrasp.data.dataset import GraspDataset, load_scene, scene_path
+from symgrasp.data.generate import config_from_dict, write_atomic
+from symgrasp.data.labels import RESOLUTION, VOXEL_SIZE
+from symgrasp.data.scenes import DEPTH_UNIT
+from symgrasp.data.validate import validate_labels
 
 SCORE_BINS = np.linspace(0.0, 1.0, 11)
 

@@ -91,7 +91,7 @@ def hand_collides(
         if not len(near):
             continue
         p_hand = (near - t) @ R  # (P, 3) in the TCP frame
-        for c, Rb, h in zip(boxes.centre, boxes.rotation, half):
+        for c, Rb, h in zip(boxes.centre, boxes.rotation, half, strict=True):
             q = (p_hand - c) @ Rb  # in the box frame; the box moves by s·u, s ∈ [0, sweep]
             u = -Rb[0, :]  # hand −x seen in the box frame
             lo, hi = np.zeros(len(q)), np.full(len(q), sweep)

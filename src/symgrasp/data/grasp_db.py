@@ -135,7 +135,9 @@ def surface_samples(
     meshes = [p.mesh() for p in obj.parts]
     areas = np.array([m.area for m in meshes])
     points, normals = [], []
-    for i, (mesh, count) in enumerate(zip(meshes, rng.multinomial(n, areas / areas.sum()))):
+    for i, (mesh, count) in enumerate(
+        zip(meshes, rng.multinomial(n, areas / areas.sum()), strict=True)
+    ):
         if count == 0:
             continue
         p, face = trimesh.sample.sample_surface(mesh, int(count), seed=int(rng.integers(2**31)))

@@ -105,7 +105,7 @@ def scene_grasps(
     and whether its hand collides (``collides``). Arrays over all G grasps."""
     T, score, width, owner = [], [], [], []
     points = []
-    for i, (obj, T_wo, db) in enumerate(zip(objects, poses, databases)):
+    for i, (obj, T_wo, db) in enumerate(zip(objects, poses, databases, strict=True)):
         held = db.held
         T.append(T_wo @ db.T_object_tcp[held])
         gravity = T_wo[:3, :3].T @ np.array([0.0, 0.0, -1.0])
