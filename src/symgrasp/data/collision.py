@@ -71,7 +71,7 @@ def hand_collides(
     """
     T = np.asarray(T_world_tcp, dtype=float)
     boxes = hand_boxes(gripper)
-    half = np.maximum(boxes.half - tolerance, 1e-4)
+    half = np.maximum(boxes.half - tolerance, 1e-4)  # tolerance < 0 grows the boxes
     hit = np.zeros(len(T), dtype=bool)
     # table: a corner of any box, at the grasp or at the pre-grasp, below the plane
     signs = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
@@ -103,7 +103,7 @@ def hand_collides(
                     s1, s2 = (q[:, a] - h[a]) / u[a], (q[:, a] + h[a]) / u[a]
                     lo = np.maximum(lo, np.minimum(s1, s2))
                     hi = np.minimum(hi, np.maximum(s1, s2))
-            if np.any(lo < hi):
+            if np.any(lo <= hi):
                 hit[g] = True
                 break
     return hit

@@ -81,7 +81,8 @@ def rotate_quarter_turns(item: dict[str, torch.Tensor], k: int) -> dict[str, tor
     idx[:, 1] = (s * i + c * j + n) // 2
     out["voxel_index"] = idx
     Rz = torch.tensor([[c, -s, 0], [s, c, 0], [0, 0, 1]], dtype=item["rotations"].dtype)
-    out["rotations"] = Rz @ item["rotations"]
+    real = item["rotation_mask"][..., None, None]
+    out["rotations"] = torch.where(real, Rz @ item["rotations"], item["rotations"])  # pads stay I
     return out
 
 
@@ -103,6 +104,34 @@ def shift_vertical(item: dict[str, torch.Tensor], dz: int) -> dict[str, torch.Te
     for key in ("rotations", "rotation_mask", "width"):
         out[key] = item[key][keep]
     return out
+
+
+def make_item(
+    tsdf: np.ndarray,
+    voxel_index: np.ndarray,
+    score: np.ndarray,
+    rotations: np.ndarray,
+    mask: np.ndarray,
+    width: np.ndarray,
+) -> dict[str, torch.Tensor]:
+    """An item of the contract from a TSDF (40, 40, 40) and the sparse labels of its M valid
+    voxels (see :class:`symgrasp.data.labels.VoxelLabels`)."""
+    idx = torch.from_numpy(np.asarray(voxel_index, dtype=np.int64)).reshape(-1, 3)
+    valid = torch.zeros((RESOLUTION,) * 3)
+    dense_score = torch.zeros((RESOLUTION,) * 3)
+    valid[idx[:, 0], idx[:, 1], idx[:, 2]] = 1.0
+    dense_score[idx[:, 0], idx[:, 1], idx[:, 2]] = torch.from_numpy(
+        np.asarray(score, dtype=np.float32)
+    )
+    return {
+        "tsdf": torch.from_numpy(np.asarray(tsdf, dtype=np.float32))[None],
+        "valid": valid,
+        "score": dense_score,
+        "voxel_index": idx,
+        "rotations": torch.from_numpy(np.asarray(rotations, dtype=np.float32)),
+        "rotation_mask": torch.from_numpy(np.asarray(mask, dtype=bool)),
+        "width": torch.from_numpy(np.asarray(width, dtype=np.float32)),
+    }
 
 
 class GraspDataset(Dataset):
@@ -162,21 +191,14 @@ class GraspDataset(Dataset):
 
     def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
         r = load_scene(self.paths[i])
-        idx = torch.from_numpy(r["voxel_index"].astype(np.int64)).reshape(-1, 3)
-        score = torch.from_numpy(r["voxel_score"].astype(np.float32))
-        valid = torch.zeros((RESOLUTION,) * 3)
-        dense_score = torch.zeros((RESOLUTION,) * 3)
-        valid[idx[:, 0], idx[:, 1], idx[:, 2]] = 1.0
-        dense_score[idx[:, 0], idx[:, 1], idx[:, 2]] = score
-        item = {
-            "tsdf": torch.from_numpy(r["tsdf"].astype(np.float32))[None],
-            "valid": valid,
-            "score": dense_score,
-            "voxel_index": idx,
-            "rotations": torch.from_numpy(r["voxel_rotations"].astype(np.float32)),
-            "rotation_mask": torch.from_numpy(r["voxel_rotation_mask"].astype(bool)),
-            "width": torch.from_numpy(r["voxel_width"].astype(np.float32)),
-        }
+        item = make_item(
+            r["tsdf"],
+            r["voxel_index"],
+            r["voxel_score"],
+            r["voxel_rotations"],
+            r["voxel_rotation_mask"],
+            r["voxel_width"],
+        )
         if self.augment:
             rng = np.random.default_rng([self.seed, self.epoch, i])
             item = rotate_quarter_turns(item, int(rng.integers(4)))

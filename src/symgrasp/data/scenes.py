@@ -49,6 +49,8 @@ class SceneConfig:
         camera_distance: range [m] of the camera's distance to the workspace centre.
         camera_polar: range [rad] of the camera's angle from the vertical.
         surface_spacing: spacing [m] of the surface samples of the collision check.
+        clearance: gap [m] the open hand must keep from objects and table (negative: allowed
+            penetration).
         database: how the per-object grasp databases are built.
     """
 
@@ -63,6 +65,7 @@ class SceneConfig:
     camera_distance: tuple[float, float] = (0.45, 0.7)
     camera_polar: tuple[float, float] = (0.1, np.pi / 3)
     surface_spacing: float = 0.003
+    clearance: float = 0.001
     database: DatabaseConfig = field(default_factory=DatabaseConfig)
 
     def __post_init__(self) -> None:
@@ -122,7 +125,7 @@ def scene_grasps(
         "score": np.concatenate(score) if score else np.zeros(0),
         "width": np.concatenate(width) if width else np.zeros(0),
         "object": np.concatenate(owner) if owner else np.zeros(0, dtype=int),
-        "collides": hand_collides(T_all, cfg.gripper, cloud),
+        "collides": hand_collides(T_all, cfg.gripper, cloud, tolerance=-cfg.clearance),
     }
 
 
