@@ -106,6 +106,12 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
     gen.add_argument(
         "--grasps", type=int, default=300, help="settled grasps per object database (default: 300)"
     )
+    gen.add_argument(
+        "--directions",
+        type=int,
+        default=32,
+        help="disturbance directions K of the gravity-rejection score (default: 32)",
+    )
     gen.add_argument("--k-max", type=int, default=8, help="rotation targets per voxel (default: 8)")
 
     def run_generate(args: argparse.Namespace) -> None:
@@ -120,7 +126,9 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
                 pool_size=args.pool_size,
                 k_max=args.k_max,
                 database=DatabaseConfig(
-                    grasps=args.grasps, max_candidates=max(2000, 4 * args.grasps)
+                    grasps=args.grasps,
+                    max_candidates=max(2000, 4 * args.grasps),
+                    directions=args.directions,
                 ),
             )
             manifest = generate(args.out, cfg, args.scenes, args.workers, args.seed, args.resume)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import multiprocessing
 import os
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -124,7 +125,9 @@ def _run(
             yield task(a)
             bar.update()
     else:
-        with ProcessPoolExecutor(workers, initializer=_init_worker, initargs=init) as pool:
+        # spawn, not fork: a forked child inherits torch's thread pools and can deadlock
+        spawn = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(workers, spawn, initializer=_init_worker, initargs=init) as pool:
             for value in pool.map(task, args, chunksize=1):
                 yield value
                 bar.update()
