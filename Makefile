@@ -40,6 +40,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bingham.py
 	$(PY) benchmarks/rotation.py
 	$(PY) benchmarks/sim.py
+	$(PY) benchmarks/data.py
 
 clean:
 	rm -rf $(VENV) build dist src/*.egg-info .pytest_cache .ruff_cache
