@@ -210,12 +210,10 @@ def _finger_opening(world: World) -> float:
     """Distance between the inner faces of the two pads along the closing axis [m]."""
     m, d = world.model, world.data
     T = world.hand_pose()
-    z = []
-    for side in ("left", "right"):
-        g = m.geom(f"{PREFIX}pad_{side}").id
-        z.append(float((d.geom_xpos[g] - T[:3, 3]) @ T[:3, 2]))
-        half = float(m.geom_size[g][2])
-    return max(0.0, abs(z[0] - z[1]) - 2 * half)
+    pads = [m.geom(f"{PREFIX}pad_{side}").id for side in ("left", "right")]
+    z = [float((d.geom_xpos[g] - T[:3, 3]) @ T[:3, 2]) for g in pads]
+    thickness = sum(float(m.geom_size[g][2]) for g in pads)  # two half-thicknesses
+    return max(0.0, abs(z[0] - z[1]) - thickness)
 
 
 def build_database(
@@ -236,14 +234,19 @@ def build_database(
     max_force = cfg.score_clip * weight
 
     poses, widths, forces, held, resisted = [], [], [], [], []
-    tried = 0
-    while sum(held) < cfg.grasps and tried < cfg.max_candidates:
+    tried = placed = 0
+    # ``placed`` also counts candidates whose open hand starts in collision, so an object
+    # that admits no collision-free placement cannot loop forever
+    while (
+        sum(held) < cfg.grasps and tried < cfg.max_candidates and placed < 10 * cfg.max_candidates
+    ):
         mid, line = antipodal_pairs(obj, spec.max_width, cfg.surface_points, rng)
         if not len(mid):
             break
         for T_object_tcp in randomised_frames(mid, line, cfg, rng):
             if sum(held) >= cfg.grasps or tried >= cfg.max_candidates:
                 break
+            placed += 1
             mujoco.mj_copyData(world.data, world.model, start)
             world.set_hand_pose(T_world_object @ T_object_tcp)
             if world.hand_in_collision():
