@@ -34,6 +34,7 @@ from symgrasp.data.card import dataset_card
 from symgrasp.data.generate import generate
 from symgrasp.data.grasp_db import cached_database
 from symgrasp.data.scenes import SceneConfig
+from symgrasp.perception import make_renderer
 
 TARGET_SCENES, TARGET_MINUTES, DEFAULT_POOL = 2000, 60.0, SceneConfig().pool_size
 
@@ -78,6 +79,7 @@ def main() -> None:
             "load_average_at_start": load,
             "torch": torch.__version__,
             "mujoco": version("mujoco"),
+            "depth_renderer": make_renderer().name,
         },
     }
     try:
