@@ -103,8 +103,10 @@ def test_unknown_names_list_the_known_ones(tmp_path):
 
 
 def test_inspect_writes_the_card_and_show_a_picture(dataset, capsys):
-    main(["data", "inspect", str(dataset)])
+    main(["data", "inspect", str(dataset), "--validate", "3"])
     card = json.loads((dataset / "card.json").read_text())
+    assert card["label_validation"]["trials"] <= 3
+    assert 0 <= card["label_validation"]["random_success"] <= 1
     assert card["scenes"] == 4 and (dataset / "card.png").stat().st_size > 1000
     assert sum(card["score_histogram"]["counts"]) == card["mean_per_scene"]["valid_voxels"] * 4
     main(["data", "show", str(dataset), "--scene", "1"])
