@@ -40,6 +40,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/bingham.py
 	$(PY) benchmarks/rotation.py
 	$(PY) benchmarks/sim.py
+	$(PY) benchmarks/data.py
 	$(PY) benchmarks/model.py
 
 clean:

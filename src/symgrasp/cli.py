@@ -67,6 +67,125 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
     show.set_defaults(run=run)
 
 
+def _add_data(subparsers: argparse._SubParsersAction) -> None:
+    from symgrasp.sim import GRIPPERS, OBJECT_SETS
+
+    parser = subparsers.add_parser(
+        "data",
+        help="generate and inspect grasp datasets",
+        description="Per-object grasp databases, labelled cluttered scenes, dataset cards "
+        "(docs/data.md).",
+    )
+    actions = parser.add_subparsers(
+        dest="action", required=True, metavar="ACTION", help="what to do (generate, inspect, show)"
+    )
+    gen = actions.add_parser(
+        "generate",
+        help="write a labelled dataset",
+        description="Build (or reuse) the grasp database of every pool object, then write "
+        "labelled scenes as one compressed file each, atomically; --resume continues an "
+        "interrupted run.",
+    )
+    gen.add_argument(
+        "--objects", default="household-train", help=f"object set, one of {OBJECT_SETS}"
+    )
+    gen.add_argument("--gripper", default="robotiq-2f85", help=f"gripper, one of {GRIPPERS}")
+    gen.add_argument("--scenes", type=int, default=2000, help="number of scenes (default: 2000)")
+    gen.add_argument("--out", required=True, help="dataset folder")
+    gen.add_argument("--workers", type=int, default=1, help="worker processes (default: 1)")
+    gen.add_argument("--seed", type=int, default=0, help="dataset seed (default: 0)")
+    gen.add_argument(
+        "--resume", action="store_true", help="continue a run in --out, skipping written scenes"
+    )
+    gen.add_argument(
+        "--pool-size",
+        type=int,
+        default=16,
+        help="objects in the pool, one database each (default: 16)",
+    )
+    gen.add_argument(
+        "--grasps", type=int, default=300, help="settled grasps per object database (default: 300)"
+    )
+    gen.add_argument(
+        "--directions",
+        type=int,
+        default=32,
+        help="disturbance directions K of the gravity-rejection score (default: 32)",
+    )
+    gen.add_argument("--k-max", type=int, default=8, help="rotation targets per voxel (default: 8)")
+
+    def run_generate(args: argparse.Namespace) -> None:
+        from symgrasp.data.generate import generate
+        from symgrasp.data.grasp_db import DatabaseConfig
+        from symgrasp.data.scenes import SceneConfig
+
+        try:
+            cfg = SceneConfig(
+                object_set=args.objects,
+                gripper=args.gripper,
+                pool_size=args.pool_size,
+                k_max=args.k_max,
+                database=DatabaseConfig(
+                    grasps=args.grasps,
+                    max_candidates=max(2000, 4 * args.grasps),
+                    directions=args.directions,
+                ),
+            )
+            manifest = generate(args.out, cfg, args.scenes, args.workers, args.seed, args.resume)
+        except ValueError as err:
+            raise SystemExit(f"error: {err}") from err
+        print(f"{manifest['num_scenes']} scenes in {args.out} (hash {manifest['dataset_hash']})")
+
+    gen.set_defaults(run=run_generate)
+
+    inspect = actions.add_parser(
+        "inspect",
+        help="print counts and write the dataset card",
+        description="Print counts, class balance and score histograms of a dataset and write "
+        "card.json and card.png into it.",
+    )
+    inspect.add_argument("root", help="dataset folder")
+    inspect.add_argument(
+        "--validate",
+        type=int,
+        default=50,
+        help="physics trials of labelled vs random grasps for the card; 0 skips them (default: 50)",
+    )
+    inspect.add_argument("--seed", type=int, default=0, help="seed of the trials (default: 0)")
+
+    def run_inspect(args: argparse.Namespace) -> None:
+        import json
+
+        from symgrasp.data.card import dataset_card
+
+        try:
+            card = dataset_card(args.root, args.validate, args.seed)
+        except ValueError as err:
+            raise SystemExit(f"error: {err}") from err
+        print(json.dumps(card, indent=1))
+
+    inspect.set_defaults(run=run_inspect)
+
+    show = actions.add_parser(
+        "show",
+        help="draw one scene",
+        description="Draw a scene's TSDF surface, its labelled grasps and its depth image.",
+    )
+    show.add_argument("root", help="dataset folder")
+    show.add_argument("--scene", type=int, default=0, help="scene id (default: 0)")
+    show.add_argument("--out", default=None, help="picture path (default: ROOT/scene_<id>.png)")
+
+    def run_show(args: argparse.Namespace) -> None:
+        from symgrasp.data.card import show_scene
+
+        try:
+            print(show_scene(args.root, args.scene, args.out))
+        except ValueError as err:
+            raise SystemExit(f"error: {err}") from err
+
+    show.set_defaults(run=run_show)
+
+
 def _add_train(subparsers: argparse._SubParsersAction) -> None:
     from symgrasp.rotation import NAMES
 
@@ -144,6 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _add_demo(subparsers)
     _add_sim(subparsers)
+    _add_data(subparsers)
     _add_train(subparsers)
     return parser
 

@@ -1,0 +1,121 @@
+"""``symgrasp data inspect`` and ``show``: the dataset card and pictures of one scene."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from symgrasp.data.dataset import GraspDataset, load_scene, scene_path
+from symgrasp.data.generate import config_from_dict, write_atomic
+from symgrasp.data.labels import RESOLUTION, VOXEL_SIZE
+from symgrasp.data.scenes import DEPTH_UNIT
+from symgrasp.data.validate import validate_labels
+
+SCORE_BINS = np.linspace(0.0, 1.0, 11)
+
+
+def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str, Any]:
+    """Counts, class balance and histograms of a dataset; written to ``card.json`` and
+    ``card.png`` in ``root``. ``validate`` > 0 adds that many physics trials of labelled
+    against random grasps."""
+    root = Path(root)
+    data = GraspDataset(root, split="all")
+    per_scene: dict[str, list[float]] = {
+        k: [] for k in ("objects", "grasps_total", "grasps_kept", "valid_voxels", "targets")
+    }
+    scores, targets, kinds = [], [], []
+    dropped = 0
+    for path in data.paths:
+        r = load_scene(path)
+        per_scene["objects"].append(len(r["object_pool_index"]))
+        per_scene["grasps_total"].append(int(r["grasps_total"]))
+        per_scene["grasps_kept"].append(len(r["grasp_pose"]))
+        per_scene["valid_voxels"].append(len(r["voxel_index"]))
+        per_scene["targets"].append(int(r["voxel_rotation_mask"].sum()))
+        scores.append(r["voxel_score"])
+        targets.append(r["voxel_rotation_mask"].sum(axis=1))
+        kinds.append(str(r["kind"]))
+        dropped += int(r["rotations_dropped"])
+    score = np.concatenate(scores) if scores else np.zeros(0)
+    per_voxel = np.concatenate(targets) if targets else np.zeros(0, dtype=int)
+    valid = np.asarray(per_scene["valid_voxels"])
+    card: dict[str, Any] = {
+        "root": str(root),
+        "manifest": {k: v for k, v in data.manifest.items() if k not in ("scene_ids", "config")},
+        "scenes": len(data),
+        "skipped_files": [str(p) for p in data.skipped],
+        "scene_kinds": {k: kinds.count(k) for k in sorted(set(kinds))},
+        "mean_per_scene": {k: float(np.mean(v)) if v else 0.0 for k, v in per_scene.items()},
+        "grasp_survival_rate": float(
+            np.sum(per_scene["grasps_kept"]) / max(1, np.sum(per_scene["grasps_total"]))
+        ),
+        "valid_voxel_fraction": float(valid.mean() / RESOLUTION**3) if len(valid) else 0.0,
+        "score_histogram": {
+            "bins": SCORE_BINS.tolist(),
+            "counts": np.histogram(score, SCORE_BINS)[0].tolist(),
+            "mean": float(score.mean()) if len(score) else 0.0,
+        },
+        "targets_per_voxel": {
+            str(k): int(np.sum(per_voxel == k)) for k in range(1, data.k_max + 1)
+        },
+        "rotations_dropped_beyond_k_max": dropped,
+    }
+    if validate > 0 and len(data):
+        cfg = config_from_dict(data.manifest["config"])
+        ids = [int(p.stem.split("_")[1]) for p in data.paths]
+        result = validate_labels(root, cfg, ids, validate, seed)
+        card["label_validation"] = dataclasses.asdict(result)
+    write_atomic(root / "card.json", lambda f: json.dump(card, f, indent=1), mode="w")
+
+    fig, ax = plt.subplots(1, 3, figsize=(13, 3.6))
+    ax[0].hist(valid, bins=20)
+    ax[0].set(xlabel="valid voxels per scene", ylabel="scenes")
+    ax[1].hist(score, SCORE_BINS)
+    ax[1].set(xlabel="gravity-rejection score (valid voxels)", ylabel="voxels")
+    ax[2].bar(
+        range(1, data.k_max + 1),
+        [card["targets_per_voxel"][str(k)] for k in range(1, data.k_max + 1)],
+    )
+    ax[2].set(xlabel="rotation targets per voxel", ylabel="voxels")
+    fig.suptitle(f"{root.name}: {len(data)} scenes, {data.gripper}, {data.object_set}")
+    fig.tight_layout()
+    fig.savefig(root / "card.png", dpi=100)
+    plt.close(fig)
+    return card
+
+
+def show_scene(root: str | Path, scene_id: int, out: str | Path | None = None) -> Path:
+    """Draw scene ``scene_id``: TSDF surface voxels and labelled grasps (TCP and approach,
+    coloured by score), and the depth image. Returns the picture's path."""
+    r = load_scene(scene_path(root, scene_id))
+    out = Path(out) if out else Path(root) / f"scene_{scene_id:06d}.png"
+    fig = plt.figure(figsize=(12, 5))
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    tsdf = r["tsdf"].astype(np.float32)
+    surface = np.argwhere(np.abs(tsdf) < 0.3)
+    centres = (surface + 0.5) * VOXEL_SIZE
+    ax.scatter(*centres.T, s=1, c="0.6", alpha=0.3)
+    pose, score = r["grasp_pose"], r["grasp_score"]
+    if len(pose):
+        tcp, approach = pose[:, :3, 3], pose[:, :3, 0]
+        ax.quiver(*(tcp - 0.02 * approach).T, *(0.02 * approach).T, color=plt.cm.viridis(score))
+        ax.scatter(*tcp.T, s=4, c=score, cmap="viridis", vmin=0, vmax=1)
+    ax.set(xlim=(0, 0.3), ylim=(0, 0.3), zlim=(0, 0.3), xlabel="x", ylabel="y", zlabel="z")
+    ax.set_title(f"scene {scene_id} ({r['kind']}): {len(r['voxel_index'])} valid voxels")
+    ax2 = fig.add_subplot(1, 2, 2)
+    ax2.imshow(r["depth"] * DEPTH_UNIT, cmap="gray")
+    ax2.set_title("depth [m]")
+    ax2.axis("off")
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out

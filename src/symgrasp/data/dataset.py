@@ -1,0 +1,221 @@
+"""The torch ``Dataset`` of labelled scenes, its augmentation and its collate function.
+
+Item ``i`` is a dict of tensors (the contract with the model, issue 6):
+
+- ``tsdf`` float32 [1, 40, 40, 40]; ``valid``, ``score`` float32 [40, 40, 40];
+- ``voxel_index`` int64 [M, 3] of the M valid voxels; ``rotations`` float32
+  [M, K_max, 3, 3] (R = [e_x e_y e_z], world frame), ``rotation_mask`` bool [M, K_max],
+  ``width`` float32 [M] [m].
+
+Augmentation keeps labels consistent: a rotation by a multiple of 90° about the vertical
+axis through the workspace centre maps voxel (i, j, k) to (39 − j, i, k) per quarter turn
+and every rotation target R to R_z(90°) · R; a vertical shift by whole voxels moves the
+TSDF (the exposed layers repeat the edge layer) and the labels, dropping those that leave
+the grid. Gravity stays along −z, so scores are unchanged.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch.utils.data import Dataset
+
+from symgrasp.data.labels import RESOLUTION
+
+SPLITS = ("train", "val", "all")
+VAL_EVERY = 10
+"""Scene ``id`` is in the validation split when ``id % VAL_EVERY == VAL_EVERY − 1``."""
+
+MAX_SHIFT = 2
+"""Largest vertical shift of the augmentation [voxels] (15 mm)."""
+
+REQUIRED = ("tsdf", "voxel_index", "voxel_score", "voxel_width", "voxel_rotations")
+
+
+def in_split(scene_id: int, split: str) -> bool:
+    """Whether scene ``scene_id`` belongs to ``split`` (deterministic, by scene id)."""
+    val = scene_id % VAL_EVERY == VAL_EVERY - 1
+    return split == "all" or (split == "val") == val
+
+
+def scene_path(root: str | Path, scene_id: int) -> Path:
+    """Where scene ``scene_id`` of a dataset lives."""
+    return Path(root) / "scenes" / f"scene_{scene_id:06d}.npz"
+
+
+def load_scene(path: str | Path) -> dict[str, np.ndarray]:
+    """All arrays of a scene file; raises ValueError naming the path if it is unreadable."""
+    try:
+        with np.load(path) as z:
+            record = {k: z[k] for k in z.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as err:
+        raise ValueError(f"scene file {path} is missing or corrupted: {err}") from err
+    missing = [k for k in REQUIRED if k not in record]
+    if missing:
+        raise ValueError(f"scene file {path} is corrupted: no {missing}")
+    return record
+
+
+def rotate_quarter_turns(item: dict[str, torch.Tensor], k: int) -> dict[str, torch.Tensor]:
+    """``item`` turned by ``k`` · 90° about the vertical axis through the workspace centre."""
+    k = k % 4
+    if k == 0:
+        return item
+    out = dict(item)
+    # torch.rot90 over dims (0, 1) maps new[a, b] = old[b, n−1−a] per turn, i.e. old (i, j)
+    # goes to (n−1−j, i): a counter-clockwise quarter turn of the (x, y) plane.
+    out["tsdf"] = torch.rot90(item["tsdf"], k, dims=(1, 2))
+    out["valid"] = torch.rot90(item["valid"], k, dims=(0, 1))
+    out["score"] = torch.rot90(item["score"], k, dims=(0, 1))
+    idx = item["voxel_index"].clone()
+    c, s = round(np.cos(k * np.pi / 2)), round(np.sin(k * np.pi / 2))
+    n = RESOLUTION - 1
+    # about the grid centre n/2: (i, j) → (c·(i − n/2) − s·(j − n/2) + n/2, s·(…) + c·(…) + n/2)
+    i, j = idx[:, 0] * 2 - n, idx[:, 1] * 2 - n
+    idx[:, 0] = (c * i - s * j + n) // 2
+    idx[:, 1] = (s * i + c * j + n) // 2
+    out["voxel_index"] = idx
+    Rz = torch.tensor([[c, -s, 0], [s, c, 0], [0, 0, 1]], dtype=item["rotations"].dtype)
+    real = item["rotation_mask"][..., None, None]
+    out["rotations"] = torch.where(real, Rz @ item["rotations"], item["rotations"])  # pads stay I
+    return out
+
+
+def shift_vertical(item: dict[str, torch.Tensor], dz: int) -> dict[str, torch.Tensor]:
+    """``item`` moved by ``dz`` voxels along +z; labels leaving the grid are dropped."""
+    if dz == 0:
+        return item
+    out = dict(item)
+    n = RESOLUTION
+    src = torch.clamp(torch.arange(n) - dz, 0, n - 1)  # repeats the edge layer
+    out["tsdf"] = item["tsdf"][..., src]
+    keep_layer = ((torch.arange(n) - dz) >= 0) & ((torch.arange(n) - dz) < n)
+    for key in ("valid", "score"):
+        out[key] = item[key][..., src] * keep_layer
+    idx = item["voxel_index"].clone()
+    idx[:, 2] += dz
+    keep = (idx[:, 2] >= 0) & (idx[:, 2] < n)
+    out["voxel_index"] = idx[keep]
+    for key in ("rotations", "rotation_mask", "width"):
+        out[key] = item[key][keep]
+    return out
+
+
+def make_item(
+    tsdf: np.ndarray,
+    voxel_index: np.ndarray,
+    score: np.ndarray,
+    rotations: np.ndarray,
+    mask: np.ndarray,
+    width: np.ndarray,
+) -> dict[str, torch.Tensor]:
+    """An item of the contract from a TSDF (40, 40, 40) and the sparse labels of its M valid
+    voxels (see :class:`symgrasp.data.labels.VoxelLabels`)."""
+    idx = torch.from_numpy(np.asarray(voxel_index, dtype=np.int64)).reshape(-1, 3)
+    valid = torch.zeros((RESOLUTION,) * 3)
+    dense_score = torch.zeros((RESOLUTION,) * 3)
+    valid[idx[:, 0], idx[:, 1], idx[:, 2]] = 1.0
+    dense_score[idx[:, 0], idx[:, 1], idx[:, 2]] = torch.from_numpy(
+        np.asarray(score, dtype=np.float32)
+    )
+    return {
+        "tsdf": torch.from_numpy(np.asarray(tsdf, dtype=np.float32))[None],
+        "valid": valid,
+        "score": dense_score,
+        "voxel_index": idx,
+        "rotations": torch.from_numpy(np.asarray(rotations, dtype=np.float32)),
+        "rotation_mask": torch.from_numpy(np.asarray(mask, dtype=bool)),
+        "width": torch.from_numpy(np.asarray(width, dtype=np.float32)),
+    }
+
+
+class GraspDataset(Dataset):
+    """Labelled scenes of a dataset folder written by ``symgrasp data generate``.
+
+    Args:
+        root: dataset folder (with ``manifest.json`` and ``scenes/``).
+        split: "train", "val" or "all" (every 10th scene id is validation).
+        augment: random quarter turns about z and vertical shifts of ±``MAX_SHIFT`` voxels.
+        seed: seed of the augmentation: item ``i`` in epoch ``e`` (:meth:`set_epoch`) is
+            augmented the same way every time, in any worker.
+
+    A scene file that is missing or unreadable is reported (a warning naming its path) and
+    skipped.
+    """
+
+    def __init__(
+        self, root: str | Path, split: str = "train", augment: bool = False, seed: int = 0
+    ) -> None:
+        if split not in SPLITS:
+            raise ValueError(f"split must be one of {SPLITS}, got {split!r}")
+        self.root = Path(root)
+        manifest = self.root / "manifest.json"
+        if not manifest.exists():
+            raise ValueError(f"root must be a dataset folder with manifest.json, got {root}")
+        self.manifest: dict = json.loads(manifest.read_text())
+        self.gripper: str = self.manifest["gripper"]
+        self.object_set: str = self.manifest["object_set"]
+        self.k_max: int = int(self.manifest["k_max"])
+        self.augment, self.seed = augment, seed
+        self.paths: list[Path] = []
+        self.skipped: list[Path] = []
+        for scene_id in self.manifest["scene_ids"]:
+            if not in_split(scene_id, split):
+                continue
+            path = scene_path(self.root, scene_id)
+            try:
+                with zipfile.ZipFile(path) as z:
+                    bad = z.testzip()
+                if bad is not None:
+                    raise zipfile.BadZipFile(f"bad CRC in {bad}")
+            except (OSError, zipfile.BadZipFile) as err:
+                warnings.warn(
+                    f"skipping scene file {path}: missing or corrupted ({err})", stacklevel=2
+                )
+                self.skipped.append(path)
+                continue
+            self.paths.append(path)
+        self.epoch = 0
+
+    def set_epoch(self, epoch: int) -> None:
+        """Select the augmentation draws of ``epoch`` (call before each epoch)."""
+        self.epoch = int(epoch)
+
+    def __len__(self) -> int:
+        return len(self.paths)
+
+    def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
+        r = load_scene(self.paths[i])
+        item = make_item(
+            r["tsdf"],
+            r["voxel_index"],
+            r["voxel_score"],
+            r["voxel_rotations"],
+            r["voxel_rotation_mask"],
+            r["voxel_width"],
+        )
+        if self.augment:
+            rng = np.random.default_rng([self.seed, self.epoch, i])
+            item = rotate_quarter_turns(item, int(rng.integers(4)))
+            item = shift_vertical(item, int(rng.integers(-MAX_SHIFT, MAX_SHIFT + 1)))
+        return item
+
+
+def collate_scenes(items: list[dict[str, torch.Tensor]]) -> dict[str, torch.Tensor]:
+    """Batch items: ``tsdf``, ``valid``, ``score`` stacked; per-voxel tensors concatenated,
+    with ``voxel_index`` int64 [ΣM, 4] = (batch b, i, j, k)."""
+    batch = {key: torch.stack([it[key] for it in items]) for key in ("tsdf", "valid", "score")}
+    batch["voxel_index"] = torch.cat(
+        [
+            torch.cat([torch.full((len(it["voxel_index"]), 1), b), it["voxel_index"]], dim=1)
+            for b, it in enumerate(items)
+        ]
+    ).long()
+    for key in ("rotations", "rotation_mask", "width"):
+        batch[key] = torch.cat([it[key] for it in items])
+    return batch

@@ -1,0 +1,306 @@
+"""Per-object grasp databases: antipodal candidates, gravity-less closure, rejection scores.
+
+The paper's pipeline (Appx. C "Additional Training Details"): sample antipodal grasps on an
+object, randomise them, close the gripper on the free-floating object in a gravity-less
+simulation and keep the *settled* relative pose of hand and object, so that both fingertip
+pinches and deep power grasps appear. Each settled grasp then gets the gravity-rejection
+score of ref. [pvgn]: how strong a disturbance it resists, measured by ramping a force on
+the object along ``K`` fixed directions of the object frame until the object slips
+(:func:`symgrasp.sim.execute.pull_out_force`). Definition and normalisation: docs/data.md.
+
+A database is computed once per (object parameters, gripper, configuration) and cached as an
+``.npz`` under a key that hashes the three.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import hashlib
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import trimesh
+from scipy.spatial.transform import Rotation
+
+from symgrasp.data.directions import fibonacci_directions
+from symgrasp.sim import World, get_gripper
+from symgrasp.sim.execute import pull_out_force
+from symgrasp.sim.grippers import PREFIX
+from symgrasp.sim.objects import ObjectSpec
+
+GRAVITY = 9.81
+"""Standard gravity [m/s²], the unit of the normalised score."""
+
+FLOAT_POSITION = (0.15, 0.15, 0.6)
+"""Where the free-floating object waits during closure, far above the table [m]."""
+
+
+@dataclass(frozen=True)
+class DatabaseConfig:
+    """How a grasp database is built (defaults: the issue's ≥ 300 settled grasps).
+
+    Attributes:
+        grasps: settled, held grasps to collect per object and gripper.
+        max_candidates: most closures to try before giving up on reaching ``grasps``.
+        surface_points: surface samples the antipodal pairs are drawn from.
+        tilt: largest random tilt [rad] of the closing axis away from the contact line.
+        offset: range [m] of the TCP offset along the approach from the contacts' midpoint;
+            positive pushes the palm towards the object (power grasps), negative pinches
+            with the fingertips.
+        directions: number ``K`` of disturbance directions of the rejection score.
+        score_clip: resisted force, in units of the object's weight, at which the score
+            saturates at 1.
+        ramp_time: seconds for the force ramp to reach ``score_clip`` · m · g.
+        slip: object displacement relative to the hand [m] that ends a ramp.
+    """
+
+    grasps: int = 300
+    max_candidates: int = 2000
+    surface_points: int = 1500
+    tilt: float = 0.2
+    offset: tuple[float, float] = (-0.01, 0.03)
+    directions: int = 32
+    score_clip: float = 50.0
+    ramp_time: float = 0.15
+    slip: float = 0.005
+
+    def __post_init__(self) -> None:
+        if self.grasps < 1 or self.max_candidates < self.grasps:
+            raise ValueError(
+                f"grasps must be ≥ 1 and max_candidates ≥ grasps, got {self.grasps}, "
+                f"{self.max_candidates}"
+            )
+        if self.directions < 4 or self.score_clip <= 0 or self.ramp_time <= 0:
+            raise ValueError("directions must be ≥ 4, score_clip and ramp_time positive")
+
+
+@dataclass(frozen=True)
+class GraspDatabase:
+    """The settled grasps of one object and gripper (``N`` grasps, ``K`` directions).
+
+    Attributes:
+        T_object_tcp: (N, 4, 4) settled TCP pose in the object frame.
+        width: (N,) finger opening after closure [m].
+        contact_force: (N,) total normal force of the object on the hand after closure [N].
+        held: (N,) whether the object touches the hand after closure.
+        resisted_force: (N, K) force [N] resisted along each direction before slipping.
+        score: (N, K) ``min(resisted / (m g), clip) / clip`` in [0, 1].
+        directions: (K, 3) the disturbance directions in the object frame.
+        candidates: closures tried to obtain these grasps.
+    """
+
+    T_object_tcp: np.ndarray
+    width: np.ndarray
+    contact_force: np.ndarray
+    held: np.ndarray
+    resisted_force: np.ndarray
+    score: np.ndarray
+    directions: np.ndarray
+    candidates: int
+
+    def __len__(self) -> int:
+        return len(self.width)
+
+    def save(self, path: str | Path) -> None:
+        """Write atomically (temporary file + rename)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        with open(tmp, "wb") as f:
+            np.savez_compressed(f, **dataclasses.asdict(self))
+        os.replace(tmp, path)
+
+    @classmethod
+    def load(cls, path: str | Path) -> GraspDatabase:
+        with np.load(path) as z:
+            fields = {f.name: z[f.name] for f in dataclasses.fields(cls)}
+        fields["candidates"] = int(fields["candidates"])
+        return cls(**fields)
+
+
+def surface_samples(
+    obj: ObjectSpec, n: int, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """About ``n`` points (P, 3) on the outer surface of ``obj`` and their outward normals.
+
+    Each part's mesh is sampled in proportion to its area and points inside *another* part
+    are dropped. (``ObjectSpec.sample_surface`` also tests a point against its own part, which
+    rejects nearly every sample on the faceted mesh of a sphere, capsule or ellipsoid.)
+    """
+    meshes = [p.mesh() for p in obj.parts]
+    areas = np.array([m.area for m in meshes])
+    points, normals = [], []
+    for i, (mesh, count) in enumerate(
+        zip(meshes, rng.multinomial(n, areas / areas.sum()), strict=True)
+    ):
+        if count == 0:
+            continue
+        p, face = trimesh.sample.sample_surface(mesh, int(count), seed=int(rng.integers(2**31)))
+        keep = np.ones(len(p), dtype=bool)
+        for j, other in enumerate(obj.parts):
+            if j != i:
+                keep &= ~other.contains(p)
+        points.append(p[keep])
+        normals.append(mesh.face_normals[face[keep]])
+    return np.concatenate(points), np.concatenate(normals)
+
+
+def antipodal_pairs(
+    obj: ObjectSpec, max_width: float, n_points: int, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """Contact pairs whose line lies in both friction cones (half-angle ``atan μ``).
+
+    Returns the midpoints (P, 3) and the unit contact lines ``p₂ − p₁`` (P, 3), object frame;
+    one partner per first contact that has any, drawn at random.
+    """
+    points, normals = surface_samples(obj, n_points, rng)
+    cone = np.cos(np.arctan(obj.friction))
+    line = points[None, :, :] - points[:, None, :]  # [i, j] = p_j − p_i
+    dist = np.linalg.norm(line, axis=-1)
+    u = line / np.maximum(dist, 1e-12)[..., None]
+    # the finger at p_i pushes along +u (into the surface: against n_i); at p_j along −u
+    ok = (
+        (dist > 0.004)
+        & (dist < max_width - 0.004)
+        & (np.einsum("ijk,ik->ij", u, -normals) > cone)
+        & (np.einsum("ijk,jk->ij", u, normals) > cone)
+    )
+    first = np.flatnonzero(ok.any(axis=1))
+    second = np.array([rng.choice(np.flatnonzero(ok[i])) for i in first], dtype=int)
+    mid = (points[first] + points[second]) / 2
+    return mid.reshape(-1, 3), u[first, second].reshape(-1, 3)
+
+
+def randomised_frames(
+    midpoints: np.ndarray, lines: np.ndarray, cfg: DatabaseConfig, rng: np.random.Generator
+) -> np.ndarray:
+    """``T_object_tcp`` candidates (P, 4, 4) around antipodal pairs.
+
+    The closing axis starts on the contact line; the approach ``e_x`` turns to a uniform
+    angle about it; the frame tilts by up to ``cfg.tilt`` about ``e_y``; the TCP moves by
+    ``cfg.offset`` along the approach; half of the frames are flipped (the same grasp).
+    """
+    n = len(midpoints)
+    e_z = lines
+    helper = np.where(np.abs(e_z[:, [0]]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    a = np.cross(e_z, helper)
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    b = np.cross(e_z, a)
+    theta = rng.uniform(0, 2 * np.pi, n)[:, None]
+    e_x = np.cos(theta) * a + np.sin(theta) * b
+    R = np.stack([e_x, np.cross(e_z, e_x), e_z], axis=-1)
+    tilt = Rotation.from_rotvec(
+        np.c_[0 * theta, rng.uniform(-cfg.tilt, cfg.tilt, (n, 1)), 0 * theta]
+    )
+    R = R @ tilt.as_matrix()
+    flip = rng.random(n) < 0.5
+    R[flip] = R[flip] @ np.diag([1.0, -1.0, -1.0])
+    T = np.tile(np.eye(4), (n, 1, 1))
+    T[:, :3, :3] = R
+    T[:, :3, 3] = midpoints + rng.uniform(*cfg.offset, (n, 1)) * R[:, :, 0]
+    return T
+
+
+def _finger_opening(world: World) -> float:
+    """Distance between the inner faces of the two pads along the closing axis [m]."""
+    m, d = world.model, world.data
+    T = world.hand_pose()
+    pads = [m.geom(f"{PREFIX}pad_{side}").id for side in ("left", "right")]
+    z = [float((d.geom_xpos[g] - T[:3, 3]) @ T[:3, 2]) for g in pads]
+    thickness = sum(float(m.geom_size[g][2]) for g in pads)  # two half-thicknesses
+    return max(0.0, abs(z[0] - z[1]) - thickness)
+
+
+def build_database(
+    obj: ObjectSpec, gripper: str, cfg: DatabaseConfig = DatabaseConfig(), seed: int = 0
+) -> GraspDatabase:
+    """Sample, close and score grasps on ``obj`` until ``cfg.grasps`` are held (or
+    ``cfg.max_candidates`` closures were tried); closures that hold nothing are kept with
+    ``held`` False and zero scores. Deterministic for a given seed."""
+    spec = get_gripper(gripper)
+    rng = np.random.default_rng(seed)
+    T_world_object = np.eye(4)
+    T_world_object[:3, 3] = FLOAT_POSITION
+    world = World([obj], T_world_object[None], gripper=spec)
+    world.set_gravity(np.zeros(3))
+    start = copy.copy(world.data)
+    dirs = fibonacci_directions(cfg.directions)
+    weight = obj.mass * GRAVITY
+    max_force = cfg.score_clip * weight
+
+    poses, widths, forces, held, resisted = [], [], [], [], []
+    tried = placed = 0
+    # ``placed`` also counts candidates whose open hand starts in collision, so an object
+    # that admits no collision-free placement cannot loop forever
+    while (
+        sum(held) < cfg.grasps and tried < cfg.max_candidates and placed < 10 * cfg.max_candidates
+    ):
+        mid, line = antipodal_pairs(obj, spec.max_width, cfg.surface_points, rng)
+        if not len(mid):
+            break
+        for T_object_tcp in randomised_frames(mid, line, cfg, rng):
+            if sum(held) >= cfg.grasps or tried >= cfg.max_candidates:
+                break
+            placed += 1
+            mujoco.mj_copyData(world.data, world.model, start)
+            world.set_hand_pose(T_world_object @ T_object_tcp)
+            if world.hand_in_collision():
+                continue  # the open hand would start inside the object
+            tried += 1
+            world.actuate(close=True)
+            T_wo = world.object_poses()[0]
+            poses.append(np.linalg.inv(T_wo) @ world.hand_pose())
+            widths.append(_finger_opening(world))
+            forces.append(world.hand_contact_force())
+            held.append(bool(world.objects_in_hand()))
+            row = np.zeros(len(dirs))
+            resisted.append(row)
+            if not held[-1]:
+                continue
+            closed = copy.copy(world.data)
+            for k, u in enumerate(dirs):
+                mujoco.mj_copyData(world.data, world.model, closed)
+                row[k] = pull_out_force(
+                    world, 0, T_wo[:3, :3] @ u, max_force, max_force / cfg.ramp_time, cfg.slip
+                )
+    n = len(poses)
+    resisted_arr = np.asarray(resisted, dtype=float).reshape(n, cfg.directions)
+    return GraspDatabase(
+        T_object_tcp=np.asarray(poses).reshape(n, 4, 4),
+        width=np.asarray(widths, dtype=float),
+        contact_force=np.asarray(forces, dtype=float),
+        held=np.asarray(held, dtype=bool),
+        resisted_force=resisted_arr,
+        score=np.minimum(resisted_arr / weight, cfg.score_clip) / cfg.score_clip,
+        directions=dirs,
+        candidates=tried,
+    )
+
+
+def database_key(obj: ObjectSpec, gripper: str, cfg: DatabaseConfig, seed: int) -> str:
+    """Cache key: a hash of the object's parameters, the gripper, the configuration, seed."""
+    text = json.dumps(
+        [dataclasses.asdict(obj), gripper, dataclasses.asdict(cfg), seed], sort_keys=True
+    )
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def cached_database(
+    obj: ObjectSpec,
+    gripper: str,
+    cache_dir: str | Path,
+    cfg: DatabaseConfig = DatabaseConfig(),
+    seed: int = 0,
+) -> GraspDatabase:
+    """The database of ``obj`` and ``gripper`` from ``cache_dir``, built on the first call."""
+    path = Path(cache_dir) / f"{obj.name}_{gripper}_{database_key(obj, gripper, cfg, seed)}.npz"
+    if path.exists():
+        return GraspDatabase.load(path)
+    db = build_database(obj, gripper, cfg, seed)
+    db.save(path)
+    return db

@@ -1,0 +1,98 @@
+"""Voxel labels from a list of grasps on the 40³ workspace grid.
+
+A grasp belongs to the voxel that contains its TCP; voxel ``[i, j, k]`` spans
+``[i, i+1) · voxel_size`` along world x (``j`` along y, ``k`` along z), the convention of
+:class:`symgrasp.perception.TSDFVolume`. Per valid voxel: the best score, the width of the
+best-scoring grasp and up to ``k_max`` distinct rotations (best first; two rotations are the
+same when they differ by less than ``same_angle`` up to the 180° flip).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from symgrasp.sim.world import WORKSPACE_SIZE
+
+RESOLUTION = 40
+VOXEL_SIZE = WORKSPACE_SIZE / RESOLUTION
+FLIP = np.diag([1.0, -1.0, -1.0])
+
+
+@dataclass(frozen=True)
+class VoxelLabels:
+    """Labels of the ``M`` valid voxels of one scene.
+
+    Attributes:
+        voxel_index: (M, 3) int (i, j, k).
+        score: (M,) best gravity-rejection score in the voxel.
+        width: (M,) finger opening [m] of the best-scoring grasp.
+        rotations: (M, k_max, 3, 3) rotation targets, padded with the identity.
+        mask: (M, k_max) which targets are real.
+        dropped: rotations that were distinct but beyond ``k_max`` (all voxels together).
+    """
+
+    voxel_index: np.ndarray
+    score: np.ndarray
+    width: np.ndarray
+    rotations: np.ndarray
+    mask: np.ndarray
+    dropped: int
+
+
+def rotation_angle_up_to_flip(R1: np.ndarray, R2: np.ndarray) -> np.ndarray:
+    """Geodesic angle [rad] between (..., 3, 3) rotations, the smaller of R2 and R2·flip."""
+    cos = (np.einsum("...ij,...ij->...", R1, R2) - 1) / 2
+    cos_f = (np.einsum("...ij,...ij->...", R1, R2 @ FLIP) - 1) / 2
+    return np.arccos(np.clip(np.maximum(cos, cos_f), -1.0, 1.0))
+
+
+def voxel_of(positions: np.ndarray) -> np.ndarray:
+    """Voxel index (N, 3) of world positions (N, 3) [m]; outside the grid gives −1 or 40+."""
+    return np.floor(np.asarray(positions) / VOXEL_SIZE).astype(np.int64)
+
+
+def voxelise(
+    T_world_tcp: np.ndarray,
+    score: np.ndarray,
+    width: np.ndarray,
+    k_max: int = 8,
+    same_angle: float = np.deg2rad(5.0),
+) -> VoxelLabels:
+    """Labels from grasps ``T_world_tcp`` (G, 4, 4) with ``score`` and ``width`` (G,).
+
+    Grasps whose TCP lies outside the workspace are ignored.
+    """
+    if k_max < 1:
+        raise ValueError(f"k_max must be ≥ 1, got {k_max}")
+    idx = voxel_of(T_world_tcp[:, :3, 3]).reshape(-1, 3)
+    inside = np.all((idx >= 0) & (idx < RESOLUTION), axis=1)
+    order = np.flatnonzero(inside)[np.argsort(-score[inside], kind="stable")]
+    voxels: dict[tuple[int, int, int], list[int]] = {}
+    for g in order:  # best first, so each voxel's first grasp is its best
+        voxels.setdefault(tuple(int(v) for v in idx[g]), []).append(int(g))
+    keys = sorted(voxels)
+    m = len(keys)
+    rotations = np.tile(np.eye(3), (m, k_max, 1, 1))
+    mask = np.zeros((m, k_max), dtype=bool)
+    dropped = 0
+    for v, key in enumerate(keys):
+        kept: list[np.ndarray] = []
+        for g in voxels[key]:
+            R = T_world_tcp[g, :3, :3]
+            if all(rotation_angle_up_to_flip(R, K) >= same_angle for K in kept):
+                kept.append(R)
+        dropped += max(0, len(kept) - k_max)
+        kept = kept[:k_max]
+        rotations[v, : len(kept)] = kept
+        mask[v, : len(kept)] = True
+    best = np.array([voxels[k][0] for k in keys], dtype=np.int64)
+    return VoxelLabels(
+        voxel_index=np.array(keys, dtype=np.int64).reshape(m, 3),
+        score=score[best].astype(np.float32),
+        width=width[best].astype(np.float32),
+        rotations=rotations.astype(np.float32),
+        mask=mask,
+        dropped=dropped,
+    )

@@ -1,0 +1,190 @@
+"""One labelled cluttered scene: objects, surviving grasps, voxel labels and one depth view.
+
+:func:`make_scene_record` is a pure task of ``(scene_id, config, databases)``: the same
+inputs give the same record, so scenes can be generated in any order, by any number of
+processes or by a cluster engine. Steps:
+
+1. draw the scene kind (``pile``/``packed``) and ``N ~ Poisson(mean) + 1`` objects from the
+   object pool; build and settle the scene (:mod:`symgrasp.sim.world`);
+2. move every object's held database grasps by its settled pose; read each grasp's
+   gravity-rejection score along world −z (expressed in the object frame);
+3. drop grasps whose open hand hits the table or any object at the grasp or on the approach
+   from the pre-grasp (:func:`symgrasp.data.collision.hand_collides`);
+4. voxelise the survivors (:func:`symgrasp.data.labels.voxelise`);
+5. render one depth image from a random camera on a spherical cap around the workspace and
+   fuse it into the 40³ TSDF.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from symgrasp.data.collision import hand_collides
+from symgrasp.data.directions import interpolate
+from symgrasp.data.grasp_db import DatabaseConfig, GraspDatabase, surface_samples
+from symgrasp.data.labels import RESOLUTION, voxelise
+from symgrasp.perception import CameraIntrinsic, TSDFVolume, look_at, make_renderer
+from symgrasp.sim.objects import ObjectSpec, object_set
+from symgrasp.sim.world import SCENES, WORKSPACE_SIZE, packed_scene, pile_scene
+
+DEPTH_UNIT = 1e-4
+"""Depth images are stored as uint16 in units of 0.1 mm (up to 6.5 m)."""
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """What a dataset is made of (everything that changes its content).
+
+    Attributes:
+        object_set: named set of :func:`symgrasp.sim.objects.object_set`.
+        gripper: gripper name.
+        pool_size: objects in the pool the scenes draw from (one database each).
+        pool_seed: seed of the pool's object parameters.
+        kinds: scene kinds drawn uniformly.
+        mean_objects: N = Poisson(mean_objects) + 1 objects per scene (VGN).
+        max_objects: N is capped here.
+        k_max: rotation targets per voxel.
+        camera_distance: range [m] of the camera's distance to the workspace centre.
+        camera_polar: range [rad] of the camera's angle from the vertical.
+        surface_spacing: spacing [m] of the surface samples of the collision check.
+        clearance: gap [m] the open hand must keep from objects and table (negative: allowed
+            penetration).
+        database: how the per-object grasp databases are built.
+    """
+
+    object_set: str = "household-train"
+    gripper: str = "robotiq-2f85"
+    pool_size: int = 16
+    pool_seed: int = 0
+    kinds: tuple[str, ...] = SCENES
+    mean_objects: float = 4.0
+    max_objects: int = 10
+    k_max: int = 8
+    camera_distance: tuple[float, float] = (0.45, 0.7)
+    camera_polar: tuple[float, float] = (0.1, np.pi / 3)
+    surface_spacing: float = 0.003
+    clearance: float = 0.001
+    database: DatabaseConfig = field(default_factory=DatabaseConfig)
+
+    def __post_init__(self) -> None:
+        unknown = set(self.kinds) - set(SCENES)
+        if not self.kinds or unknown:
+            raise ValueError(f"kinds must be a non-empty subset of {SCENES}, got {self.kinds}")
+        if self.pool_size < 1 or self.mean_objects < 0 or self.max_objects < 1:
+            raise ValueError("pool_size and max_objects must be ≥ 1, mean_objects ≥ 0")
+
+    def pool(self) -> list[ObjectSpec]:
+        """The objects scenes are drawn from (names ``<family>_<index>``)."""
+        return object_set(self.object_set, self.pool_size, seed=self.pool_seed)
+
+
+def scene_rng(seed: int, scene_id: int) -> np.random.Generator:
+    """The random stream of one scene: independent of every other scene id."""
+    return np.random.default_rng([seed, scene_id])
+
+
+def random_camera(cfg: SceneConfig, rng: np.random.Generator) -> np.ndarray:
+    """``T_world_camera`` on a spherical cap above the workspace, looking at its centre."""
+    centre = np.full(3, WORKSPACE_SIZE / 2)
+    r = rng.uniform(*cfg.camera_distance)
+    polar = rng.uniform(*cfg.camera_polar)
+    azimuth = rng.uniform(0, 2 * np.pi)
+    eye = centre + r * np.array(
+        [np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)]
+    )
+    return look_at(eye, centre)
+
+
+def scene_grasps(
+    objects: list[ObjectSpec],
+    poses: np.ndarray,
+    databases: list[GraspDatabase],
+    cfg: SceneConfig,
+    rng: np.random.Generator,
+) -> dict[str, np.ndarray]:
+    """Every held database grasp moved into the scene, with its score along world gravity,
+    and whether its hand collides (``collides``). Arrays over all G grasps."""
+    T, score, width, owner = [], [], [], []
+    points = []
+    for i, (obj, T_wo, db) in enumerate(zip(objects, poses, databases, strict=True)):
+        held = db.held
+        T.append(T_wo @ db.T_object_tcp[held])
+        gravity = T_wo[:3, :3].T @ np.array([0.0, 0.0, -1.0])
+        score.append(interpolate(db.score[held], db.directions, gravity))
+        width.append(db.width[held])
+        owner.append(np.full(int(held.sum()), i))
+        area = float(obj.mesh().area)
+        p, _ = surface_samples(obj, max(64, int(area / cfg.surface_spacing**2)), rng)
+        points.append(p @ T_wo[:3, :3].T + T_wo[:3, 3])
+    T_all = np.concatenate(T).reshape(-1, 4, 4) if T else np.zeros((0, 4, 4))
+    cloud = np.concatenate(points) if points else np.zeros((0, 3))
+    return {
+        "T_world_tcp": T_all,
+        "score": np.concatenate(score) if score else np.zeros(0),
+        "width": np.concatenate(width) if width else np.zeros(0),
+        "object": np.concatenate(owner) if owner else np.zeros(0, dtype=int),
+        "collides": hand_collides(T_all, cfg.gripper, cloud, tolerance=-cfg.clearance),
+    }
+
+
+def make_scene_record(
+    scene_id: int, cfg: SceneConfig, databases: list[GraspDatabase], seed: int = 0
+) -> dict[str, np.ndarray]:
+    """Build, label and observe scene ``scene_id``; ``databases[k]`` belongs to
+    ``cfg.pool()[k]``. Returns the arrays stored in the scene's file (see docs/data.md)."""
+    rng = scene_rng(seed, scene_id)
+    pool = cfg.pool()
+    kind = str(rng.choice(cfg.kinds))
+    n = min(int(rng.poisson(cfg.mean_objects)) + 1, cfg.max_objects)
+    chosen = [int(k) for k in rng.integers(cfg.pool_size, size=n)]
+    specs = [pool[k] for k in chosen]
+    build = pile_scene if kind == "pile" else packed_scene
+    world = build(specs, seed=int(rng.integers(2**31)))
+    kept = [next(j for j, s in enumerate(specs) if s is o) for o in world.objects]
+    pool_index = np.array([chosen[j] for j in kept], dtype=np.int64)
+    poses = world.object_poses()
+
+    grasps = scene_grasps(world.objects, poses, [databases[k] for k in pool_index], cfg, rng)
+    ok = ~grasps["collides"]
+    labels = voxelise(
+        grasps["T_world_tcp"][ok], grasps["score"][ok], grasps["width"][ok], cfg.k_max
+    )
+
+    intrinsic = CameraIntrinsic()
+    T_world_camera = random_camera(cfg, rng)
+    depth = make_renderer(intrinsic).render(world, T_world_camera)
+    volume = TSDFVolume(resolution=RESOLUTION)
+    volume.integrate(depth, intrinsic, T_world_camera)
+
+    return {
+        "scene_id": np.int64(scene_id),
+        "kind": np.str_(kind),
+        "object_pool_index": pool_index,
+        "object_poses": poses.astype(np.float64),
+        "grasp_pose": grasps["T_world_tcp"][ok].astype(np.float32),
+        "grasp_score": grasps["score"][ok].astype(np.float32),
+        "grasp_width": grasps["width"][ok].astype(np.float32),
+        "grasp_object": grasps["object"][ok].astype(np.int64),
+        "grasps_total": np.int64(len(ok)),
+        "voxel_index": labels.voxel_index.astype(np.int16),
+        "voxel_score": labels.score,
+        "voxel_width": labels.width,
+        "voxel_rotations": labels.rotations,
+        "voxel_rotation_mask": labels.mask,
+        "rotations_dropped": np.int64(labels.dropped),
+        "tsdf": volume.grid().numpy().astype(np.float16),
+        "depth": np.round(depth / DEPTH_UNIT).astype(np.uint16),
+        "intrinsic": np.array(
+            [
+                intrinsic.width,
+                intrinsic.height,
+                intrinsic.fx,
+                intrinsic.fy,
+                intrinsic.cx,
+                intrinsic.cy,
+            ]
+        ),
+        "extrinsic": T_world_camera,
+    }
