@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from machine import cpu_model
 from tqdm import tqdm
 
 from symgrasp.bingham import Bingham, eigh3, log_normalizer, nll, triu_to_sym
@@ -34,14 +35,8 @@ METHODS = {3: ["quadrature", "paper"], 4: ["bessel", "paper"]}
 
 
 def machine() -> dict:
-    cpu = platform.processor()
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
     return {
-        "cpu": cpu,
+        "cpu": cpu_model(),
         "cores": os.cpu_count(),
         "torch_threads": torch.get_num_threads(),
         "torch": torch.__version__,

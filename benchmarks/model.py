@@ -22,6 +22,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import torch
+from machine import cpu_model
 
 from symgrasp import rotation
 from symgrasp.model import GraspNet, NetworkConfig, count_flops, count_parameters, grasp_losses
@@ -84,16 +85,6 @@ def reference_run(run: Path) -> dict[str, object]:
     return {"run": str(run), "command": command, "last_epoch": rows[-1], "epochs": len(rows)}
 
 
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--threads", type=int, default=2, help="torch CPU threads (default: 2)")
@@ -117,7 +108,7 @@ def main() -> None:
         "benchmark": "grasp detection network: size, CPU latency and training throughput",
         "command": " ".join(["python", *sys.argv]),
         "machine": {
-            "cpu": _cpu_model(),
+            "cpu": cpu_model(),
             "logical_cpus": os.cpu_count(),
             "torch_threads": args.threads,
             "torch": torch.__version__,

@@ -21,6 +21,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import torch
+from machine import cpu_model
 
 from symgrasp import rotation
 from symgrasp.bingham import eigh3, log_normalizer, triu_to_sym
@@ -90,16 +91,6 @@ def bingham2d_breakdown(batch: int, repeats: int) -> dict[str, float]:
     }
 
 
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--batch", type=int, default=65_536)
@@ -147,7 +138,7 @@ def main() -> None:
             if key.startswith(("MALLOC_", "OMP_", "MKL_")) or key == "PYTHONPATH"
         },
         "machine": {
-            "cpu": _cpu_model(),
+            "cpu": cpu_model(),
             "logical_cpus": os.cpu_count(),
             "torch": torch.__version__,
             "python": platform.python_version(),
