@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from machine import cpu_model
+from common import cpu_model
 from tqdm import tqdm
 
 from symgrasp.bingham import Bingham, eigh3, log_normalizer, nll, triu_to_sym

@@ -17,12 +17,10 @@ import json
 import os
 import platform
 import sys
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import torch
-from machine import cpu_model
+from common import best_seconds, cpu_model
 
 from symgrasp import rotation
 from symgrasp.model import GraspNet, NetworkConfig, count_flops, count_parameters, grasp_losses
@@ -30,17 +28,6 @@ from symgrasp.model.checkpoint import load_checkpoint
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 
 RESULTS = Path(__file__).parent / "results" / "model.json"
-
-
-def _best_seconds(run: Callable[[], object], repeats: int) -> float:
-    """The fastest of ``repeats`` runs after a warm-up: on a shared machine, the least disturbed."""
-    run()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def bench(name: str, batch: dict[str, torch.Tensor], repeats: int) -> dict[str, float]:
@@ -60,9 +47,9 @@ def bench(name: str, batch: dict[str, torch.Tensor], repeats: int) -> dict[str, 
         optimizer.step()
 
     model.eval()
-    forward_seconds = _best_seconds(forward, repeats)
+    forward_seconds = best_seconds(forward, repeats)
     model.train()
-    step_seconds = _best_seconds(train_step, repeats)
+    step_seconds = best_seconds(train_step, repeats)
     return {
         "parameters": count_parameters(model),
         "forward_gflop": count_flops(model) / 1e9,

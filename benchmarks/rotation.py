@@ -16,28 +16,15 @@ import json
 import os
 import platform
 import sys
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import torch
-from machine import cpu_model
+from common import best_seconds, cpu_model
 
 from symgrasp import rotation
 from symgrasp.bingham import eigh3, log_normalizer, triu_to_sym
 
 RESULTS = Path(__file__).parent / "results" / "rotation.json"
-
-
-def _best_seconds(run: Callable[[], object], repeats: int) -> float:
-    """The fastest of ``repeats`` runs after a warm-up: on a shared machine, the least disturbed."""
-    run()  # warm-up: caches, allocator
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def _random_rotations(shape: tuple[int, ...], generator: torch.Generator) -> torch.Tensor:
@@ -64,9 +51,9 @@ def bench(batch: int, repeats: int) -> dict[str, dict[str, float]]:
                 leaf.grad = None
                 representation.loss(leaf, targets, mask).sum().backward()
 
-            row[f"loss_backward_k{k}"] = batch / _best_seconds(step, repeats)
+            row[f"loss_backward_k{k}"] = batch / best_seconds(step, repeats)
         with torch.no_grad():
-            row["decode"] = batch / _best_seconds(
+            row["decode"] = batch / best_seconds(
                 lambda r=representation, p=pred: r.decode(p), repeats
             )
         results[name] = row
@@ -86,8 +73,8 @@ def bingham2d_breakdown(batch: int, repeats: int) -> dict[str, float]:
         log_normalizer(leaf).sum().backward()
 
     return {
-        "eigh3": _best_seconds(lambda: eigh3(A), repeats),
-        "log_normalizer_forward_backward": _best_seconds(normalizer_step, repeats),
+        "eigh3": best_seconds(lambda: eigh3(A), repeats),
+        "log_normalizer_forward_backward": best_seconds(normalizer_step, repeats),
     }
 
 

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from machine import cpu_model
+from common import cpu_model
 
 from symgrasp.perception import (
     CameraIntrinsic,
