@@ -119,21 +119,18 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
         from symgrasp.data.grasp_db import DatabaseConfig
         from symgrasp.data.scenes import SceneConfig
 
-        try:
-            cfg = SceneConfig(
-                object_set=args.objects,
-                gripper=args.gripper,
-                pool_size=args.pool_size,
-                k_max=args.k_max,
-                database=DatabaseConfig(
-                    grasps=args.grasps,
-                    max_candidates=max(2000, 4 * args.grasps),
-                    directions=args.directions,
-                ),
-            )
-            manifest = generate(args.out, cfg, args.scenes, args.workers, args.seed, args.resume)
-        except ValueError as err:
-            raise SystemExit(f"error: {err}") from err
+        cfg = SceneConfig(
+            object_set=args.objects,
+            gripper=args.gripper,
+            pool_size=args.pool_size,
+            k_max=args.k_max,
+            database=DatabaseConfig(
+                grasps=args.grasps,
+                max_candidates=max(2000, 4 * args.grasps),
+                directions=args.directions,
+            ),
+        )
+        manifest = generate(args.out, cfg, args.scenes, args.workers, args.seed, args.resume)
         print(f"{manifest['num_scenes']} scenes in {args.out} (hash {manifest['dataset_hash']})")
 
     gen.set_defaults(run=run_generate)
@@ -158,10 +155,7 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
 
         from symgrasp.data.card import dataset_card
 
-        try:
-            card = dataset_card(args.root, args.validate, args.seed)
-        except ValueError as err:
-            raise SystemExit(f"error: {err}") from err
+        card = dataset_card(args.root, args.validate, args.seed)
         print(json.dumps(card, indent=1))
 
     inspect.set_defaults(run=run_inspect)
@@ -178,10 +172,7 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
     def run_show(args: argparse.Namespace) -> None:
         from symgrasp.data.card import show_scene
 
-        try:
-            print(show_scene(args.root, args.scene, args.out))
-        except ValueError as err:
-            raise SystemExit(f"error: {err}") from err
+        print(show_scene(args.root, args.scene, args.out))
 
     show.set_defaults(run=run_show)
 
@@ -231,24 +222,21 @@ def _add_train(subparsers: argparse._SubParsersAction) -> None:
     def run(args: argparse.Namespace) -> None:
         from symgrasp.model.train import TrainConfig, train
 
-        try:
-            config = TrainConfig(
-                data=args.data,
-                out=args.out,
-                representation=args.rep,
-                gripper=args.gripper,
-                epochs=args.epochs,
-                batch_size=args.batch_size,
-                lr=args.lr,
-                seed=args.seed,
-                device=args.device,
-                workers=args.workers,
-                augment=not args.no_augment,
-                resume=args.resume,
-            )
-            history = train(config)
-        except ValueError as error:  # bad input: the message is the whole story
-            raise SystemExit(f"error: {error}") from error
+        config = TrainConfig(
+            data=args.data,
+            out=args.out,
+            representation=args.rep,
+            gripper=args.gripper,
+            epochs=args.epochs,
+            batch_size=args.batch_size,
+            lr=args.lr,
+            seed=args.seed,
+            device=args.device,
+            workers=args.workers,
+            augment=not args.no_augment,
+            resume=args.resume,
+        )
+        history = train(config)
         print(f"{len(history)} epochs; checkpoints and metrics in {args.out}")
 
     parser.set_defaults(run=run)
@@ -270,4 +258,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> None:
     args = build_parser().parse_args(argv)
-    args.run(args)
+    try:
+        args.run(args)
+    except ValueError as error:  # bad input: the message names the argument, no traceback needed
+        raise SystemExit(f"error: {error}") from error
