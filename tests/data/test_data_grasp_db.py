@@ -12,6 +12,10 @@ from symgrasp.data.grasp_db import (
     antipodal_pairs,
     build_database,
     cached_database,
+    randomised_frames,
+    rejection_score,
+    side_normals,
+    surface_samples,
 )
 from symgrasp.sim import get_gripper
 from symgrasp.sim.objects import ObjectSpec, Part
@@ -33,12 +37,35 @@ def database() -> GraspDatabase:
 
 
 def test_antipodal_pairs_of_a_box_cross_opposite_faces_within_the_friction_cone():
-    mid, line = antipodal_pairs(_box(), 0.08, 400, np.random.default_rng(0))
+    rng = np.random.default_rng(0)
+    points, normals = surface_samples(_box(), 400, rng)
+    mid, line = antipodal_pairs(points, normals, FRICTION, 0.08, rng)
     assert len(mid) > 50
     axis = np.argmax(np.abs(line), axis=1)
     assert set(axis.tolist()) <= {0, 1}  # the 9 cm side is wider than the hand
     assert np.all(np.abs(line[np.arange(len(line)), axis]) > np.cos(np.arctan(FRICTION)))
     assert np.all(np.abs(mid - [0, 0, HALF[2]]) <= np.array(HALF) + 1e-9)
+
+
+def test_approach_enters_through_the_nearest_side_within_the_cone():
+    """Closing across x (4 cm), the box's sides are its ±y (6 cm) and ±z (9 cm) faces; a
+    midpoint 1 cm below the top face is entered from the top (e_x = −z), one 0.5 cm from the
+    +y face from there (e_x = −y), up to the approach cone."""
+    rng = np.random.default_rng(1)
+    points, normals = surface_samples(_box(), 4000, rng)
+    mid = np.array([[0.0, 0.0, 2 * HALF[2] - 0.01], [0.0, HALF[1] - 0.005, HALF[2]]])
+    line = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
+    outward = side_normals(mid, line, points, normals)
+    assert np.allclose(outward, [[0, 0, 1], [0, 1, 0]], atol=1e-6)
+    cfg = dataclasses.replace(CFG, tilt=0.0, offset=(0.0, 0.0))
+    frames = randomised_frames(np.repeat(mid, 500, 0), np.repeat(line, 500, 0),
+                               np.repeat(outward, 500, 0), cfg, rng)
+    e_x, e_z = frames[:, :3, 0], frames[:, :3, 2]
+    cos_in = np.einsum("ij,ij->i", e_x, -np.repeat(outward, 500, 0))
+    assert np.all(cos_in >= np.cos(cfg.approach_cone) - 1e-9)
+    assert cos_in.min() < np.cos(0.8 * cfg.approach_cone)  # the cone is used, not just its axis
+    assert np.allclose(np.abs(e_z[:, 0]), 1.0)  # closing stays on the contact line (tilt 0)
+    assert np.allclose(np.linalg.det(frames[:, :3, :3]), 1.0)
 
 
 def test_settled_grasps_hold_the_box_across_one_of_its_sides(database):
@@ -71,12 +98,15 @@ def test_rejection_force_out_of_the_hand_is_friction_limited(database):
     assert np.all(out < CFG.score_clip * MASS * GRAVITY)  # not clipped: the bound was measured
 
 
-def test_score_is_the_clipped_force_in_units_of_weight(database):
-    expected = (
-        np.minimum(database.resisted_force / (MASS * GRAVITY), CFG.score_clip) / CFG.score_clip
-    )
-    assert np.allclose(database.score, expected)
+def test_score_is_the_log_of_the_clipped_force_in_units_of_weight(database):
+    weights = np.minimum(database.resisted_force / (MASS * GRAVITY), CFG.score_clip)
+    assert np.allclose(database.score, np.log1p(weights) / np.log1p(CFG.score_clip))
     assert np.all((database.score >= 0) & (database.score <= 1))
+    weight = MASS * GRAVITY
+    assert rejection_score(np.array([0.0, 1e9]), weight, 200.0).tolist() == [0.0, 1.0]
+    assert rejection_score(np.array([3 * weight]), weight, 200.0)[0] == pytest.approx(
+        np.log(4) / np.log(201)
+    )
 
 
 def test_same_seed_same_database_and_the_cache_is_keyed_by_object(database, tmp_path):

@@ -18,6 +18,7 @@ import copy
 import dataclasses
 import hashlib
 import json
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,13 +49,15 @@ class DatabaseConfig:
         grasps: settled, held grasps to collect per object and gripper.
         max_candidates: most closures to try before giving up on reaching ``grasps``.
         surface_points: surface samples the antipodal pairs are drawn from.
+        approach_cone: half-angle [rad] of the cone, about the inward normal of the nearest
+            side face, in which the approach ``e_x`` is drawn (see :func:`randomised_frames`).
         tilt: largest random tilt [rad] of the closing axis away from the contact line.
         offset: range [m] of the TCP offset along the approach from the contacts' midpoint;
             positive pushes the palm towards the object (power grasps), negative pinches
             with the fingertips.
         directions: number ``K`` of disturbance directions of the rejection score.
-        score_clip: resisted force, in units of the object's weight, at which the score
-            saturates at 1.
+        score_clip: resisted force ``C``, in units of the object's weight, at which the score
+            saturates at 1 (:func:`rejection_score`).
         ramp_time: seconds for the force ramp to reach ``score_clip`` · m · g.
         slip: object displacement relative to the hand [m] that ends a ramp.
     """
@@ -62,11 +65,12 @@ class DatabaseConfig:
     grasps: int = 300
     max_candidates: int = 2000
     surface_points: int = 1500
+    approach_cone: float = math.radians(30.0)
     tilt: float = 0.2
     offset: tuple[float, float] = (-0.01, 0.03)
     directions: int = 32
-    score_clip: float = 50.0
-    ramp_time: float = 0.15
+    score_clip: float = 200.0
+    ramp_time: float = 0.3
     slip: float = 0.005
 
     def __post_init__(self) -> None:
@@ -89,7 +93,7 @@ class GraspDatabase:
         contact_force: (N,) total normal force of the object on the hand after closure [N].
         held: (N,) whether the object touches the hand after closure.
         resisted_force: (N, K) force [N] resisted along each direction before slipping.
-        score: (N, K) ``min(resisted / (m g), clip) / clip`` in [0, 1].
+        score: (N, K) :func:`rejection_score` of ``resisted_force``, in [0, 1].
         directions: (K, 3) the disturbance directions in the object frame.
         candidates: closures tried to obtain these grasps.
     """
@@ -150,16 +154,35 @@ def surface_samples(
     return np.concatenate(points), np.concatenate(normals)
 
 
-def antipodal_pairs(
-    obj: ObjectSpec, max_width: float, n_points: int, rng: np.random.Generator
-) -> tuple[np.ndarray, np.ndarray]:
-    """Contact pairs whose line lies in both friction cones (half-angle ``atan μ``).
+def rejection_score(resisted_force: np.ndarray, weight: float, clip: float) -> np.ndarray:
+    """The normalised gravity-rejection score ``log(1 + min(F / (m g), C)) / log(1 + C)``.
 
-    Returns the midpoints (P, 3) and the unit contact lines ``p₂ − p₁`` (P, 3), object frame;
+    Units of the object's weight make it comparable across objects; the logarithm keeps a
+    pinch that holds 3 weights (0.26 at C = 200) apart from one that holds none, and a grasp
+    that holds 50 weights (0.74) apart from one that holds 200 (1.0).
+    """
+    ratio = np.minimum(np.asarray(resisted_force) / weight, clip)
+    return np.log1p(ratio) / np.log1p(clip)
+
+
+def antipodal_pairs(
+    points: np.ndarray,
+    normals: np.ndarray,
+    friction: float,
+    max_width: float,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Contact pairs of surface samples whose line lies in both friction cones (``atan μ``).
+
+    Args:
+        points, normals: (P, 3) surface samples and outward normals (:func:`surface_samples`).
+        friction: the object's friction coefficient μ.
+        max_width: the gripper's largest opening [m].
+
+    Returns the midpoints (M, 3) and the unit contact lines ``p₂ − p₁`` (M, 3), object frame;
     one partner per first contact that has any, drawn at random.
     """
-    points, normals = surface_samples(obj, n_points, rng)
-    cone = np.cos(np.arctan(obj.friction))
+    cone = np.cos(np.arctan(friction))
     line = points[None, :, :] - points[:, None, :]  # [i, j] = p_j − p_i
     dist = np.linalg.norm(line, axis=-1)
     u = line / np.maximum(dist, 1e-12)[..., None]
@@ -176,22 +199,56 @@ def antipodal_pairs(
     return mid.reshape(-1, 3), u[first, second].reshape(-1, 3)
 
 
-def randomised_frames(
-    midpoints: np.ndarray, lines: np.ndarray, cfg: DatabaseConfig, rng: np.random.Generator
+def side_normals(
+    midpoints: np.ndarray, lines: np.ndarray, points: np.ndarray, normals: np.ndarray
 ) -> np.ndarray:
-    """``T_object_tcp`` candidates (P, 4, 4) around antipodal pairs.
+    """For each grasp, the outward normal (M, 3) of the nearest "side" of the object,
+    projected onto the plane normal to the closing line and normalised.
 
-    The closing axis starts on the contact line; the approach ``e_x`` turns to a uniform
-    angle about it; the frame tilts by up to ``cfg.tilt`` about ``e_y``; the TCP moves by
-    ``cfg.offset`` along the approach; half of the frames are flipped (the same grasp).
+    A side is a surface sample whose normal is within 60° of that plane (so not a face the
+    fingers press on); the nearest one to the contacts' midpoint is where fingers that close
+    along the line enter the object with the least depth. Grasps without such a sample get
+    NaN rows.
+    """
+    along = normals @ lines.T  # [p, m] normal component along grasp m's closing line
+    side = np.abs(along) < np.cos(np.deg2rad(30.0))
+    dist = np.linalg.norm(points[:, None, :] - midpoints[None, :, :], axis=-1)
+    nearest = np.argmin(np.where(side, dist, np.inf), axis=0)
+    n = normals[nearest] - along[nearest, np.arange(len(lines))][:, None] * lines
+    norm = np.linalg.norm(n, axis=1, keepdims=True)
+    ok = side[nearest, np.arange(len(lines))][:, None] & (norm > 1e-6)
+    return np.where(ok, n / np.maximum(norm, 1e-12), np.nan)
+
+
+def randomised_frames(
+    midpoints: np.ndarray,
+    lines: np.ndarray,
+    outward: np.ndarray,
+    cfg: DatabaseConfig,
+    rng: np.random.Generator,
+) -> np.ndarray:
+    """``T_object_tcp`` candidates (M, 4, 4) around antipodal pairs.
+
+    The closing axis starts on the contact line; the approach ``e_x`` points against
+    ``outward`` (:func:`side_normals`; the hand comes in through the nearest side), turned
+    about the closing axis by a uniform angle within ``±cfg.approach_cone`` (uniform over the
+    circle where ``outward`` is NaN); the frame tilts by up to ``cfg.tilt`` about ``e_y``; the
+    TCP moves by ``cfg.offset`` along the approach; half of the frames are flipped (the same
+    grasp). Approaching along the inward normal makes the approach a function of where the
+    TCP sits on the object, as in VGN's sampler, so grasps that share a voxel share an
+    approach (up to the cone) rather than spreading over the whole circle.
     """
     n = len(midpoints)
     e_z = lines
+    free = np.isnan(outward[:, 0])
     helper = np.where(np.abs(e_z[:, [0]]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
     a = np.cross(e_z, helper)
+    a = np.where(free[:, None], a, -np.nan_to_num(outward))
     a /= np.linalg.norm(a, axis=1, keepdims=True)
     b = np.cross(e_z, a)
-    theta = rng.uniform(0, 2 * np.pi, n)[:, None]
+    theta = np.where(
+        free, rng.uniform(-np.pi, np.pi, n), rng.uniform(-cfg.approach_cone, cfg.approach_cone, n)
+    )[:, None]
     e_x = np.cos(theta) * a + np.sin(theta) * b
     R = np.stack([e_x, np.cross(e_z, e_x), e_z], axis=-1)
     tilt = Rotation.from_rotvec(
@@ -240,10 +297,12 @@ def build_database(
     while (
         sum(held) < cfg.grasps and tried < cfg.max_candidates and placed < 10 * cfg.max_candidates
     ):
-        mid, line = antipodal_pairs(obj, spec.max_width, cfg.surface_points, rng)
+        points, normals = surface_samples(obj, cfg.surface_points, rng)
+        mid, line = antipodal_pairs(points, normals, obj.friction, spec.max_width, rng)
         if not len(mid):
             break
-        for T_object_tcp in randomised_frames(mid, line, cfg, rng):
+        outward = side_normals(mid, line, points, normals)
+        for T_object_tcp in randomised_frames(mid, line, outward, cfg, rng):
             if sum(held) >= cfg.grasps or tried >= cfg.max_candidates:
                 break
             placed += 1
@@ -276,7 +335,7 @@ def build_database(
         contact_force=np.asarray(forces, dtype=float),
         held=np.asarray(held, dtype=bool),
         resisted_force=resisted_arr,
-        score=np.minimum(resisted_arr / weight, cfg.score_clip) / cfg.score_clip,
+        score=rejection_score(resisted_arr, weight, cfg.score_clip),
         directions=dirs,
         candidates=tried,
     )
