@@ -7,19 +7,149 @@ from collections.abc import Sequence
 
 
 def _add_demo(subparsers: argparse._SubParsersAction) -> None:
+    from symgrasp.sim.grippers import GRIPPERS
+
     parser = subparsers.add_parser(
         "demo",
-        help="the main job of `make demo`",
-        description="Fit, sample and plot a 2D Bingham distribution (until the grasp pipeline "
-        "exists), and print where the pictures went.",
+        help="the main job of `make demo`: the shipped detector clears a simulated pile",
+        description="Drop a random pile of objects in the MuJoCo world, then repeatedly render "
+        "one depth image, detect grasps with a shipped model and execute the best "
+        "collision-free one, until the table is clear or two grasps fail in a row. Prints "
+        "every attempt and the round's success and clear ratios; writes a picture per attempt, "
+        "demo.html and summary.json into --out.",
     )
     parser.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed of the objects and the pile (default: 0)"
+    )
+    parser.add_argument(
+        "--gripper",
+        default="robotiq-2f85",
+        choices=GRIPPERS,
+        help="gripper; the shipped bingham2d model for it is used (default: robotiq-2f85)",
+    )
+    parser.add_argument(
+        "--objects",
+        default="household-test",
+        help="object set: household-test, household-train, large-box, blocks "
+        "(default: household-test)",
+    )
+    parser.add_argument(
+        "--num-objects", type=int, default=5, help="objects dropped on the table (default: 5)"
+    )
+    parser.add_argument(
+        "--model", default=None, help="a checkpoint path instead of the shipped model"
+    )
 
     def run(args: argparse.Namespace) -> None:
         from symgrasp.demo import run_demo
 
-        run_demo(out=args.out, seed=args.seed)
+        run_demo(args.out, args.seed, args.gripper, args.objects, args.num_objects, args.model)
+
+    parser.set_defaults(run=run)
+
+
+def _add_detect(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "detect",
+        help="detect grasps in a depth image",
+        description="Fuse a depth image into the workspace TSDF, run a grasp detector and write "
+        "grasps.json (T_world_tcp, scores, confidences; best first), grasps.png (points and the "
+        "top grasps coloured by score) and grasps.html (interactive 3-D view) into --out. The "
+        "workspace is the 30 cm cube from --workspace-origin, with the table 5 cm above its "
+        "floor, as in training.",
+    )
+    parser.add_argument(
+        "--depth",
+        required=True,
+        help="depth image: .npy in metres, or a 16-bit .png in units of --png-scale",
+    )
+    parser.add_argument(
+        "--intrinsic",
+        required=True,
+        help='JSON: {"fx", "fy", "cx", "cy"[, "width", "height"]} or a 3×3 matrix',
+    )
+    parser.add_argument(
+        "--extrinsic", required=True, help="JSON: the 4×4 camera pose T_world_camera [m]"
+    )
+    parser.add_argument(
+        "--model",
+        default="bingham2d-robotiq-2f85",
+        help="shipped model name or checkpoint path (default: bingham2d-robotiq-2f85)",
+    )
+    parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument(
+        "--png-scale", type=float, default=0.001, help="metres per PNG unit (default: 0.001)"
+    )
+    parser.add_argument(
+        "--workspace-origin",
+        type=float,
+        nargs=3,
+        default=(0.0, 0.0, 0.0),
+        metavar=("X", "Y", "Z"),
+        help="world position of the workspace cube's corner [m] (default: 0 0 0)",
+    )
+    parser.add_argument(
+        "--validity", type=float, default=0.5, help="validity threshold (default: 0.5)"
+    )
+    parser.add_argument(
+        "--confidence",
+        type=float,
+        default=None,
+        help="Bingham confidence threshold (default: 15 for bingham2d, none otherwise)",
+    )
+    parser.add_argument("--top-k", type=int, default=None, help="keep the best K grasps")
+    parser.add_argument(
+        "--samples-per-voxel",
+        type=int,
+        default=0,
+        help="draw N closing axes per voxel from the Bingham output (default: 0, the mode)",
+    )
+    parser.add_argument("--device", default="auto", help="auto, cpu or cuda (default: auto)")
+
+    def run(args: argparse.Namespace) -> None:
+        from symgrasp.detect import GraspDetector
+        from symgrasp.detect.files import (
+            load_depth,
+            load_extrinsic,
+            load_intrinsic,
+            write_detection,
+        )
+
+        depth = load_depth(args.depth, args.png_scale)
+        intrinsic = load_intrinsic(args.intrinsic, depth.shape)
+        extrinsic = load_extrinsic(args.extrinsic)
+        detector = GraspDetector.from_pretrained(
+            args.model,
+            device=args.device,
+            validity_threshold=args.validity,
+            confidence_threshold="default" if args.confidence is None else args.confidence,
+            top_k=args.top_k,
+            samples_per_voxel=args.samples_per_voxel,
+            workspace_origin=tuple(args.workspace_origin),
+        )
+        volume = detector.fuse(depth, intrinsic, extrinsic)
+        grasps = detector.detect_tsdf(volume.grid())
+        paths = write_detection(args.out, detector, volume, grasps)
+        print(f"{len(grasps)} grasps; " + ", ".join(str(p) for p in paths.values()))
+
+    parser.set_defaults(run=run)
+
+
+def _add_export(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "export",
+        help="strip a training checkpoint down to a shippable model",
+        description="Copy a checkpoint written by `symgrasp train` without its optimizer state "
+        "(what symgrasp ships in symgrasp/detect/models/).",
+    )
+    parser.add_argument("checkpoint", help="checkpoint path, e.g. runs/NAME/best.pt")
+    parser.add_argument("out", help="output .pt path")
+
+    def run(args: argparse.Namespace) -> None:
+        from symgrasp.detect import export_model
+
+        print(export_model(args.checkpoint, args.out))
 
     parser.set_defaults(run=run)
 
@@ -242,17 +372,91 @@ def _add_train(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(run=run)
 
 
+def _add_bench(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "bench",
+        help="benchmarks of trained detectors",
+        description="Benchmarks of trained detectors (symgrasp.benchmark).",
+    )
+    actions = parser.add_subparsers(
+        dest="action", required=True, metavar="ACTION", help="what to run (declutter)"
+    )
+    declutter = actions.add_parser(
+        "declutter",
+        help="simulated decluttering: success and clear ratios",
+        description="VGN's and the paper's declutter protocol: each round drops --num-objects "
+        "objects as a pile; before every attempt one depth image is fused, and the detector's "
+        "best grasp whose approach misses the observed scene is executed; a round ends when "
+        "the table is clear, no grasp is found or two attempts in a row fail. Round r uses seed "
+        "--seed + r. Writes rounds.jsonl, results.json (SR, CR with bootstrap 95%% intervals "
+        "over rounds, outcomes, planning time) and results.md into --out.",
+    )
+    declutter.add_argument(
+        "--model",
+        default="bingham2d-robotiq-2f85",
+        help="shipped model name or checkpoint path (default: bingham2d-robotiq-2f85)",
+    )
+    declutter.add_argument(
+        "--objects",
+        default="household-test",
+        help="object set: household-test, large-box, household-train, blocks "
+        "(default: household-test)",
+    )
+    declutter.add_argument(
+        "--num-objects", type=int, default=5, help="objects per round (default: 5)"
+    )
+    declutter.add_argument("--rounds", type=int, default=100, help="rounds (default: 100)")
+    declutter.add_argument("--seed", type=int, default=0, help="seed of round 0 (default: 0)")
+    declutter.add_argument(
+        "--workers", type=int, default=1, help="rounds run in parallel processes (default: 1)"
+    )
+    declutter.add_argument(
+        "--confidence",
+        type=float,
+        default=None,
+        help="Bingham confidence threshold (default: 15 for bingham2d, none otherwise)",
+    )
+    declutter.add_argument(
+        "--no-confidence",
+        action="store_true",
+        help="turn the confidence threshold off (the paper's 'without threshold' ablation)",
+    )
+    declutter.add_argument("--out", required=True, help="output folder")
+
+    def run(args: argparse.Namespace) -> None:
+        from symgrasp.benchmark.runner import BenchmarkConfig, markdown_table, run_benchmark
+
+        options = ()
+        if args.no_confidence:
+            options = (("confidence_threshold", None),)
+        elif args.confidence is not None:
+            options = (("confidence_threshold", args.confidence),)
+        config = BenchmarkConfig(
+            args.model, args.objects, args.num_objects, args.rounds, args.seed, options
+        )
+        summary = run_benchmark(config, args.out, args.workers)
+        print(markdown_table(summary, config), end="")
+        print(f"outcomes {summary['outcomes']}; results in {args.out}")
+
+    declutter.set_defaults(run=run)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="symgrasp",
         description="Learning 6-DoF grasp detection for parallel grippers with a "
         "planar-symmetric 2D-Bingham SO(3) representation.",
     )
-    subparsers = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    subparsers = parser.add_subparsers(
+        dest="command", required=True, metavar="COMMAND", help="the job to run"
+    )
     _add_demo(subparsers)
     _add_sim(subparsers)
     _add_data(subparsers)
     _add_train(subparsers)
+    _add_detect(subparsers)
+    _add_export(subparsers)
+    _add_bench(subparsers)
     return parser
 
 

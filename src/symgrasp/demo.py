@@ -1,117 +1,120 @@
-"""What ``make demo`` runs until the grasp pipeline exists: the 2D Bingham distribution at work.
+"""What ``make demo`` runs: the shipped detector clears a simulated pile, attempt by attempt.
 
-A closing-axis distribution like the paper's Fig. 6 (λ = (−50, −10, 0)) is sampled, fitted back
-by maximum likelihood, and drawn next to distributions of other shapes (the paper's Fig. 5),
-so a reader can see how the eigenvalues shape the uncertainty about e_z and that +e_z and −e_z
-are the same parameter set.
+A random pile of household objects falls on the table; before every attempt one depth image
+is rendered and the shipped ``bingham2d`` model proposes grasps; the best one whose approach
+is free is executed in MuJoCo (`symgrasp.benchmark.declutter.run_round`). The round ends when
+the table is clear or two grasps fail in a row. Each attempt is printed and drawn
+(``attempt_NN.png``: the observed points and the top grasps coloured by score, the executed
+one thick), and ``demo.html`` collects them with the round's success and clear ratios.
 """
 
 from __future__ import annotations
 
+import base64
+import html
 import json
-import math
+import time
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
-import torch
+from symgrasp.benchmark.declutter import Attempt, Round, run_round
+from symgrasp.detect import Grasp, GraspDetector
+from symgrasp.detect.show import save_grasps_png
+from symgrasp.sim import World, get_gripper
 
-from symgrasp.bingham import Bingham, fit
-
-SHAPES = {
-    "λ = (−50, −10, 0)": (-50.0, -10.0, 0.0),
-    "λ = (−200, −200, 0)": (-200.0, -200.0, 0.0),
-    "λ = (−100, −1, 0)": (-100.0, -1.0, 0.0),
-    "λ = (−5, −5, 0)": (-5.0, -5.0, 0.0),
-}
-NUM_SAMPLES = 2000
+DRAWN = 10
+"""Grasps drawn per attempt picture."""
 
 
-def _rotation(seed: int) -> torch.Tensor:
-    """A random rotation whose third column (the mode) is tilted 40–70° from the vertical."""
-    generator = torch.Generator().manual_seed(seed)
-    tilt, azimuth = torch.rand(2, generator=generator, dtype=torch.float64) * torch.tensor(
-        [0.5, 2 * math.pi]
-    )
-    tilt = tilt + 0.7
-    ct, st, ca, sa = tilt.cos(), tilt.sin(), azimuth.cos(), azimuth.sin()
-    about_x = torch.tensor([[1, 0, 0], [0, ct, -st], [0, st, ct]], dtype=torch.float64)
-    about_z = torch.tensor([[ca, -sa, 0], [sa, ca, 0], [0, 0, 1]], dtype=torch.float64)
-    return about_z @ about_x
-
-
-def _draw(ax, dist: Bingham, samples: torch.Tensor, title: str) -> None:
-    u, v = torch.meshgrid(
-        torch.linspace(0, 2 * math.pi, 40), torch.linspace(0, math.pi, 20), indexing="ij"
-    )
-    ax.plot_wireframe(u.cos() * v.sin(), u.sin() * v.sin(), v.cos(), color="0.85", linewidth=0.4)
-    x = samples.numpy()
-    ax.scatter(x[:, 0], x[:, 1], x[:, 2], s=2, alpha=0.5, color="tab:blue")
-    mode = dist.mode.numpy() * 1.35
-    for sign in (1, -1):  # both ±mode: one parameter set, two physical closing directions
-        ax.quiver(0, 0, 0, *(sign * mode), color="tab:red", linewidth=2, arrow_length_ratio=0.15)
-    ax.set_title(f"{title}\nconfidence {dist.confidence.item():.0f}", fontsize=9)
-    ax.set_box_aspect((1, 1, 1))
-    ax.view_init(elev=20, azim=35)
-    ax.set_axis_off()
-
-
-def run_demo(out: str | Path = "out/demo", seed: int = 0) -> dict:
-    """Sample, fit and plot Bingham distributions; writes ``bingham.png`` and ``summary.json``."""
+def run_demo(
+    out: str | Path = "out/demo",
+    seed: int = 0,
+    gripper: str = "robotiq-2f85",
+    objects: str = "household-test",
+    num_objects: int = 5,
+    model: str | None = None,
+) -> Round:
+    """Play one declutter round and write its pictures, ``demo.html`` and ``summary.json``."""
+    start = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    generator = torch.Generator().manual_seed(seed)
-    rotation = _rotation(seed)
+    name = model or f"bingham2d-{gripper}"
+    detector = GraspDetector.from_pretrained(name, device="cpu", gripper=gripper)
+    spec = get_gripper(detector.gripper)
+    pictures: list[Path] = []
+    print(f"model {name} ({detector.representation.name}, {detector.gripper}); seed {seed}")
 
-    figure = plt.figure(figsize=(12, 4.2))
-    summary: dict = {"seed": seed, "num_samples": NUM_SAMPLES, "distributions": []}
-    for i, (title, lam) in enumerate(SHAPES.items()):
-        A = rotation @ torch.diag(torch.tensor(lam, dtype=torch.float64)) @ rotation.T
-        truth = Bingham(A)
-        samples = truth.sample((NUM_SAMPLES,), generator=generator)
-        fitted = fit(samples)
-        fitted_lam = fitted.eigenvalues - fitted.eigenvalues[-1]
-        mode_error = math.degrees(
-            math.acos(min(1.0, abs(torch.dot(fitted.mode, truth.mode).item())))
+    def observe(world: World, points: np.ndarray, grasps: list[Grasp], attempt: Attempt) -> None:
+        n = len(pictures) + 1
+        line = f"attempt {n}: {attempt.outcome}"
+        if attempt.grasp is not None:
+            g = attempt.grasp
+            line += f"  (score {g.score:.2f}, confidence {_fmt(g.confidence)}, "
+            line += f"{attempt.rejected} colliding skipped, planning {attempt.planning_s:.2f} s)"
+        print(line)
+        shown = grasps[:DRAWN]
+        highlight = next((i for i, g in enumerate(shown) if g is attempt.grasp), None)
+        pictures.append(
+            save_grasps_png(
+                out / f"attempt_{n:02d}.png",
+                points,
+                np.array([g.pose for g in shown]).reshape(-1, 4, 4),
+                np.array([g.score for g in shown]),
+                spec,
+                title=f"attempt {n}: {attempt.outcome} ({attempt.objects_before} objects)",
+                highlight=highlight,
+            )
         )
-        summary["distributions"].append(
-            {
-                "eigenvalues": list(lam),
-                "fitted_eigenvalues": [round(x, 3) for x in fitted_lam.tolist()],
-                "fitted_mode_error_deg": round(mode_error, 3),
-                "confidence": truth.confidence.item(),
-                "percentile_99_deg_approx": [
-                    round(math.degrees(truth.percentile_angle(0.99, axis).item()), 2)
-                    for axis in (0, 1)
-                ],
-                "percentile_99_deg_samples": [
-                    round(
-                        math.degrees(
-                            truth.percentile_angle_mc(0.99, axis, 20_000, generator).item()
-                        ),
-                        2,
-                    )
-                    for axis in (0, 1)
-                ],
-            }
-        )
-        _draw(figure.add_subplot(1, len(SHAPES), i + 1, projection="3d"), truth, samples, title)
-    figure.suptitle(
-        "2D Bingham distributions of the closing axis e_z: samples (blue) and ±mode (red)"
+
+    record = run_round(detector, objects, num_objects, seed, observer=observe)
+    summary = {
+        "model": name,
+        "gripper": detector.gripper,
+        "objects": objects,
+        "seed": seed,
+        "objects_presented": record.objects,
+        "attempts": [a.outcome for a in record.attempts],
+        "successes": record.successes,
+        "success_ratio": record.success_ratio,
+        "clear_ratio": record.clear_ratio,
+        "seconds": time.perf_counter() - start,
+    }
+    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    _write_html(out / "demo.html", summary, record, pictures)
+    print(
+        f"success ratio {record.success_ratio:.0%} ({record.successes}/{record.executed}), "
+        f"clear ratio {record.clear_ratio:.0%} ({record.successes}/{record.objects}) "
+        f"in {summary['seconds']:.0f} s; pictures and demo.html in {out}"
     )
-    figure.tight_layout(rect=(0, 0, 1, 0.93))
-    picture = out / "bingham.png"
-    figure.savefig(picture, dpi=110)
-    plt.close(figure)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    return record
 
-    for entry in summary["distributions"]:
-        print(
-            f"λ = {tuple(entry['eigenvalues'])}: fitted {tuple(entry['fitted_eigenvalues'])}, "
-            f"mode error {entry['fitted_mode_error_deg']:.2f}°, confidence {entry['confidence']:.0f}, "
-            f"θ99 approx {entry['percentile_99_deg_approx']}° vs samples {entry['percentile_99_deg_samples']}°"
-        )
-    print(f"wrote {picture} and {out / 'summary.json'}")
-    return summary
+
+def _fmt(value: float | None) -> str:
+    return "–" if value is None else f"{value:.0f}"
+
+
+def _write_html(path: Path, summary: dict, record: Round, pictures: list[Path]) -> None:
+    """A self-contained page: the round's numbers and every attempt's picture inline."""
+    rows = "".join(
+        f"<tr><td>{i + 1}</td><td>{html.escape(a.outcome)}</td>"
+        f"<td>{'' if a.grasp is None else f'{a.grasp.score:.2f}'}</td>"
+        f"<td>{_fmt(None if a.grasp is None else a.grasp.confidence)}</td>"
+        f"<td>{a.planning_s:.2f}</td></tr>"
+        for i, a in enumerate(record.attempts)
+    )
+    figures = "".join(
+        f'<figure><img src="data:image/png;base64,{base64.b64encode(p.read_bytes()).decode()}">'
+        f"<figcaption>{html.escape(p.name)}</figcaption></figure>"
+        for p in pictures
+    )
+    page = f"""<!doctype html><html><head><meta charset="utf-8"><title>symgrasp demo</title>
+<style>body{{font-family:sans-serif;margin:2em}}img{{max-width:100%}}
+td,th{{padding:2px 10px;text-align:left}}</style></head><body>
+<h1>symgrasp demo: {html.escape(summary["model"])} on {html.escape(summary["objects"])}</h1>
+<p>seed {summary["seed"]}: {summary["objects_presented"]} objects, {record.executed} grasps
+executed, {record.successes} succeeded. Success ratio {record.success_ratio:.0%}, clear ratio
+{record.clear_ratio:.0%}, {summary["seconds"]:.0f} s.</p>
+<table><tr><th>attempt</th><th>outcome</th><th>score</th><th>confidence</th>
+<th>planning [s]</th></tr>{rows}</table>{figures}</body></html>"""
+    path.write_text(page)

@@ -1,0 +1,157 @@
+"""One round of simulated decluttering: the protocol of VGN and the paper (Sec. 4.3).
+
+A round drops ``N`` objects of a set as a pile on the table. Before every attempt one depth
+image is rendered from a fixed camera and fused; the detector's grasps are tried in
+gravity-rejection-score order and the first whose open hand, from the pre-grasp along the
+approach to the grasp, misses the *observed* surface and the table
+(`symgrasp.data.collision.hand_collides`, what a robot can check) is executed
+(`symgrasp.sim.execute.execute_grasp`); a successful grasp removes its object. The round ends
+when the table is clear, no grasp is found, or ``max_failures`` attempts in a row fail.
+
+A round is a pure function of its seed: the same seed gives the same round.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from symgrasp.data.collision import hand_collides
+from symgrasp.detect import Grasp, GraspDetector
+from symgrasp.perception import CameraIntrinsic, make_renderer
+from symgrasp.perception.camera import default_extrinsic
+from symgrasp.sim import World
+from symgrasp.sim.execute import execute_grasp
+from symgrasp.sim.objects import object_set
+from symgrasp.sim.world import pile_scene
+
+NONE_FOUND = "none_found"
+"""The outcome of an attempt for which the detector proposed no executable grasp."""
+
+
+@dataclass(frozen=True)
+class Attempt:
+    """One grasp attempt of a round.
+
+    Attributes:
+        outcome: an `symgrasp.sim.execute.Outcome` value, or `NONE_FOUND`.
+        grasp: the executed grasp (None when none was found).
+        candidates: grasps the detector proposed.
+        rejected: of those, skipped because their approach hit the observed scene.
+        planning_s: seconds from the depth image to the chosen grasp (fusion, network,
+            decoding, collision checks).
+        objects_before: objects on the table before the attempt.
+    """
+
+    outcome: str
+    grasp: Grasp | None
+    candidates: int
+    rejected: int
+    planning_s: float
+    objects_before: int
+
+    @property
+    def success(self) -> bool:
+        return self.outcome == "success"
+
+
+@dataclass
+class Round:
+    """The record of one round: ``objects`` presented (those left on the table after the
+    pile settled) and its attempts."""
+
+    seed: int
+    objects: int
+    attempts: list[Attempt] = field(default_factory=list)
+
+    @property
+    def successes(self) -> int:
+        return sum(a.success for a in self.attempts)
+
+    @property
+    def executed(self) -> int:
+        """Attempts that executed a grasp (a round's last attempt may have found none)."""
+        return sum(a.outcome != NONE_FOUND for a in self.attempts)
+
+    @property
+    def success_ratio(self) -> float:
+        """Successes / executed attempts (NaN when nothing was executed)."""
+        return self.successes / self.executed if self.executed else float("nan")
+
+    @property
+    def clear_ratio(self) -> float:
+        """Successes / objects presented."""
+        return self.successes / self.objects if self.objects else float("nan")
+
+
+Observer = Callable[[World, np.ndarray, list[Grasp], Attempt], None]
+"""Called after each attempt with the world (as the attempt left it), the surface points
+(P, 3) observed before the attempt, the candidate grasps and the attempt."""
+
+
+def run_round(
+    detector: GraspDetector,
+    objects: str = "household-test",
+    num_objects: int = 5,
+    seed: int = 0,
+    max_failures: int = 2,
+    max_attempts: int | None = None,
+    intrinsic: CameraIntrinsic | None = None,
+    T_world_camera: np.ndarray | None = None,
+    observer: Observer | None = None,
+) -> Round:
+    """Play one declutter round with ``detector`` (its gripper) on ``num_objects`` objects of
+    the set ``objects``; the pile and the objects are drawn from ``seed``.
+
+    ``max_attempts`` defaults to twice the number of objects; the camera defaults to the
+    workspace's default view (`symgrasp.perception.camera.default_extrinsic`).
+    """
+    if num_objects < 1 or max_failures < 1:
+        raise ValueError(
+            f"num_objects and max_failures must be ≥ 1, got {num_objects}, {max_failures}"
+        )
+    intrinsic = intrinsic or CameraIntrinsic()
+    T_world_camera = default_extrinsic() if T_world_camera is None else T_world_camera
+    renderer = make_renderer(intrinsic)
+    world = pile_scene(object_set(objects, num_objects, seed), seed=seed, gripper=detector.gripper)
+    record = Round(seed, len(world.objects))
+    max_attempts = 2 * num_objects if max_attempts is None else max_attempts
+    failures = 0
+    while world.objects and failures < max_failures and len(record.attempts) < max_attempts:
+        start = time.perf_counter()
+        depth = renderer.render(world, T_world_camera)
+        volume = detector.fuse(depth, intrinsic, T_world_camera)
+        candidates = detector.detect_tsdf(volume.grid())
+        points = volume.point_cloud().cpu().numpy()
+        chosen, rejected = _first_free(candidates, detector.gripper, points)
+        planning = time.perf_counter() - start
+        before = len(world.objects)
+        if chosen is None:
+            outcome = NONE_FOUND
+        else:
+            outcome = execute_grasp(world, chosen.pose, detector.gripper).outcome.value
+        attempt = Attempt(outcome, chosen, len(candidates), rejected, planning, before)
+        record.attempts.append(attempt)
+        if observer is not None:
+            observer(world, points, candidates, attempt)
+        if chosen is None:
+            break
+        failures = 0 if attempt.success else failures + 1
+    return record
+
+
+def _first_free(
+    candidates: list[Grasp], gripper: str, points: np.ndarray, batch: int = 8
+) -> tuple[Grasp | None, int]:
+    """The first candidate whose approach misses ``points`` and the table, and how many
+    before it were rejected. Checked in small batches: the first one usually passes."""
+    for start in range(0, len(candidates), batch):
+        chunk = candidates[start : start + batch]
+        hits = hand_collides(np.array([g.pose for g in chunk]), gripper, points)
+        free = np.flatnonzero(~hits)
+        if len(free):
+            return chunk[free[0]], start + int(free[0])
+    return None, len(candidates)

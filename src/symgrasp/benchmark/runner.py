@@ -1,0 +1,186 @@
+"""The declutter benchmark: many independent rounds, pooled ratios with confidence intervals.
+
+Round ``r`` of a benchmark with seed ``s`` is `run_round` with seed ``s + r``: a pure task, so
+rounds run in any number of processes (or on a cluster engine) and a round can be rerun alone.
+A round that raises is recorded as an error with its seed and the message; the benchmark goes
+on. Ratios pool all rounds, as the paper and VGN do (SR = successes / executed grasps,
+CR = successes / objects presented); their 95 % intervals come from a bootstrap over rounds
+(rounds are the independent units; attempts within a round are not).
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import traceback
+from collections import Counter
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from symgrasp.benchmark.declutter import Round, run_round
+
+BOOTSTRAP = 2000
+"""Bootstrap resamples of the rounds for the confidence intervals."""
+
+
+@dataclass(frozen=True)
+class BenchmarkConfig:
+    """What a declutter benchmark runs: ``model`` (shipped name or checkpoint path) on
+    ``rounds`` rounds of ``num_objects`` objects of the set ``objects``, seeds
+    ``seed … seed + rounds − 1``; ``options`` go to `GraspDetector.from_pretrained`."""
+
+    model: str = "bingham2d-robotiq-2f85"
+    objects: str = "household-test"
+    num_objects: int = 5
+    rounds: int = 100
+    seed: int = 0
+    options: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.rounds < 1 or self.num_objects < 1 or self.seed < 0:
+            raise ValueError(
+                f"rounds and num_objects must be ≥ 1 and seed ≥ 0, got {self.rounds}, "
+                f"{self.num_objects}, {self.seed}"
+            )
+
+
+def round_record(record: Round) -> dict[str, Any]:
+    """A round as plain JSON data."""
+    return {
+        "seed": record.seed,
+        "objects": record.objects,
+        "successes": record.successes,
+        "executed": record.executed,
+        "attempts": [
+            {
+                "outcome": a.outcome,
+                "score": None if a.grasp is None else a.grasp.score,
+                "confidence": None if a.grasp is None else a.grasp.confidence,
+                "candidates": a.candidates,
+                "rejected": a.rejected,
+                "planning_s": a.planning_s,
+            }
+            for a in record.attempts
+        ],
+    }
+
+
+_WORKER: dict[str, Any] = {}
+
+
+def _init_worker(config: BenchmarkConfig, threads: int) -> None:
+    import torch
+
+    from symgrasp.detect import GraspDetector
+
+    torch.set_num_threads(threads)
+    _WORKER["config"] = config
+    _WORKER["detector"] = GraspDetector.from_pretrained(
+        config.model, device="cpu", **dict(config.options)
+    )
+
+
+def _round_task(seed: int) -> dict[str, Any]:
+    config: BenchmarkConfig = _WORKER["config"]
+    try:
+        record = run_round(_WORKER["detector"], config.objects, config.num_objects, seed)
+        return round_record(record)
+    except Exception as error:  # a crashed round is data, not the end of the benchmark
+        return {"seed": seed, "error": f"{type(error).__name__}: {error}",
+                "traceback": traceback.format_exc()}  # fmt: skip
+
+
+def run_rounds(config: BenchmarkConfig, workers: int = 1) -> Iterator[dict[str, Any]]:
+    """The round records of ``config``, in seed order, with a progress bar."""
+    seeds = [config.seed + r for r in range(config.rounds)]
+    bar = tqdm(total=len(seeds), desc="declutter rounds", unit="round")
+    if workers <= 1:
+        _init_worker(config, threads=max(1, min(2, os.cpu_count() or 1)))
+        results: Iterator[dict[str, Any]] = map(_round_task, seeds)
+        for result in results:
+            bar.update()
+            yield result
+    else:
+        spawn = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(workers, spawn, initializer=_init_worker,
+                                 initargs=(config, 1)) as pool:  # fmt: skip
+            for result in pool.map(_round_task, seeds, chunksize=1):
+                bar.update()
+                yield result
+    bar.close()
+
+
+def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
+    """Pooled SR and CR with bootstrap 95 % intervals, outcome counts, planning time."""
+    done = [r for r in rounds if "error" not in r]
+    successes = np.array([r["successes"] for r in done], dtype=float)
+    executed = np.array([r["executed"] for r in done], dtype=float)
+    objects = np.array([r["objects"] for r in done], dtype=float)
+    outcomes = Counter(a["outcome"] for r in done for a in r["attempts"])
+    planning = [a["planning_s"] for r in done for a in r["attempts"]]
+    summary = {
+        "rounds": len(rounds),
+        "errors": [{"seed": r["seed"], "error": r["error"]} for r in rounds if "error" in r],
+        "objects": int(objects.sum()),
+        "executed": int(executed.sum()),
+        "successes": int(successes.sum()),
+        "success_ratio": _ratio(successes, executed),
+        "clear_ratio": _ratio(successes, objects),
+        "outcomes": dict(sorted(outcomes.items())),
+        "planning_s_median": float(np.median(planning)) if planning else float("nan"),
+    }
+    rng = np.random.default_rng(seed)
+    picks = rng.integers(len(done), size=(BOOTSTRAP, len(done))) if done else None
+    for name, denominator in (("success_ratio", executed), ("clear_ratio", objects)):
+        interval = [float("nan")] * 2
+        if picks is not None and denominator.sum() > 0:
+            totals = denominator[picks].sum(1)
+            ratios = successes[picks].sum(1)[totals > 0] / totals[totals > 0]
+            interval = [float(np.percentile(ratios, q)) for q in (2.5, 97.5)]
+        summary[f"{name}_ci95"] = interval
+    return summary
+
+
+def _ratio(numerator: np.ndarray, denominator: np.ndarray) -> float:
+    """Pooled ratio sum(numerator) / sum(denominator), NaN when the denominator is 0."""
+    total = float(denominator.sum())
+    return float(numerator.sum()) / total if total else float("nan")
+
+
+def markdown_table(summary: dict[str, Any], config: BenchmarkConfig) -> str:
+    """One Markdown row per benchmark (with its header)."""
+
+    def pct(name: str) -> str:
+        lo, hi = summary[f"{name}_ci95"]
+        return f"{100 * summary[name]:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
+
+    return (
+        "| model | objects | rounds | SR % [95 % CI] | CR % [95 % CI] | grasps | errors |\n"
+        "|---|---|---|---|---|---|---|\n"
+        f"| {config.model} | {config.objects} | {summary['rounds']} | {pct('success_ratio')} "
+        f"| {pct('clear_ratio')} | {summary['executed']} | {len(summary['errors'])} |\n"
+    )
+
+
+def run_benchmark(config: BenchmarkConfig, out: str | Path, workers: int = 1) -> dict[str, Any]:
+    """Run ``config``, write ``rounds.jsonl``, ``results.json`` and ``results.md`` into
+    ``out``, and return the summary."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rounds = []
+    with open(out / "rounds.jsonl", "w") as lines:
+        for record in run_rounds(config, workers):
+            rounds.append(record)
+            lines.write(json.dumps(record) + "\n")
+    summary = summarise(rounds, config.seed)
+    result = {"config": asdict(config), "summary": summary}
+    (out / "results.json").write_text(json.dumps(result, indent=1) + "\n")
+    (out / "results.md").write_text(markdown_table(summary, config))
+    return summary

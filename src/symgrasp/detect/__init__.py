@@ -1,0 +1,13 @@
+"""Grasp detection for robots: depth images in, ranked 6-DoF grasps out.
+
+from symgrasp.detect import GraspDetector
+detector = GraspDetector.from_pretrained("bingham2d-robotiq-2f85")
+grasps = detector.detect(depth, intrinsic, T_world_camera)   # best first
+waypoints = grasps[0].approach_trajectory()                   # pre-grasp, grasp, lift
+"""
+
+from symgrasp.detect.detector import GraspDetector
+from symgrasp.detect.grasp import Grasp
+from symgrasp.detect.pretrained import PRETRAINED, export_model
+
+__all__ = ["PRETRAINED", "Grasp", "GraspDetector", "export_model"]

@@ -1,0 +1,352 @@
+"""`GraspDetector`: depth images in, ranked 6-DoF grasps out.
+
+The pipeline of the paper's detector (Sec. 3.3 and 4.3): fuse the depth images into the 40³
+TSDF of the workspace, run the network once, keep voxels whose validity passes a threshold,
+decode a rotation per voxel (for ``bingham2d``: e_z the mode of B(A), Eq. eq:modequaternion,
+then Gram–Schmidt keeping e_x), drop grasps whose Bingham confidence (λ₃ − λ₂) + (λ₃ − λ₁)
+is below the threshold (15 in the paper), suppress non-maxima of the score, and sort by the
+gravity-rejection score. With ``samples_per_voxel`` the closing axis is instead drawn from
+B(A) several times per voxel (the paper's third decoding mode, Sec. 3.3).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from symgrasp import rotation
+from symgrasp.detect.grasp import Grasp
+from symgrasp.detect.pretrained import resolve_model
+from symgrasp.model.checkpoint import load_model
+from symgrasp.model.network import GraspNet
+from symgrasp.perception import CameraIntrinsic, TSDFVolume
+from symgrasp.sim.world import WORKSPACE_SIZE
+
+Tensor = torch.Tensor
+
+RESOLUTION = 40
+"""Voxels per workspace edge (the network's input)."""
+
+DEFAULT_CONFIDENCE = {"bingham2d": rotation.PAPER_CONFIDENCE_THRESHOLD}
+"""Default confidence threshold per representation; the others have none."""
+
+
+def resolve_device(device: str | torch.device) -> torch.device:
+    """``"auto"`` → CUDA when available, else CPU; anything else as given."""
+    if device == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    return torch.device(device)
+
+
+class GraspDetector:
+    """A trained `GraspNet` with its decoding options.
+
+    Args:
+        model: the network (any representation).
+        gripper: the gripper the network was trained for.
+        validity_threshold: keep voxels whose validity probability is at least this.
+        confidence_threshold: keep grasps whose Bingham confidence is at least this;
+            ``"default"`` is 15 for ``bingham2d`` (the paper's value) and off for the others,
+            None turns it off.
+        nms_radius: a kept voxel must have the highest score within this many voxels
+            (a (2r+1)³ neighbourhood); 0 turns non-maximum suppression off.
+        top_k: return at most this many grasps (None: all).
+        bounds: world-frame box ``(lo (3,), hi (3,))`` [m] the TCP must lie in (None: all).
+        samples_per_voxel: 0 decodes the mode; n ≥ 1 draws n closing axes per voxel from the
+            predicted distribution (Bingham representations only).
+        workspace_origin: world position [m] of the workspace cube's corner; the table top is
+            expected 5 cm above it, as in training (docs/sim.md).
+        seed: seed of ``samples_per_voxel``'s draws.
+        device: ``"auto"``, ``"cpu"``, ``"cuda"``, … where TSDF and network run.
+        info: the checkpoint's metadata (shown by `repr`, kept for model cards).
+    """
+
+    def __init__(
+        self,
+        model: GraspNet,
+        gripper: str,
+        *,
+        validity_threshold: float = 0.5,
+        confidence_threshold: float | str | None = "default",
+        nms_radius: int = 2,
+        top_k: int | None = None,
+        bounds: tuple[np.ndarray, np.ndarray] | None = None,
+        samples_per_voxel: int = 0,
+        workspace_origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        seed: int = 0,
+        device: str | torch.device = "auto",
+        info: dict[str, Any] | None = None,
+    ) -> None:
+        self.representation = model.representation
+        if not 0.0 <= validity_threshold <= 1.0:
+            raise ValueError(f"validity_threshold must be in [0, 1], got {validity_threshold}")
+        if confidence_threshold == "default":
+            confidence_threshold = DEFAULT_CONFIDENCE.get(self.representation.name)
+        elif isinstance(confidence_threshold, str):
+            raise ValueError(
+                f"confidence_threshold must be a number, 'default' or None, "
+                f"got {confidence_threshold!r}"
+            )
+        if confidence_threshold is not None and self.representation.name not in (
+            "bingham2d",
+            "bingham3d",
+        ):
+            raise ValueError(
+                f"confidence_threshold needs a Bingham representation; this model is "
+                f"{self.representation.name!r} (pass None)"
+            )
+        if nms_radius < 0 or (top_k is not None and top_k < 1) or samples_per_voxel < 0:
+            raise ValueError(
+                "nms_radius and samples_per_voxel must be ≥ 0 and top_k ≥ 1 or None, "
+                f"got {nms_radius}, {samples_per_voxel}, {top_k}"
+            )
+        if samples_per_voxel and not self.representation.has_distribution:
+            raise ValueError(
+                f"samples_per_voxel needs a distribution; {self.representation.name!r} "
+                "predicts a single rotation (use 0)"
+            )
+        self.device = resolve_device(device)
+        self.model = model.to(self.device).eval()
+        self.gripper = gripper
+        self.validity_threshold = float(validity_threshold)
+        self.confidence_threshold = confidence_threshold
+        self.nms_radius = int(nms_radius)
+        self.top_k = top_k
+        self.bounds = None if bounds is None else _check_bounds(bounds)
+        self.samples_per_voxel = int(samples_per_voxel)
+        self.origin = np.asarray(workspace_origin, dtype=float).reshape(3)
+        self.voxel_size = WORKSPACE_SIZE / RESOLUTION
+        self.seed = seed
+        self.info = info or {}
+        self.timing: dict[str, float] = {}
+        """Milliseconds per stage of the last call (``tsdf``, ``network``, ``decode``)."""
+
+    @classmethod
+    def from_pretrained(
+        cls,
+        name_or_path: str | Path,
+        device: str | torch.device = "auto",
+        gripper: str | None = None,
+        **options: Any,
+    ) -> GraspDetector:
+        """A detector from a shipped model name (`symgrasp.detect.PRETRAINED`) or a checkpoint
+        path written by ``symgrasp train``. ``gripper``: the gripper you will use; a model
+        trained for another one is loaded with a warning. ``options``: see the class."""
+        path = resolve_model(name_or_path)
+        model, state = load_model(path, map_location="cpu")
+        trained_for = state["gripper"]
+        if gripper is not None and gripper != trained_for:
+            warnings.warn(
+                f"model {name_or_path} was trained for the {trained_for!r} gripper, not "
+                f"{gripper!r}: its grasps fit {trained_for!r}'s geometry",
+                stacklevel=2,
+            )
+        info = {k: v for k, v in state.items() if k not in ("model", "optimizer")}
+        return cls(model, trained_for, device=device, info=info, **options)
+
+    def __repr__(self) -> str:
+        return (
+            f"GraspDetector(representation={self.representation.name!r}, "
+            f"gripper={self.gripper!r}, device={str(self.device)!r})"
+        )
+
+    # -- inputs ------------------------------------------------------------------------
+
+    def fuse(
+        self,
+        depth: np.ndarray | Tensor,
+        intrinsic: CameraIntrinsic | np.ndarray,
+        extrinsic: np.ndarray | Tensor,
+    ) -> TSDFVolume:
+        """The workspace TSDF of depth images ``depth`` (H, W) or (V, H, W) [m] taken by
+        cameras ``intrinsic`` (a `CameraIntrinsic` or a 3×3 matrix) at ``extrinsic``
+        ``T_world_camera`` (4, 4) or (V, 4, 4). NaN, inf and non-positive pixels count as
+        missing."""
+        depth = np.asarray(torch.as_tensor(depth).cpu(), dtype=np.float32)
+        if depth.ndim not in (2, 3) or min(depth.shape) == 0:
+            raise ValueError(f"depth must be (H, W) or (V, H, W), got shape {depth.shape}")
+        depth = np.where(np.isfinite(depth) & (depth > 0), depth, 0.0)
+        views = depth.reshape(-1, *depth.shape[-2:])
+        intrinsic = _as_intrinsic(intrinsic, views.shape[1:])
+        T = _check_extrinsic(extrinsic, len(views))
+        volume = TSDFVolume(resolution=RESOLUTION, origin=tuple(self.origin), device=self.device)
+        volume.integrate(views, intrinsic, T)
+        return volume
+
+    # -- detection ---------------------------------------------------------------------
+
+    def detect(
+        self,
+        depth: np.ndarray | Tensor,
+        intrinsic: CameraIntrinsic | np.ndarray,
+        extrinsic: np.ndarray | Tensor,
+    ) -> list[Grasp]:
+        """Ranked grasps (best gravity-rejection score first) from one or several depth
+        images; arguments as in `fuse`. An empty scene gives an empty list."""
+        start = time.perf_counter()
+        volume = self.fuse(depth, intrinsic, extrinsic)
+        tsdf_ms = _ms_since(start, self.device)
+        grasps = self.detect_tsdf(volume.grid())
+        self.timing = {"tsdf": tsdf_ms, **self.timing}
+        return grasps
+
+    @torch.no_grad()
+    def predict(self, tsdf: np.ndarray | Tensor) -> dict[str, Tensor]:
+        """The network's per-voxel outputs for a TSDF (40, 40, 40): ``score``, ``validity``
+        (probability) ``[40, 40, 40]`` and ``rotation`` channels ``[40, 40, 40, C]``."""
+        grid = torch.as_tensor(tsdf, dtype=torch.float32, device=self.device)
+        if grid.shape != (RESOLUTION,) * 3:
+            raise ValueError(
+                f"tsdf must be ({RESOLUTION}, {RESOLUTION}, {RESOLUTION}), "
+                f"got shape {tuple(grid.shape)}"
+            )
+        out = self.model(grid[None, None])
+        return {
+            "score": out.score[0],
+            "validity": torch.sigmoid(out.validity[0]),
+            "rotation": out.rotation[0].movedim(0, -1),
+        }
+
+    @torch.no_grad()
+    def detect_tsdf(self, tsdf: np.ndarray | Tensor) -> list[Grasp]:
+        """Ranked grasps from a workspace TSDF (40, 40, 40) in [-1, 1]."""
+        start = time.perf_counter()
+        out = self.predict(tsdf)
+        network_ms = _ms_since(start, self.device)
+        start = time.perf_counter()
+        grasps = self._decode(out)
+        self.timing = {"network": network_ms, "decode": _ms_since(start, self.device)}
+        return grasps
+
+    def _decode(self, out: dict[str, Tensor]) -> list[Grasp]:
+        keep = out["validity"] >= self.validity_threshold
+        if self.bounds is not None:
+            keep &= self._inside_bounds()
+        index = keep.nonzero()  # [M, 3]
+        pred = out["rotation"][keep].double()
+        decoded = self.representation.decode(pred)
+        confidence = decoded.confidence
+        if self.confidence_threshold is not None and confidence is not None:
+            confident = confidence >= self.confidence_threshold
+            index, pred, confidence = index[confident], pred[confident], confidence[confident]
+            rotations = decoded.rotation[confident]
+        else:
+            rotations = decoded.rotation
+        if self.nms_radius and len(index):
+            local_max = self._local_maxima(out["score"], index)
+            index, pred, rotations = index[local_max], pred[local_max], rotations[local_max]
+            confidence = None if confidence is None else confidence[local_max]
+        score = out["score"][tuple(index.T)]
+        order = torch.argsort(score, descending=True, stable=True)
+        if self.top_k is not None:
+            order = order[: self.top_k]
+        index, score, pred, rotations = index[order], score[order], pred[order], rotations[order]
+        confidence = None if confidence is None else confidence[order]
+        validity = out["validity"][tuple(index.T)]
+        if self.samples_per_voxel:
+            generator = torch.Generator(self.device).manual_seed(self.seed)
+            rotations = self.representation.sample(pred, self.samples_per_voxel, generator)
+        else:
+            rotations = rotations[:, None]
+        return self._grasps(index, rotations, score, validity, confidence)
+
+    def _inside_bounds(self) -> Tensor:
+        lo, hi = (torch.as_tensor(b, device=self.device) for b in self.bounds)
+        idx = torch.arange(RESOLUTION, device=self.device, dtype=torch.float64)
+        axes = [self.origin[a] + (idx + 0.5) * self.voxel_size for a in range(3)]
+        inside = [(axes[a] >= lo[a]) & (axes[a] <= hi[a]) for a in range(3)]
+        return inside[0][:, None, None] & inside[1][None, :, None] & inside[2][None, None, :]
+
+    def _local_maxima(self, score: Tensor, index: Tensor) -> Tensor:
+        """Which of the candidate voxels ``index`` [M, 3] hold the highest score among the
+        candidates within ``nms_radius`` voxels."""
+        candidates = torch.full_like(score, -torch.inf)
+        candidates[tuple(index.T)] = score[tuple(index.T)]
+        r = self.nms_radius
+        pooled = F.max_pool3d(candidates[None, None], 2 * r + 1, stride=1, padding=r)[0, 0]
+        at = tuple(index.T)
+        return candidates[at] >= pooled[at]
+
+    def _grasps(
+        self,
+        index: Tensor,
+        rotations: Tensor,
+        score: Tensor,
+        validity: Tensor,
+        confidence: Tensor | None,
+    ) -> list[Grasp]:
+        """One `Grasp` per voxel and rotation: ``rotations`` [M, S, 3, 3]."""
+        centres = self.origin + (index.cpu().numpy() + 0.5) * self.voxel_size
+        rotations = rotations.cpu().numpy()
+        score, validity = score.cpu().tolist(), validity.cpu().tolist()
+        conf = [None] * len(score) if confidence is None else confidence.cpu().tolist()
+        voxels = [tuple(int(v) for v in row) for row in index.cpu().tolist()]
+        grasps = []
+        for m in range(len(voxels)):
+            for R in rotations[m]:
+                pose = np.eye(4)
+                pose[:3, :3], pose[:3, 3] = R, centres[m]
+                grasps.append(Grasp(pose, score[m], validity[m], conf[m], voxels[m]))
+        return grasps
+
+
+def _ms_since(start: float, device: torch.device) -> float:
+    if device.type == "cuda":
+        torch.cuda.synchronize(device)
+    return 1e3 * (time.perf_counter() - start)
+
+
+def _as_intrinsic(
+    intrinsic: CameraIntrinsic | np.ndarray, shape: tuple[int, int]
+) -> CameraIntrinsic:
+    """A `CameraIntrinsic` for images of ``shape`` (H, W) from one or a 3×3 matrix."""
+    height, width = int(shape[0]), int(shape[1])
+    if isinstance(intrinsic, CameraIntrinsic):
+        if (intrinsic.height, intrinsic.width) != (height, width):
+            raise ValueError(
+                f"depth images are {height}×{width} (H×W) but the intrinsic is for "
+                f"{intrinsic.height}×{intrinsic.width}"
+            )
+        return intrinsic
+    K = np.asarray(intrinsic, dtype=float)
+    if K.shape != (3, 3):
+        raise ValueError(f"intrinsic must be a CameraIntrinsic or 3×3 matrix, got shape {K.shape}")
+    return CameraIntrinsic(width, height, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+
+
+def _check_extrinsic(extrinsic: np.ndarray | Tensor, views: int) -> np.ndarray:
+    """``T_world_camera`` as (V, 4, 4); raises ValueError unless every one is rigid."""
+    T = np.asarray(torch.as_tensor(extrinsic).cpu(), dtype=float)
+    if T.shape == (4, 4):
+        T = T[None]
+    if T.shape != (views, 4, 4):
+        raise ValueError(
+            f"extrinsic must be T_world_camera (4, 4) or ({views}, 4, 4) for {views} depth "
+            f"image(s), got shape {T.shape}"
+        )
+    R = T[:, :3, :3]
+    rigid = (
+        np.allclose(R @ R.transpose(0, 2, 1), np.eye(3), atol=1e-4)
+        and np.allclose(np.linalg.det(R), 1.0, atol=1e-4)
+        and np.allclose(T[:, 3], [0, 0, 0, 1])
+        and np.isfinite(T).all()
+    )
+    if not rigid:
+        raise ValueError(
+            f"extrinsic of shape {T.shape} is not a rigid transform: its rotation block must be "
+            "orthonormal with det +1 and its last row (0, 0, 0, 1)"
+        )
+    return T
+
+
+def _check_bounds(bounds: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = (np.asarray(b, dtype=float) for b in bounds)
+    if lo.shape != (3,) or hi.shape != (3,) or np.any(lo > hi):
+        raise ValueError(f"bounds must be (lo (3,), hi (3,)) with lo ≤ hi, got {bounds}")
+    return lo, hi

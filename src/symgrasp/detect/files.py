@@ -1,0 +1,139 @@
+"""Detection inputs and outputs as files: what ``symgrasp detect`` reads and writes.
+
+Inputs: a depth image (``.npy`` float metres, or ``.png`` 16-bit integers times a scale,
+millimetres by default), the intrinsic as JSON (``{"width", "height", "fx", "fy", "cx",
+"cy"}`` or a 3×3 matrix, bare or under ``"K"``), the extrinsic ``T_world_camera`` as JSON
+(a 4×4 matrix, bare or under ``"T_world_camera"``). Outputs: ``grasps.json``,
+``grasps.png`` and the interactive ``grasps.html`` (`symgrasp.detect.show`).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from PIL import Image  # matplotlib's own dependency; keeps 16-bit PNGs exact
+
+from symgrasp.detect.detector import GraspDetector
+from symgrasp.detect.grasp import Grasp
+from symgrasp.detect.show import save_grasps_html, save_grasps_png
+from symgrasp.perception import CameraIntrinsic, TSDFVolume
+from symgrasp.sim import get_gripper
+
+DRAWN = 20
+"""Grasps drawn in the pictures."""
+
+SAMPLED = 5
+"""Best grasps whose Bingham closing-axis samples the HTML view shows ..."""
+
+SAMPLES = 30
+"""... this many each."""
+
+
+def load_depth(path: str | Path, png_scale: float = 0.001) -> np.ndarray:
+    """A depth image (H, W) [m] from ``.npy`` (metres) or ``.png`` (integers · ``png_scale``)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"depth: no file at {path}")
+    if path.suffix == ".npy":
+        depth = np.load(path)
+    elif path.suffix == ".png":
+        depth = np.asarray(Image.open(path)).astype(np.float64) * png_scale
+    else:
+        raise ValueError(f"depth must be a .npy or .png file, got {path}")
+    if depth.ndim != 2:
+        raise ValueError(f"depth must be one (H, W) image, got shape {depth.shape} from {path}")
+    return depth.astype(np.float32)
+
+
+def _load_json(path: str | Path, what: str) -> Any:
+    path = Path(path)
+    try:
+        return json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as error:
+        raise ValueError(f"{what}: cannot read JSON from {path}: {error}") from error
+
+
+def load_intrinsic(path: str | Path, shape: tuple[int, int]) -> CameraIntrinsic:
+    """The camera intrinsic of images of ``shape`` (H, W) from a JSON file."""
+    data = _load_json(path, "intrinsic")
+    if isinstance(data, dict) and "fx" in data:
+        return CameraIntrinsic(
+            int(data.get("width", shape[1])),
+            int(data.get("height", shape[0])),
+            *(float(data[k]) for k in ("fx", "fy", "cx", "cy")),
+        )
+    K = np.asarray(data["K"] if isinstance(data, dict) else data, dtype=float)
+    if K.shape != (3, 3):
+        raise ValueError(f"intrinsic in {path} must be a 3×3 matrix, got shape {K.shape}")
+    return CameraIntrinsic(shape[1], shape[0], K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+
+
+def load_extrinsic(path: str | Path) -> np.ndarray:
+    """``T_world_camera`` (4, 4) from a JSON file (checked for rigidity by the detector)."""
+    data = _load_json(path, "extrinsic")
+    return np.asarray(data["T_world_camera"] if isinstance(data, dict) else data, dtype=float)
+
+
+def grasp_record(grasp: Grasp) -> dict[str, Any]:
+    """A grasp as plain JSON data."""
+    return {
+        "T_world_tcp": np.round(grasp.pose, 6).tolist(),
+        "score": round(grasp.score, 4),
+        "validity": round(grasp.validity, 4),
+        "confidence": None if grasp.confidence is None else round(grasp.confidence, 2),
+        "voxel": list(grasp.voxel),
+    }
+
+
+def write_detection(
+    out: str | Path, detector: GraspDetector, volume: TSDFVolume, grasps: list[Grasp]
+) -> dict[str, Path]:
+    """Write ``grasps.json``, ``grasps.png`` and ``grasps.html`` for ``grasps`` detected in
+    ``volume``; the HTML view shows closing-axis samples of the best voxels when the model
+    predicts a distribution."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    meta = {
+        "representation": detector.representation.name,
+        "gripper": detector.gripper,
+        "timing_ms": detector.timing,
+        "grasps": [grasp_record(g) for g in grasps],
+    }
+    paths = {"json": out / "grasps.json", "png": out / "grasps.png", "html": out / "grasps.html"}
+    paths["json"].write_text(json.dumps(meta, indent=1))
+    points = volume.point_cloud().cpu().numpy()
+    shown = grasps[:DRAWN]
+    poses = np.array([g.pose for g in shown]).reshape(-1, 4, 4)
+    scores = np.array([g.score for g in shown])
+    spec = get_gripper(detector.gripper)
+    title = f"{len(grasps)} grasps ({detector.representation.name}, {detector.gripper})"
+    save_grasps_png(paths["png"], points, poses, scores, spec, title=title, highlight=0)
+    save_grasps_html(
+        paths["html"], points, poses, scores, spec, _closing_samples(detector, volume, shown), title
+    )
+    return paths
+
+
+def _closing_samples(
+    detector: GraspDetector, volume: TSDFVolume, grasps: list[Grasp]
+) -> dict[int, np.ndarray] | None:
+    """Closing-axis samples (SAMPLES, 3) of the best `SAMPLED` grasps' voxels."""
+    if not detector.representation.has_distribution or not grasps:
+        return None
+    rotation = detector.predict(volume.grid())["rotation"]
+    voxels = [g.voxel for g in grasps[:SAMPLED]]
+    pred = torch.stack([rotation[v] for v in voxels]).double()
+    generator = torch.Generator(pred.device).manual_seed(detector.seed)
+    samples = detector.representation.sample(pred, SAMPLES, generator)[..., 2]
+    return {i: s.cpu().numpy() for i, s in enumerate(samples)}
+
+
+def save_png_depth(path: str | Path, depth: np.ndarray, png_scale: float = 0.001) -> Path:
+    """Write a depth image [m] as a 16-bit PNG of ``depth / png_scale`` (for tests and users)."""
+    values = np.clip(np.round(np.nan_to_num(depth) / png_scale), 0, 65535).astype(np.uint16)
+    Image.fromarray(values).save(path)
+    return Path(path)

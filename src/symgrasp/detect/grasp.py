@@ -1,0 +1,61 @@
+"""A detected grasp and the motion that executes it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from symgrasp.sim.execute import LIFT_HEIGHT, PREGRASP_DISTANCE
+
+
+@dataclass(frozen=True)
+class Grasp:
+    """One 6-DoF grasp proposed by `GraspDetector`.
+
+    Attributes:
+        pose: ``T_world_tcp`` (4, 4), rotation [e_x approach, e_y, e_z closing axis]
+            (docs/conventions.md); the TCP sits at the centre of its voxel.
+        score: predicted gravity-rejection score (label units, ≈ [0, 1]; docs/data.md).
+        validity: predicted probability that the voxel holds a valid grasp.
+        confidence: Bingham confidence (λ₃ − λ₂) + (λ₃ − λ₁) of the closing axis for the
+            Bingham representations, None for the others.
+        voxel: index ``(i, j, k)`` of the voxel in the 40³ grid.
+    """
+
+    pose: np.ndarray
+    score: float
+    validity: float
+    confidence: float | None
+    voxel: tuple[int, int, int]
+
+    @property
+    def position(self) -> np.ndarray:
+        """The TCP position (3,) [m]."""
+        return self.pose[:3, 3]
+
+    @property
+    def approach(self) -> np.ndarray:
+        """The approach axis e_x (3,)."""
+        return self.pose[:3, 0]
+
+    @property
+    def closing_axis(self) -> np.ndarray:
+        """The closing axis e_z (3,) (its sign is arbitrary: the gripper is symmetric)."""
+        return self.pose[:3, 2]
+
+    def approach_trajectory(
+        self, pregrasp_distance: float = PREGRASP_DISTANCE, lift_height: float = LIFT_HEIGHT
+    ) -> np.ndarray:
+        """The paper's motion (Sec. sec:real_robot), as ``T_world_tcp`` waypoints (3, 4, 4): the
+        pre-grasp ``pregrasp_distance`` back along e_x, the grasp, and the lift
+        ``lift_height`` up along world +z. Close the gripper between the 2nd and 3rd."""
+        if pregrasp_distance < 0 or lift_height < 0:
+            raise ValueError(
+                "pregrasp_distance and lift_height must be ≥ 0 [m], "
+                f"got {pregrasp_distance}, {lift_height}"
+            )
+        pregrasp, lift = self.pose.copy(), self.pose.copy()
+        pregrasp[:3, 3] -= pregrasp_distance * self.approach
+        lift[2, 3] += lift_height
+        return np.stack([pregrasp, self.pose, lift])

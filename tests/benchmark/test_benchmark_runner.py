@@ -1,0 +1,77 @@
+"""The declutter benchmark's bookkeeping: pooled ratios, bootstrap intervals, crashed rounds."""
+
+import json
+
+import numpy as np
+import pytest
+
+from symgrasp.benchmark import runner
+from symgrasp.benchmark.runner import BenchmarkConfig, markdown_table, summarise
+
+
+def _round(seed, objects, outcomes):
+    return {
+        "seed": seed,
+        "objects": objects,
+        "successes": outcomes.count("success"),
+        "executed": sum(o != "none_found" for o in outcomes),
+        "attempts": [{"outcome": o, "planning_s": 0.1 * (i + 1)} for i, o in enumerate(outcomes)],
+    }
+
+
+def test_ratios_pool_all_rounds_and_the_interval_brackets_them():
+    rounds = [
+        _round(0, 5, ["success"] * 5),
+        _round(1, 4, ["success", "slipped", "success", "none_found"]),
+        _round(2, 5, ["no_contact", "approach_collision"]),
+        {"seed": 3, "error": "RuntimeError: unstable"},
+    ]
+    s = summarise(rounds)
+    assert s["success_ratio"] == pytest.approx(7 / 10)  # 7 successes in 10 executed grasps
+    assert s["clear_ratio"] == pytest.approx(7 / 14)
+    assert s["errors"] == [{"seed": 3, "error": "RuntimeError: unstable"}]
+    assert s["outcomes"]["success"] == 7 and s["outcomes"]["none_found"] == 1
+    for name in ("success_ratio", "clear_ratio"):
+        lo, hi = s[f"{name}_ci95"]
+        assert 0 <= lo <= s[name] <= hi <= 1 and hi - lo > 0.1  # 3 rounds: a wide interval
+    assert summarise(rounds) == s  # seeded bootstrap
+    row = markdown_table(s, BenchmarkConfig(rounds=4)).splitlines()[2]
+    assert "70.0 [" in row and "50.0 [" in row and row.endswith("| 1 |")
+
+
+def test_bootstrap_interval_shrinks_like_one_over_sqrt_rounds():
+    rng = np.random.default_rng(0)
+    def rounds(n):
+        return [_round(i, 5, ["success" if rng.random() < 0.7 else "slipped" for _ in range(5)])
+                for i in range(n)]  # fmt: skip
+    width = {n: np.diff(summarise(rounds(n))["success_ratio_ci95"])[0] for n in (25, 400)}
+    assert 2.5 < width[25] / width[400] < 6  # √16 = 4
+    # binomial check: 25 rounds × 5 grasps at p = 0.7 → ±1.96·√(p(1−p)/125) ≈ ±0.08
+    assert 0.1 < width[25] < 0.25
+
+
+def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp_path):
+    class Detector:
+        gripper = "franka"
+
+    def fake_round(detector, objects, num_objects, seed):
+        if seed == 11:
+            raise RuntimeError("simulation unstable")
+        from symgrasp.benchmark.declutter import Round
+
+        return Round(seed, num_objects)
+
+    monkeypatch.setattr(runner, "run_round", fake_round)
+    monkeypatch.setattr(runner, "_init_worker", lambda config, threads: runner._WORKER.update(
+        config=config, detector=Detector()))  # fmt: skip
+    summary = runner.run_benchmark(BenchmarkConfig(rounds=3, seed=10), tmp_path)
+    assert summary["rounds"] == 3 and summary["errors"][0]["seed"] == 11
+    lines = [json.loads(x) for x in (tmp_path / "rounds.jsonl").read_text().splitlines()]
+    assert [x["seed"] for x in lines] == [10, 11, 12]
+    assert "simulation unstable" in lines[1]["traceback"]
+    assert json.loads((tmp_path / "results.json").read_text())["config"]["seed"] == 10
+
+
+def test_bad_configuration_is_refused():
+    with pytest.raises(ValueError, match="rounds"):
+        BenchmarkConfig(rounds=0)

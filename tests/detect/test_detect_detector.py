@@ -1,0 +1,208 @@
+"""GraspDetector: decoding against prescribed network outputs, inputs, checkpoints."""
+
+import numpy as np
+import pytest
+import torch
+from torch import nn
+
+from symgrasp import rotation
+from symgrasp.bingham import sym_to_triu
+from symgrasp.detect import Grasp, GraspDetector
+from symgrasp.detect.pretrained import export_model
+from symgrasp.model.checkpoint import save_checkpoint
+from symgrasp.model.network import GraspNet, GraspOutput, NetworkConfig
+from symgrasp.perception import CameraIntrinsic, make_renderer
+from symgrasp.perception.camera import default_extrinsic
+from symgrasp.sim import World
+
+R = 40
+VOXEL = 0.3 / R
+
+
+def _rotation(approach, closing) -> np.ndarray:
+    e_x = np.asarray(approach, float) / np.linalg.norm(approach)
+    e_z = np.asarray(closing, float) / np.linalg.norm(closing)
+    return np.c_[e_x, np.cross(e_z, e_x), e_z]
+
+
+def _bingham2d(Rot: np.ndarray, gaps=(20.0, 10.0)) -> np.ndarray:
+    """The 9 channels whose Bingham mode is Rot's e_z with eigenvalue gaps ``gaps``."""
+    A = Rot @ np.diag([-gaps[0], -gaps[1], 0.0]) @ Rot.T
+    return np.r_[sym_to_triu(torch.tensor(A)).numpy(), Rot[:, 0]]
+
+
+class FixedNet(nn.Module):
+    """A stand-in network that returns prescribed volumes, whatever the TSDF."""
+
+    def __init__(self, representation: str, voxels: dict, background_validity: float = -9.0):
+        super().__init__()
+        self.representation = rotation.get(representation)
+        c = self.representation.channels
+        self.score = torch.zeros(1, R, R, R)
+        self.validity = torch.full((1, R, R, R), background_validity)
+        self.rot = torch.zeros(1, c, R, R, R)
+        for (i, j, k), (score, validity, channels) in voxels.items():
+            self.score[0, i, j, k] = score
+            self.validity[0, i, j, k] = torch.logit(torch.tensor(validity))
+            self.rot[0, :, i, j, k] = torch.as_tensor(channels)
+
+    def forward(self, tsdf):
+        b = tsdf.shape[0]
+        return GraspOutput(
+            self.score.expand(b, -1, -1, -1),
+            self.validity.expand(b, -1, -1, -1),
+            self.rot.expand(b, -1, -1, -1, -1),
+        )
+
+
+ROT_A = _rotation([0, 0, -1], [1, 0, 0])
+ROT_B = _rotation([1, 0, -1], [0, 1, 0])
+
+
+def _detector(voxels, **options) -> GraspDetector:
+    return GraspDetector(FixedNet("bingham2d", voxels), "robotiq-2f85", device="cpu", **options)
+
+
+def test_grasps_sit_at_voxel_centres_with_the_decoded_rotation_sorted_by_score():
+    voxels = {(5, 6, 7): (0.4, 0.9, _bingham2d(ROT_A)), (30, 20, 10): (0.8, 0.7, _bingham2d(ROT_B))}
+    grasps = _detector(voxels).detect_tsdf(np.ones((R, R, R)))
+    assert [g.voxel for g in grasps] == [(30, 20, 10), (5, 6, 7)]
+    assert np.allclose(grasps[1].position, (np.array([5, 6, 7]) + 0.5) * VOXEL)
+    for g, Rot in zip(grasps, (ROT_B, ROT_A), strict=True):
+        assert np.allclose(g.pose[:3, 0], Rot[:, 0], atol=1e-6)
+        assert abs(g.pose[:3, 2] @ Rot[:, 2]) == pytest.approx(1.0, abs=1e-6)  # up to the flip
+        assert np.allclose(g.pose[:3, :3] @ g.pose[:3, :3].T, np.eye(3), atol=1e-6)
+        assert g.confidence == pytest.approx(30.0, abs=1e-4)
+    assert grasps[0].score == pytest.approx(0.8) and grasps[0].validity == pytest.approx(0.7)
+
+
+def test_thresholds_drop_invalid_and_unconfident_voxels():
+    voxels = {
+        (1, 1, 1): (0.9, 0.4, _bingham2d(ROT_A)),  # invalid
+        (10, 10, 10): (0.8, 0.9, _bingham2d(ROT_A, gaps=(8.0, 5.0))),  # confidence 13 < 15
+        (20, 20, 20): (0.1, 0.9, _bingham2d(ROT_A)),
+    }
+    assert [g.voxel for g in _detector(voxels).detect_tsdf(np.ones((R,) * 3))] == [(20, 20, 20)]
+    loose = _detector(voxels, confidence_threshold=None, validity_threshold=0.3)
+    assert len(loose.detect_tsdf(np.ones((R,) * 3))) == 3
+
+
+def test_non_maximum_suppression_keeps_the_best_of_each_neighbourhood():
+    channels = _bingham2d(ROT_A)
+    voxels = {
+        (10, 10, 10): (0.5, 0.9, channels),
+        (11, 10, 10): (0.6, 0.9, channels),
+        (12, 12, 12): (0.55, 0.9, channels),
+        (20, 10, 10): (0.3, 0.9, channels),
+    }
+    kept = [g.voxel for g in _detector(voxels, nms_radius=2).detect_tsdf(np.ones((R,) * 3))]
+    assert kept == [(11, 10, 10), (20, 10, 10)]
+    all_ = _detector(voxels, nms_radius=0).detect_tsdf(np.ones((R,) * 3))
+    assert len(all_) == 4
+    assert len(_detector(voxels, nms_radius=0, top_k=2).detect_tsdf(np.ones((R,) * 3))) == 2
+
+
+def test_bounds_keep_only_grasps_inside_the_box():
+    voxels = {(5, 5, 5): (0.5, 0.9, _bingham2d(ROT_A)), (30, 30, 30): (0.6, 0.9, _bingham2d(ROT_A))}
+    detector = _detector(voxels, bounds=(np.zeros(3), np.full(3, 0.1)))
+    assert [g.voxel for g in detector.detect_tsdf(np.ones((R,) * 3))] == [(5, 5, 5)]
+
+
+def test_samples_per_voxel_draw_closing_axes_around_the_mode_and_keep_the_approach():
+    voxels = {(5, 5, 5): (0.5, 0.9, _bingham2d(ROT_A, gaps=(60.0, 2.0)))}
+    grasps = _detector(voxels, samples_per_voxel=200, seed=1).detect_tsdf(np.ones((R,) * 3))
+    assert len(grasps) == 200 and all(g.voxel == (5, 5, 5) for g in grasps)
+    e_z = np.array([g.closing_axis for g in grasps])
+    assert np.allclose([g.approach for g in grasps], ROT_A[:, 0], atol=1e-6)
+    # B(A) has gap 2 towards e_y = ROT_A[:, 1] and 60 towards e_x: samples spread in the
+    # e_y–e_z plane, far more than towards e_x (which Gram–Schmidt removes anyway)
+    assert np.std(np.abs(e_z @ ROT_A[:, 1])) > 0.1
+    again = _detector(voxels, samples_per_voxel=200, seed=1).detect_tsdf(np.ones((R,) * 3))
+    assert np.array_equal(e_z, np.array([g.closing_axis for g in again]))
+    with pytest.raises(ValueError, match="samples_per_voxel"):
+        GraspDetector(FixedNet("rotmat6d", {}), "franka", samples_per_voxel=3)
+
+
+def test_confidence_threshold_defaults_to_the_papers_value_only_for_bingham2d():
+    assert _detector({}).confidence_threshold == 15.0
+    assert GraspDetector(FixedNet("rotmat6d", {}), "franka").confidence_threshold is None
+    with pytest.raises(ValueError, match="confidence_threshold"):
+        GraspDetector(FixedNet("quaternion", {}), "franka", confidence_threshold=10.0)
+
+
+def test_approach_trajectory_is_pregrasp_grasp_lift():
+    pose = np.eye(4)
+    pose[:3, :3], pose[:3, 3] = ROT_B, [0.1, 0.2, 0.1]
+    grasp = Grasp(pose, 0.5, 0.9, None, (0, 0, 0))
+    pre, at, lift = grasp.approach_trajectory()
+    assert np.allclose(at, pose)
+    assert np.allclose(pre[:3, 3], pose[:3, 3] - 0.10 * ROT_B[:, 0])
+    assert np.allclose(lift[:3, 3], pose[:3, 3] + [0, 0, 0.30])
+    assert np.allclose(pre[:3, :3], ROT_B) and np.allclose(lift[:3, :3], ROT_B)
+    with pytest.raises(ValueError, match="pregrasp_distance"):
+        grasp.approach_trajectory(pregrasp_distance=-1)
+
+
+@pytest.fixture(scope="module")
+def empty_table_depth():
+    intrinsic = CameraIntrinsic()
+    T = default_extrinsic()
+    return make_renderer(intrinsic).render(World([]), T), intrinsic, T
+
+
+def test_detect_fuses_depth_and_an_empty_table_gives_no_grasps(empty_table_depth):
+    depth, intrinsic, T = empty_table_depth
+    detector = GraspDetector(GraspNet(NetworkConfig()), "franka", device="cpu")
+    noisy = depth.copy()
+    noisy[:10] = np.nan
+    noisy[10:20] = np.inf
+    noisy[20:30] = 0.0
+    assert detector.detect(noisy, intrinsic, T) == []
+    assert set(detector.timing) == {"tsdf", "network", "decode"}
+    # the table top (z = 0.05 m) is seen: the TSDF changes sign between z-voxels 6 and 7
+    tsdf = detector.fuse(depth, intrinsic.K, T).grid()
+    assert tsdf[20, 20, 4] < 0 < tsdf[20, 20, 9]
+    views = detector.fuse(np.stack([depth, depth]), intrinsic, np.stack([T, T])).grid()
+    assert torch.allclose(views, tsdf)
+
+
+def test_bad_inputs_raise_with_the_offending_shape(empty_table_depth):
+    depth, intrinsic, T = empty_table_depth
+    detector = GraspDetector(GraspNet(NetworkConfig()), "franka", device="cpu")
+    with pytest.raises(ValueError, match=r"\(4, 4\)"):
+        detector.detect(depth, intrinsic, T[:3])
+    with pytest.raises(ValueError, match="rigid"):
+        detector.detect(depth, intrinsic, 2 * T)
+    with pytest.raises(ValueError, match="480×640"):
+        detector.detect(depth[:100], intrinsic, T)
+    with pytest.raises(ValueError, match="depth must be"):
+        detector.detect(depth[0], intrinsic, T)
+    with pytest.raises(ValueError, match="tsdf must be"):
+        detector.detect_tsdf(np.ones((32, 32, 32)))
+    with pytest.raises(ValueError, match="validity_threshold"):
+        GraspDetector(GraspNet(NetworkConfig()), "franka", validity_threshold=2.0)
+
+
+def test_from_pretrained_loads_a_checkpoint_and_warns_about_another_gripper(tmp_path):
+    net = GraspNet(NetworkConfig())
+    state = {
+        "representation": "bingham2d",
+        "gripper": "robotiq-2f85",
+        "network": {"representation": "bingham2d", "widths": [8, 16, 32, 64], "features": 16},
+        "model": net.state_dict(),
+        "optimizer": {"state": {}},
+        "epoch": 3,
+    }
+    save_checkpoint(tmp_path / "last.pt", state)
+    shipped = export_model(tmp_path / "last.pt", tmp_path / "small.pt")
+    detector = GraspDetector.from_pretrained(shipped, device="cpu", top_k=5)
+    assert detector.gripper == "robotiq-2f85" and detector.top_k == 5
+    assert "optimizer" not in detector.info and detector.info["epoch"] == 3
+    tsdf = torch.rand(R, R, R) * 2 - 1
+    with torch.no_grad():
+        expected = net(tsdf[None, None]).score[0]
+    assert torch.allclose(detector.predict(tsdf)["score"], expected)
+    with pytest.warns(UserWarning, match="trained for the 'robotiq-2f85' gripper"):
+        GraspDetector.from_pretrained(shipped, device="cpu", gripper="franka")
+    with pytest.raises(ValueError, match="shipped"):
+        GraspDetector.from_pretrained("no-such-model")
