@@ -51,6 +51,8 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _add_detect(subparsers: argparse._SubParsersAction) -> None:
+    from symgrasp.detect.detector import DEFAULT_VALIDITY
+
     parser = subparsers.add_parser(
         "detect",
         help="detect grasps in a depth image",
@@ -91,7 +93,10 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
         help="world position of the workspace cube's corner [m] (default: 0 0 0)",
     )
     parser.add_argument(
-        "--validity", type=float, default=0.5, help="validity threshold (default: 0.5)"
+        "--validity",
+        type=float,
+        default=DEFAULT_VALIDITY,
+        help=f"validity threshold (default: {DEFAULT_VALIDITY}, docs/detect.md)",
     )
     parser.add_argument(
         "--confidence",
@@ -445,6 +450,8 @@ def _height_word(height: float | None) -> str:
 
 
 def _add_slice_options(parser: argparse.ArgumentParser) -> None:
+    from symgrasp.detect.detector import DEFAULT_VALIDITY
+
     """The options shared by the figures that cut one voxel layer out of a detector's output."""
     parser.add_argument(
         "--height",
@@ -456,9 +463,9 @@ def _add_slice_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--validity",
         type=float,
-        default=0.5,
+        default=DEFAULT_VALIDITY,
         help="voxels whose validity probability is below this are neither drawn nor counted "
-        "(default: 0.5)",
+        f"(default: {DEFAULT_VALIDITY}, the detector's)",
     )
     parser.add_argument(
         "--out", default="docs/figures", help="output folder (default: docs/figures)"

@@ -41,9 +41,11 @@ def test_ratios_pool_all_rounds_and_the_interval_brackets_them():
 
 def test_bootstrap_interval_shrinks_like_one_over_sqrt_rounds():
     rng = np.random.default_rng(0)
+
     def rounds(n):
         return [_round(i, 5, ["success" if rng.random() < 0.7 else "slipped" for _ in range(5)])
                 for i in range(n)]  # fmt: skip
+
     width = {n: np.diff(summarise(rounds(n))["success_ratio_ci95"])[0] for n in (25, 400)}
     assert 2.5 < width[25] / width[400] < 6  # √16 = 4
     # binomial check: 25 rounds × 5 grasps at p = 0.7 → ±1.96·√(p(1−p)/125) ≈ ±0.08

@@ -58,8 +58,9 @@ def test_approach_enters_through_the_nearest_side_within_the_cone():
     outward = side_normals(mid, line, points, normals)
     assert np.allclose(outward, [[0, 0, 1], [0, 1, 0]], atol=1e-6)
     cfg = dataclasses.replace(CFG, tilt=0.0, offset=(0.0, 0.0))
-    frames = randomised_frames(np.repeat(mid, 500, 0), np.repeat(line, 500, 0),
-                               np.repeat(outward, 500, 0), cfg, rng)
+    frames = randomised_frames(
+        np.repeat(mid, 500, 0), np.repeat(line, 500, 0), np.repeat(outward, 500, 0), cfg, rng
+    )
     e_x, e_z = frames[:, :3, 0], frames[:, :3, 2]
     cos_in = np.einsum("ij,ij->i", e_x, -np.repeat(outward, 500, 0))
     assert np.all(cos_in >= np.cos(cfg.approach_cone) - 1e-9)

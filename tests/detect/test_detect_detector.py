@@ -78,12 +78,12 @@ def test_grasps_sit_at_voxel_centres_with_the_decoded_rotation_sorted_by_score()
 
 def test_thresholds_drop_invalid_and_unconfident_voxels():
     voxels = {
-        (1, 1, 1): (0.9, 0.4, _bingham2d(ROT_A)),  # invalid
+        (1, 1, 1): (0.9, 0.05, _bingham2d(ROT_A)),  # invalid at the default 0.08
         (10, 10, 10): (0.8, 0.9, _bingham2d(ROT_A, gaps=(8.0, 5.0))),  # confidence 13 < 15
         (20, 20, 20): (0.1, 0.9, _bingham2d(ROT_A)),
     }
     assert [g.voxel for g in _detector(voxels).detect_tsdf(np.ones((R,) * 3))] == [(20, 20, 20)]
-    loose = _detector(voxels, confidence_threshold=None, validity_threshold=0.3)
+    loose = _detector(voxels, confidence_threshold=None, validity_threshold=0.03)
     assert len(loose.detect_tsdf(np.ones((R,) * 3))) == 3
 
 

@@ -43,7 +43,7 @@ from tqdm import tqdm
 
 from symgrasp.bingham import Bingham
 from symgrasp.detect import GraspDetector
-from symgrasp.detect.detector import RESOLUTION
+from symgrasp.detect.detector import DEFAULT_VALIDITY, RESOLUTION
 from symgrasp.perception import CameraIntrinsic, default_extrinsic, make_renderer
 from symgrasp.rotation import Representation
 from symgrasp.sim import TABLE_HEIGHT, WORKSPACE_SIZE, ObjectSpec, Part, World
@@ -518,7 +518,7 @@ def continuity_figure(
     models: Mapping[str, str | Path],
     out: str | Path,
     height: float | None = SLICE_HEIGHT,
-    validity: float = 0.5,
+    validity: float = DEFAULT_VALIDITY,
     command: str | None = None,
 ) -> dict[str, Path]:
     """Write ``rotation_continuity.png`` and ``.json`` (per model: valid voxels and
@@ -650,7 +650,7 @@ def distribution_figure(
     out: str | Path,
     samples: int = 30,
     height: float | None = SLICE_HEIGHT,
-    validity: float = 0.5,
+    validity: float = DEFAULT_VALIDITY,
     seed: int = 0,
     command: str | None = None,
 ) -> dict[str, Path]:

@@ -33,6 +33,11 @@ Tensor = torch.Tensor
 RESOLUTION = 40
 """Voxels per workspace edge (the network's input)."""
 
+DEFAULT_VALIDITY = 0.08
+"""Default validity threshold, chosen by declutter rounds on training objects (docs/detect.md):
+the validity head is calibrated to the rare valid voxels (≈ 0.1 % of the grid), so its
+probabilities are low on unfamiliar piles, and 0.5 left most rounds without a grasp."""
+
 DEFAULT_CONFIDENCE = {"bingham2d": rotation.PAPER_CONFIDENCE_THRESHOLD}
 """Default confidence threshold per representation; the others have none."""
 
@@ -72,7 +77,7 @@ class GraspDetector:
         model: GraspNet,
         gripper: str,
         *,
-        validity_threshold: float = 0.5,
+        validity_threshold: float = DEFAULT_VALIDITY,
         confidence_threshold: float | str | None = "default",
         nms_radius: int = 2,
         top_k: int | None = None,
