@@ -42,6 +42,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/sim.py
 	$(PY) benchmarks/data.py
 	$(PY) benchmarks/model.py
+	$(PY) benchmarks/detect.py
 
 clean:
 	rm -rf $(VENV) build dist src/*.egg-info .pytest_cache .ruff_cache
