@@ -13,6 +13,7 @@ def _round(seed, objects, outcomes):
     return {
         "seed": seed,
         "objects": objects,
+        "renderer": "gl",
         "successes": outcomes.count("success"),
         "executed": sum(o != "none_found" for o in outcomes),
         "attempts": [{"outcome": o, "planning_s": 0.1 * (i + 1)} for i, o in enumerate(outcomes)],
@@ -30,6 +31,7 @@ def test_ratios_pool_all_rounds_and_the_interval_brackets_them():
     assert s["success_ratio"] == pytest.approx(7 / 10)  # 7 successes in 10 executed grasps
     assert s["clear_ratio"] == pytest.approx(7 / 14)
     assert s["errors"] == [{"seed": 3, "error": "RuntimeError: unstable"}]
+    assert s["renderers"] == ["gl"]
     assert s["outcomes"]["success"] == 7 and s["outcomes"]["none_found"] == 1
     for name in ("success_ratio", "clear_ratio"):
         lo, hi = s[f"{name}_ci95"]
@@ -61,7 +63,7 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
             raise RuntimeError("simulation unstable")
         from symgrasp.benchmark.declutter import Round
 
-        return Round(seed, num_objects)
+        return Round(seed, num_objects, "gl")
 
     monkeypatch.setattr(runner, "run_round", fake_round)
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads: runner._WORKER.update(

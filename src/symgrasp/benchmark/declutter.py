@@ -61,10 +61,11 @@ class Attempt:
 @dataclass
 class Round:
     """The record of one round: ``objects`` presented (those left on the table after the
-    pile settled) and its attempts."""
+    pile settled), the depth ``renderer`` (``"gl"`` or ``"raycast"``) and its attempts."""
 
     seed: int
     objects: int
+    renderer: str
     attempts: list[Attempt] = field(default_factory=list)
 
     @property
@@ -117,7 +118,7 @@ def run_round(
     T_world_camera = default_extrinsic() if T_world_camera is None else T_world_camera
     renderer = make_renderer(intrinsic)
     world = pile_scene(object_set(objects, num_objects, seed), seed=seed, gripper=detector.gripper)
-    record = Round(seed, len(world.objects))
+    record = Round(seed, len(world.objects), renderer.name)
     max_attempts = 2 * num_objects if max_attempts is None else max_attempts
     failures = 0
     while world.objects and failures < max_failures and len(record.attempts) < max_attempts:

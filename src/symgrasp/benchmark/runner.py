@@ -56,6 +56,7 @@ def round_record(record: Round) -> dict[str, Any]:
     return {
         "seed": record.seed,
         "objects": record.objects,
+        "renderer": record.renderer,
         "successes": record.successes,
         "executed": record.executed,
         "attempts": [
@@ -135,6 +136,7 @@ def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
         "clear_ratio": _ratio(successes, objects),
         "outcomes": dict(sorted(outcomes.items())),
         "planning_s_median": float(np.median(planning)) if planning else float("nan"),
+        "renderers": sorted({r["renderer"] for r in done}),
     }
     rng = np.random.default_rng(seed)
     picks = rng.integers(len(done), size=(BOOTSTRAP, len(done))) if done else None

@@ -133,7 +133,7 @@ class GLRenderer:
 
 @functools.cache
 def gl_available() -> bool:
-    """Whether MuJoCo can open an OpenGL context here (:mod:`symgrasp.sim.gl_backend` picks
+    """Whether MuJoCo can open an OpenGL context here (:mod:`symgrasp.gl_backend` picks
     the backend before mujoco is imported)."""
     model = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
     try:

@@ -1,10 +1,5 @@
 """The MuJoCo simulation world: procedural objects, the two grippers, scenes, grasp trials."""
 
-from symgrasp.sim.gl_backend import choose_gl_backend
-
-choose_gl_backend()  # before anything imports mujoco, hence the late imports below
-# ruff: noqa: E402
-
 from symgrasp.sim.execute import GraspResult, Outcome, execute_grasp
 from symgrasp.sim.grippers import FRANKA, GRIPPERS, ROBOTIQ_2F85, GripperSpec, get_gripper
 from symgrasp.sim.objects import OBJECT_SETS, ObjectSpec, Part, large_box, object_set
