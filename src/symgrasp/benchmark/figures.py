@@ -22,7 +22,6 @@ import inspect
 import itertools
 import json
 import math
-import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -41,6 +40,7 @@ from matplotlib.image import AxesImage
 from matplotlib.patches import Circle, Patch, Rectangle
 from tqdm import tqdm
 
+from symgrasp.atomic import write_atomic
 from symgrasp.bingham import Bingham
 from symgrasp.detect import GraspDetector
 from symgrasp.detect.detector import DEFAULT_VALIDITY, RESOLUTION
@@ -693,7 +693,7 @@ def distribution_figure(
 
 def write_text(path: Path, text: str) -> Path:
     """``text`` as UTF-8 at ``path``, atomically."""
-    return _write_atomic(path, lambda file: file.write_text(text, encoding="utf-8"))
+    return write_atomic(path, lambda file: file.write(text.encode("utf-8")))
 
 
 def write_json(path: Path, data: dict[str, Any]) -> Path:
@@ -704,15 +704,6 @@ def write_json(path: Path, data: dict[str, Any]) -> Path:
 def save_figure(figure: Figure, path: Path) -> Path:
     """``figure`` as a PNG at ``path``, atomically; the figure is closed."""
     try:
-        return _write_atomic(path, lambda file: figure.savefig(file, format="png", dpi=120))
+        return write_atomic(path, lambda file: figure.savefig(file, format="png", dpi=120))
     finally:
         plt.close(figure)
-
-
-def _write_atomic(path: Path, write: Callable[[Path], object]) -> Path:
-    """Call ``write`` on a temporary file next to ``path``, then rename it to ``path``."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    write(temporary)
-    os.replace(temporary, path)
-    return path

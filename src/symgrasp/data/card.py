@@ -13,8 +13,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from symgrasp.atomic import write_atomic
 from symgrasp.data.dataset import GraspDataset, load_scene, scene_path
-from symgrasp.data.generate import config_from_dict, write_atomic
+from symgrasp.data.generate import config_from_dict
 from symgrasp.data.labels import RESOLUTION, VOXEL_SIZE
 from symgrasp.data.scenes import DEPTH_UNIT
 from symgrasp.data.validate import validate_labels

@@ -18,7 +18,6 @@ import dataclasses
 import hashlib
 import json
 import multiprocessing
-import os
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from importlib.metadata import version
@@ -28,6 +27,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from symgrasp.atomic import write_atomic
 from symgrasp.data.dataset import load_scene, scene_path
 from symgrasp.data.grasp_db import DatabaseConfig, GraspDatabase, cached_database
 from symgrasp.data.labels import RESOLUTION, VOXEL_SIZE
@@ -43,15 +43,6 @@ def config_from_dict(d: dict[str, Any]) -> SceneConfig:
     for key in ("kinds", "camera_distance", "camera_polar"):
         d[key] = tuple(d[key])
     return SceneConfig(**d, database=DatabaseConfig(**db))
-
-
-def write_atomic(path: Path, write: Callable[[Any], None], mode: str = "wb") -> None:
-    """Call ``write(file)`` on a temporary file next to ``path``, then rename it."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, mode) as f:
-        write(f)
-    os.replace(tmp, path)
 
 
 def _manifest(cfg: SceneConfig, seed: int, scene_ids: list[int], root: Path) -> dict[str, Any]:

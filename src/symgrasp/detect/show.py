@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import html
 import json
-import os
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +25,7 @@ from matplotlib.colors import Normalize, to_hex
 from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
+from symgrasp.atomic import write_atomic
 from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.world import TABLE_HEIGHT, WORKSPACE_SIZE
 
@@ -137,7 +136,7 @@ def save_grasps_png(
     top.set(xlim=limits, ylim=limits, xlabel="x [m]", ylabel="y [m]", aspect="equal")
     top.set_title("top view")
     figure.colorbar(ScalarMappable(SCORE_NORM, SCORE_CMAP), ax=top, label=SCORE_LABEL)
-    return _write_atomic(Path(path), lambda file: figure.savefig(file, format="png", dpi=100))
+    return write_atomic(path, lambda file: figure.savefig(file, format="png", dpi=100))
 
 
 def save_grasps_html(
@@ -188,7 +187,7 @@ def save_grasps_html(
     blob = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     heading = html.escape(_heading(title, scores))
     page = _PAGE.format(title=heading, data=blob, script=_VIEWER_JS)
-    return _write_atomic(Path(path), lambda file: file.write_text(page, encoding="utf-8"))
+    return write_atomic(path, lambda file: file.write(page.encode("utf-8")))
 
 
 def _checked(
@@ -243,15 +242,6 @@ def _sample_segments(
         ends = np.stack([tcp - SAMPLE_HALF_LENGTH * e_z, tcp + SAMPLE_HALF_LENGTH * e_z], axis=1)
         segments += np.round(ends, 4).tolist()
     return segments
-
-
-def _write_atomic(path: Path, write: Callable[[Path], object]) -> Path:
-    """Call ``write`` on a temporary file next to ``path``, then rename it to ``path``."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    write(temporary)
-    os.replace(temporary, path)
-    return path
 
 
 _PAGE = """<!DOCTYPE html>
