@@ -25,6 +25,7 @@ from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.model.checkpoint import load_model
 from symgrasp.model.network import GraspNet
+from symgrasp.model.train import resolve_device
 from symgrasp.perception import CameraIntrinsic, TSDFVolume
 from symgrasp.sim.world import WORKSPACE_SIZE
 
@@ -40,13 +41,6 @@ probabilities are low on unfamiliar piles, and 0.5 left most rounds without a gr
 
 DEFAULT_CONFIDENCE = {"bingham2d": rotation.PAPER_CONFIDENCE_THRESHOLD}
 """Default confidence threshold per representation; the others have none."""
-
-
-def resolve_device(device: str | torch.device) -> torch.device:
-    """``"auto"`` → CUDA when available, else CPU; anything else as given."""
-    if device == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    return torch.device(device)
 
 
 class GraspDetector:
@@ -116,7 +110,7 @@ class GraspDetector:
                 f"samples_per_voxel needs a distribution; {self.representation.name!r} "
                 "predicts a single rotation (use 0)"
             )
-        self.device = resolve_device(device)
+        self.device = resolve_device(str(device))
         self.model = model.to(self.device).eval()
         self.gripper = gripper
         self.validity_threshold = float(validity_threshold)
