@@ -554,7 +554,10 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
         "best grasp whose approach misses the observed scene is executed; a round ends when "
         "the table is clear, no grasp is found or two attempts in a row fail. Round r uses seed "
         "--seed + r. Writes rounds.jsonl, results.json (SR, CR with bootstrap 95%% intervals "
-        "over rounds, outcomes, planning time) and results.md into --out.",
+        "over rounds, outcomes, failure modes, planning time) and results.md into --out. Each "
+        "failed grasp is replayed from the state it started in, turned about its approach axis "
+        "by 30..150 degrees: if a turn succeeds the failure was a wrong yaw, otherwise it is "
+        "named by how it ended (collision, wrong approach = closed on nothing, slip).",
     )
     declutter.add_argument(
         "--model",
@@ -586,10 +589,42 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help="turn the confidence threshold off (the paper's 'without threshold' ablation)",
     )
+    declutter.add_argument(
+        "--rep",
+        default=None,
+        help="refuse to run unless --model uses this rotation representation (a guard for "
+        "scripts: the checkpoint, not this option, decides the representation)",
+    )
+    declutter.add_argument(
+        "--gripper",
+        default=None,
+        help="refuse to run unless --model was trained for this gripper (the model's gripper "
+        "is the one simulated)",
+    )
+    declutter.add_argument(
+        "--no-diagnose",
+        action="store_true",
+        help="skip the failure-mode replays (faster; outcomes only)",
+    )
+    declutter.add_argument(
+        "--pictures",
+        action="store_true",
+        help="draw every attempt: --out/pictures/seed_NNNN/attempt_NN.png (observed points, "
+        "the best grasps coloured by score, the executed one thick)",
+    )
     declutter.add_argument("--out", required=True, help="output folder")
 
     def run(args: argparse.Namespace) -> None:
         from symgrasp.benchmark.runner import BenchmarkConfig, markdown_table, run_benchmark
+        from symgrasp.detect import GraspDetector
+
+        detector = GraspDetector.from_pretrained(args.model, device="cpu")
+        for option, wanted, actual in (
+            ("--rep", args.rep, detector.representation.name),
+            ("--gripper", args.gripper, detector.gripper),
+        ):
+            if wanted is not None and wanted != actual:
+                raise SystemExit(f"error: {option} {wanted}, but --model {args.model} is {actual}")
 
         options = ()
         if args.no_confidence:
@@ -597,11 +632,13 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
         elif args.confidence is not None:
             options = (("confidence_threshold", args.confidence),)
         config = BenchmarkConfig(
-            args.model, args.objects, args.num_objects, args.rounds, args.seed, options
-        )
+            args.model, args.objects, args.num_objects, args.rounds, args.seed, options,
+            diagnose=not args.no_diagnose, pictures=args.pictures,
+        )  # fmt: skip
         summary = run_benchmark(config, args.out, args.workers)
         print(markdown_table(summary, config), end="")
-        print(f"outcomes {summary['outcomes']}; results in {args.out}")
+        print(f"outcomes {summary['outcomes']}")
+        print(f"failure modes {summary['modes']}; results in {args.out}")
 
     declutter.set_defaults(run=run)
 

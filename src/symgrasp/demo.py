@@ -18,13 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from symgrasp.benchmark.declutter import Attempt, Round, run_round
+from symgrasp.benchmark.declutter import Attempt, Round, run_round, save_attempt_png
 from symgrasp.detect import Grasp, GraspDetector
-from symgrasp.detect.show import save_grasps_png
-from symgrasp.sim import World, get_gripper
-
-DRAWN = 10
-"""Grasps drawn per attempt picture."""
+from symgrasp.sim import World
 
 
 def run_demo(
@@ -41,7 +37,6 @@ def run_demo(
     out.mkdir(parents=True, exist_ok=True)
     name = model or f"bingham2d-{gripper}"
     detector = GraspDetector.from_pretrained(name, device="cpu", gripper=gripper)
-    spec = get_gripper(detector.gripper)
     pictures: list[Path] = []
     print(f"model {name} ({detector.representation.name}, {detector.gripper}); seed {seed}")
 
@@ -53,17 +48,10 @@ def run_demo(
             line += f"  (score {g.score:.2f}, confidence {_fmt(g.confidence)}, "
             line += f"{attempt.rejected} colliding skipped, planning {attempt.planning_s:.2f} s)"
         print(line)
-        shown = grasps[:DRAWN]
-        highlight = next((i for i, g in enumerate(shown) if g is attempt.grasp), None)
+        title = f"attempt {n}: {attempt.outcome} ({attempt.objects_before} objects)"
         pictures.append(
-            save_grasps_png(
-                out / f"attempt_{n:02d}.png",
-                points,
-                np.array([g.pose for g in shown]).reshape(-1, 4, 4),
-                np.array([g.score for g in shown]),
-                spec,
-                title=f"attempt {n}: {attempt.outcome} ({attempt.objects_before} objects)",
-                highlight=highlight,
+            save_attempt_png(
+                out / f"attempt_{n:02d}.png", points, grasps, attempt, detector.gripper, title
             )
         )
 

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from symgrasp.benchmark.declutter import NONE_FOUND, run_round
+from symgrasp.benchmark.declutter import NONE_FOUND, picture_observer, run_round
+from symgrasp.benchmark.failures import MODES
 from symgrasp.detect import GraspDetector
 
 
@@ -12,15 +13,16 @@ def detector():
     return GraspDetector.from_pretrained("bingham2d-robotiq-2f85", device="cpu")
 
 
-def test_a_round_is_reproducible_and_its_counts_add_up(detector):
+def test_a_round_is_reproducible_undisturbed_by_diagnosis_and_its_counts_add_up(detector):
     seen = []
 
     def observer(world, points, candidates, attempt):
         seen.append((len(world.objects), attempt))
         assert points.ndim == 2 and points.shape[1] == 3 and len(points) > 100
 
-    first = run_round(detector, "household-test", 3, seed=5, observer=observer)
-    again = run_round(detector, "household-test", 3, seed=5)
+    # seed 10: a failure is replayed mid-round, and more attempts follow it
+    first = run_round(detector, "household-test", 3, seed=10, observer=observer)
+    again = run_round(detector, "household-test", 3, seed=10, diagnose=False)
     assert [a.outcome for a in first.attempts] == [a.outcome for a in again.attempts]
     for a, b in zip(first.attempts, again.attempts, strict=True):
         assert (a.grasp is None) == (b.grasp is None)
@@ -32,6 +34,19 @@ def test_a_round_is_reproducible_and_its_counts_add_up(detector):
     for objects_after, attempt in seen:  # a success removes exactly one object
         assert objects_after == attempt.objects_before - attempt.success
     assert 0 <= first.clear_ratio <= 1
+    assert all(a.mode is None for a in again.attempts)
+    assert any(not a.success for a in first.attempts[:-1])
+    for a in first.attempts:
+        assert a.mode in MODES and (a.mode == "success") == a.success
+        assert (a.mode == NONE_FOUND) == (a.outcome == NONE_FOUND)
+
+
+def test_pictures_are_drawn_per_attempt(detector, tmp_path):
+    record = run_round(
+        detector, "household-test", 2, seed=3, observer=picture_observer(tmp_path, "robotiq-2f85")
+    )
+    drawn = sorted(p.name for p in tmp_path.glob("*.png"))
+    assert drawn == [f"attempt_{n:02d}.png" for n in range(1, len(record.attempts) + 1)]
 
 
 def test_bad_round_arguments_are_refused(detector):

@@ -9,14 +9,18 @@ from symgrasp.benchmark import runner
 from symgrasp.benchmark.runner import BenchmarkConfig, markdown_table, summarise
 
 
-def _round(seed, objects, outcomes):
+def _round(seed, objects, outcomes, modes=None):
+    modes = modes or [None] * len(outcomes)
     return {
         "seed": seed,
         "objects": objects,
         "renderer": "gl",
         "successes": outcomes.count("success"),
         "executed": sum(o != "none_found" for o in outcomes),
-        "attempts": [{"outcome": o, "planning_s": 0.1 * (i + 1)} for i, o in enumerate(outcomes)],
+        "attempts": [
+            {"outcome": o, "mode": m, "planning_s": 0.1 * (i + 1)}
+            for i, (o, m) in enumerate(zip(outcomes, modes, strict=True))
+        ],
     }
 
 
@@ -24,7 +28,7 @@ def test_ratios_pool_all_rounds_and_the_interval_brackets_them():
     rounds = [
         _round(0, 5, ["success"] * 5),
         _round(1, 4, ["success", "slipped", "success", "none_found"]),
-        _round(2, 5, ["no_contact", "approach_collision"]),
+        _round(2, 5, ["no_contact", "approach_collision"], ["wrong_approach", "wrong_yaw"]),
         {"seed": 3, "error": "RuntimeError: unstable"},
     ]
     s = summarise(rounds)
@@ -33,6 +37,9 @@ def test_ratios_pool_all_rounds_and_the_interval_brackets_them():
     assert s["errors"] == [{"seed": 3, "error": "RuntimeError: unstable"}]
     assert s["renderers"] == ["gl"]
     assert s["outcomes"]["success"] == 7 and s["outcomes"]["none_found"] == 1
+    assert s["modes"] == {"wrong_yaw": 1, "wrong_approach": 1}  # undiagnosed rounds not counted
+    ordered = summarise([_round(0, 2, ["slipped", "success"], ["slip", "success"])])["modes"]
+    assert list(ordered) == ["success", "slip"]  # report order
     for name in ("success_ratio", "clear_ratio"):
         lo, hi = s[f"{name}_ci95"]
         assert 0 <= lo <= s[name] <= hi <= 1 and hi - lo > 0.1  # 3 rounds: a wide interval
@@ -58,7 +65,7 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
     class Detector:
         gripper = "franka"
 
-    def fake_round(detector, objects, num_objects, seed):
+    def fake_round(detector, objects, num_objects, seed, observer, diagnose):
         if seed == 11:
             raise RuntimeError("simulation unstable")
         from symgrasp.benchmark.declutter import Round
@@ -66,8 +73,8 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
         return Round(seed, num_objects, "gl")
 
     monkeypatch.setattr(runner, "run_round", fake_round)
-    monkeypatch.setattr(runner, "_init_worker", lambda config, threads: runner._WORKER.update(
-        config=config, detector=Detector()))  # fmt: skip
+    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
+        config=config, detector=Detector(), out=out))  # fmt: skip
     summary = runner.run_benchmark(BenchmarkConfig(rounds=3, seed=10), tmp_path)
     assert summary["rounds"] == 3 and summary["errors"][0]["seed"] == 11
     lines = [json.loads(x) for x in (tmp_path / "rounds.jsonl").read_text().splitlines()]
@@ -79,3 +86,20 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
 def test_bad_configuration_is_refused():
     with pytest.raises(ValueError, match="rounds"):
         BenchmarkConfig(rounds=0)
+
+
+def test_cli_writes_results_modes_and_pictures_and_guards_the_model(tmp_path, capsys):
+    from symgrasp.cli import main
+
+    argv = ["bench", "declutter", "--rounds", "2", "--num-objects", "2", "--seed", "3"]
+    main([*argv, "--pictures", "--out", str(tmp_path)])
+    result = json.loads((tmp_path / "results.json").read_text())
+    rounds = [json.loads(x) for x in (tmp_path / "rounds.jsonl").read_text().splitlines()]
+    assert sum(result["summary"]["modes"].values()) == sum(len(r["attempts"]) for r in rounds)
+    drawn = sorted((tmp_path / "pictures").rglob("attempt_*.png"))
+    assert len(drawn) == sum(len(r["attempts"]) for r in rounds) > 0
+    assert "failure modes" in capsys.readouterr().out
+    with pytest.raises(SystemExit, match="--rep rotmat6d, but --model"):
+        main([*argv, "--rep", "rotmat6d", "--out", str(tmp_path / "x")])
+    with pytest.raises(SystemExit, match="--gripper franka"):
+        main([*argv, "--gripper", "franka", "--out", str(tmp_path / "x")])

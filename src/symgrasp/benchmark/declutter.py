@@ -16,14 +16,16 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
+from symgrasp.benchmark.failures import failure_mode
 from symgrasp.data.collision import hand_collides
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.perception import CameraIntrinsic, make_renderer
 from symgrasp.perception.camera import default_extrinsic
-from symgrasp.sim import World
+from symgrasp.sim import World, get_gripper
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.world import pile_scene
@@ -44,6 +46,8 @@ class Attempt:
         planning_s: seconds from the depth image to the chosen grasp (fusion, network,
             decoding, collision checks).
         objects_before: objects on the table before the attempt.
+        mode: why it failed or ``"success"`` (`symgrasp.benchmark.failures.MODES`); None
+            when the round was played without diagnosis.
     """
 
     outcome: str
@@ -52,6 +56,7 @@ class Attempt:
     rejected: int
     planning_s: float
     objects_before: int
+    mode: str | None = None
 
     @property
     def success(self) -> bool:
@@ -103,12 +108,15 @@ def run_round(
     intrinsic: CameraIntrinsic | None = None,
     T_world_camera: np.ndarray | None = None,
     observer: Observer | None = None,
+    diagnose: bool = True,
 ) -> Round:
     """Play one declutter round with ``detector`` (its gripper) on ``num_objects`` objects of
     the set ``objects``; the pile and the objects are drawn from ``seed``.
 
     ``max_attempts`` defaults to twice the number of objects; the camera defaults to the
-    workspace's default view (`symgrasp.perception.camera.default_extrinsic`).
+    workspace's default view (`symgrasp.perception.camera.default_extrinsic`). With
+    ``diagnose``, each failed grasp is replayed at other yaws to name its failure mode
+    (`symgrasp.benchmark.failures`); the round itself is the same either way.
     """
     if num_objects < 1 or max_failures < 1:
         raise ValueError(
@@ -130,11 +138,16 @@ def run_round(
         chosen, rejected = _first_free(candidates, detector.gripper, points)
         planning = time.perf_counter() - start
         before = len(world.objects)
+        mode: str | None = NONE_FOUND if diagnose else None
         if chosen is None:
             outcome = NONE_FOUND
         else:
-            outcome = execute_grasp(world, chosen.pose, detector.gripper).outcome.value
-        attempt = Attempt(outcome, chosen, len(candidates), rejected, planning, before)
+            state = world.snapshot()
+            result = execute_grasp(world, chosen.pose, detector.gripper).outcome
+            outcome = result.value
+            if diagnose:
+                mode = failure_mode(world, state, chosen.pose, detector.gripper, result)
+        attempt = Attempt(outcome, chosen, len(candidates), rejected, planning, before, mode)
         record.attempts.append(attempt)
         if observer is not None:
             observer(world, points, candidates, attempt)
@@ -142,6 +155,49 @@ def run_round(
             break
         failures = 0 if attempt.success else failures + 1
     return record
+
+
+def save_attempt_png(
+    path: str | Path,
+    points: np.ndarray,
+    candidates: list[Grasp],
+    attempt: Attempt,
+    gripper: str,
+    title: str,
+    drawn: int = 10,
+) -> Path:
+    """Draw an attempt (an `Observer`'s arguments) to ``path``: the observed ``points``, the
+    best ``drawn`` candidates coloured by score and the executed one thick."""
+    from symgrasp.detect.show import save_grasps_png
+
+    shown = candidates[:drawn]
+    return save_grasps_png(
+        path,
+        points,
+        np.array([g.pose for g in shown]).reshape(-1, 4, 4),
+        np.array([g.score for g in shown]),
+        get_gripper(gripper),
+        title=title,
+        highlight=next((i for i, g in enumerate(shown) if g is attempt.grasp), None),
+    )
+
+
+def picture_observer(folder: str | Path, gripper: str, caption: str = "") -> Observer:
+    """An `Observer` that draws attempt ``n`` of a round to ``folder/attempt_NN.png``
+    (`save_attempt_png`), titled ``caption`` + the attempt's number and mode."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    count = [0]
+
+    def observe(
+        world: World, points: np.ndarray, candidates: list[Grasp], attempt: Attempt
+    ) -> None:
+        count[0] += 1
+        title = f"{caption}attempt {count[0]}: {attempt.mode or attempt.outcome}"
+        path = folder / f"attempt_{count[0]:02d}.png"
+        save_attempt_png(path, points, candidates, attempt, gripper, title)
+
+    return observe
 
 
 def _first_free(

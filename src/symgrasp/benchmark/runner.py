@@ -24,7 +24,8 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from symgrasp.benchmark.declutter import Round, run_round
+from symgrasp.benchmark.declutter import Round, picture_observer, run_round
+from symgrasp.benchmark.failures import MODES
 
 BOOTSTRAP = 2000
 """Bootstrap resamples of the rounds for the confidence intervals."""
@@ -34,7 +35,9 @@ BOOTSTRAP = 2000
 class BenchmarkConfig:
     """What a declutter benchmark runs: ``model`` (shipped name or checkpoint path) on
     ``rounds`` rounds of ``num_objects`` objects of the set ``objects``, seeds
-    ``seed … seed + rounds − 1``; ``options`` go to `GraspDetector.from_pretrained`."""
+    ``seed … seed + rounds − 1``; ``options`` go to `GraspDetector.from_pretrained`;
+    ``diagnose`` names each failure's mode (`symgrasp.benchmark.failures`); ``pictures``
+    draws every attempt into ``pictures/seed_NNNN/`` of the output folder."""
 
     model: str = "bingham2d-robotiq-2f85"
     objects: str = "household-test"
@@ -42,6 +45,8 @@ class BenchmarkConfig:
     rounds: int = 100
     seed: int = 0
     options: tuple[tuple[str, Any], ...] = ()
+    diagnose: bool = True
+    pictures: bool = False
 
     def __post_init__(self) -> None:
         if self.rounds < 1 or self.num_objects < 1 or self.seed < 0:
@@ -62,6 +67,7 @@ def round_record(record: Round) -> dict[str, Any]:
         "attempts": [
             {
                 "outcome": a.outcome,
+                "mode": a.mode,
                 "score": None if a.grasp is None else a.grasp.score,
                 "confidence": None if a.grasp is None else a.grasp.confidence,
                 "candidates": a.candidates,
@@ -76,13 +82,14 @@ def round_record(record: Round) -> dict[str, Any]:
 _WORKER: dict[str, Any] = {}
 
 
-def _init_worker(config: BenchmarkConfig, threads: int) -> None:
+def _init_worker(config: BenchmarkConfig, threads: int, out: Path) -> None:
     import torch
 
     from symgrasp.detect import GraspDetector
 
     torch.set_num_threads(threads)
     _WORKER["config"] = config
+    _WORKER["out"] = out
     _WORKER["detector"] = GraspDetector.from_pretrained(
         config.model, device="cpu", **dict(config.options)
     )
@@ -90,20 +97,31 @@ def _init_worker(config: BenchmarkConfig, threads: int) -> None:
 
 def _round_task(seed: int) -> dict[str, Any]:
     config: BenchmarkConfig = _WORKER["config"]
+    detector = _WORKER["detector"]
+    observer = None
+    if config.pictures:
+        folder = _WORKER["out"] / "pictures" / f"seed_{seed:04d}"
+        observer = picture_observer(folder, detector.gripper, f"seed {seed}, ")
     try:
-        record = run_round(_WORKER["detector"], config.objects, config.num_objects, seed)
+        record = run_round(
+            detector, config.objects, config.num_objects, seed, observer=observer,
+            diagnose=config.diagnose,
+        )  # fmt: skip
         return round_record(record)
     except Exception as error:  # a crashed round is data, not the end of the benchmark
         return {"seed": seed, "error": f"{type(error).__name__}: {error}",
                 "traceback": traceback.format_exc()}  # fmt: skip
 
 
-def run_rounds(config: BenchmarkConfig, workers: int = 1) -> Iterator[dict[str, Any]]:
-    """The round records of ``config``, in seed order, with a progress bar."""
+def run_rounds(
+    config: BenchmarkConfig, workers: int = 1, out: str | Path = "."
+) -> Iterator[dict[str, Any]]:
+    """The round records of ``config``, in seed order, with a progress bar (pictures, if
+    asked for, go under ``out``)."""
     seeds = [config.seed + r for r in range(config.rounds)]
     bar = tqdm(total=len(seeds), desc="declutter rounds", unit="round")
     if workers <= 1:
-        _init_worker(config, threads=max(1, min(2, os.cpu_count() or 1)))
+        _init_worker(config, max(1, min(2, os.cpu_count() or 1)), Path(out))
         results: Iterator[dict[str, Any]] = map(_round_task, seeds)
         for result in results:
             bar.update()
@@ -111,7 +129,7 @@ def run_rounds(config: BenchmarkConfig, workers: int = 1) -> Iterator[dict[str, 
     else:
         spawn = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(workers, spawn, initializer=_init_worker,
-                                 initargs=(config, 1)) as pool:  # fmt: skip
+                                 initargs=(config, 1, Path(out))) as pool:  # fmt: skip
             for result in pool.map(_round_task, seeds, chunksize=1):
                 bar.update()
                 yield result
@@ -119,12 +137,15 @@ def run_rounds(config: BenchmarkConfig, workers: int = 1) -> Iterator[dict[str, 
 
 
 def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
-    """Pooled SR and CR with bootstrap 95 % intervals, outcome counts, planning time."""
+    """Pooled SR and CR with bootstrap 95 % intervals, outcome and failure-mode counts,
+    planning time."""
     done = [r for r in rounds if "error" not in r]
     successes = np.array([r["successes"] for r in done], dtype=float)
     executed = np.array([r["executed"] for r in done], dtype=float)
     objects = np.array([r["objects"] for r in done], dtype=float)
     outcomes = Counter(a["outcome"] for r in done for a in r["attempts"])
+    modes = Counter(a.get("mode") for r in done for a in r["attempts"])
+    modes.pop(None, None)
     planning = [a["planning_s"] for r in done for a in r["attempts"]]
     summary = {
         "rounds": len(rounds),
@@ -135,6 +156,7 @@ def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
         "success_ratio": _ratio(successes, executed),
         "clear_ratio": _ratio(successes, objects),
         "outcomes": dict(sorted(outcomes.items())),
+        "modes": {mode: modes[mode] for mode in MODES if mode in modes},
         "planning_s_median": float(np.median(planning)) if planning else float("nan"),
         "renderers": sorted({r["renderer"] for r in done}),
     }
@@ -178,7 +200,7 @@ def run_benchmark(config: BenchmarkConfig, out: str | Path, workers: int = 1) ->
     out.mkdir(parents=True, exist_ok=True)
     rounds = []
     with open(out / "rounds.jsonl", "w") as lines:
-        for record in run_rounds(config, workers):
+        for record in run_rounds(config, workers, out):
             rounds.append(record)
             lines.write(json.dumps(record) + "\n")
     summary = summarise(rounds, config.seed)

@@ -13,6 +13,7 @@ objects' poses and velocities over.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -35,6 +36,17 @@ SCENES = ("pile", "packed")
 
 PILE_BOX_HALF = 0.1
 """Inner half-width of the bottomless box a pile is dropped into [m]."""
+
+
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """A `World`'s simulation state at one instant (`World.snapshot`)."""
+
+    model: mujoco.MjModel
+    state: np.ndarray
 
 
 def pose_to_qpos(T: np.ndarray) -> np.ndarray:
@@ -199,6 +211,24 @@ class World:
         if not 0 <= index < len(self.objects):
             raise ValueError(f"index must be in [0, {len(self.objects)}), got {index}")
         self.rebuild([i for i in range(len(self.objects)) if i != index])
+
+    def snapshot(self) -> Snapshot:
+        """The complete simulation state (MuJoCo's integration state: time, positions,
+        velocities, actuators, controls, applied forces, mocap targets and the solver's warm
+        start), for `restore`: a trial run from a restored state repeats bit for bit."""
+        state = np.empty(mujoco.mj_stateSize(self.model, _STATE))
+        mujoco.mj_getState(self.model, self.data, state, _STATE)
+        return Snapshot(self.model, state)
+
+    def restore(self, snapshot: Snapshot) -> None:
+        """Return to the state a `snapshot` of this model took (not across a `rebuild`)."""
+        if snapshot.model is not self.model:
+            raise ValueError(
+                "snapshot was taken of another model (objects were removed or the world was "
+                "rebuilt since); take a new one"
+            )
+        mujoco.mj_setState(self.model, self.data, snapshot.state, _STATE)
+        mujoco.mj_forward(self.model, self.data)
 
     # -- objects ------------------------------------------------------------------------
 

@@ -1,0 +1,70 @@
+"""Why a declutter grasp failed: wrong yaw, wrong approach, collision, slip (issue 8's modes).
+
+The simulator says *how* a trial ended (`symgrasp.sim.execute.Outcome`); a representation is
+judged by *why*. The question the paper asks of a rotation is whether the closing axis about
+an otherwise good approach was wrong: the averaged yaws of a regressor that was trained
+towards both rotations of a symmetric grasp. So a failed grasp is replayed from the state
+it started in, turned about its own approach axis ``e_x`` by each of `YAW_OFFSETS` (same TCP
+position, same ``e_x``, closing axis ``e_z`` rotated in the plane ⊥ ``e_x``; offsets in
+[0, π) cover every yaw of a symmetric hand). Then, in this order:
+
+- ``wrong_yaw``: some turned grasp succeeds: the approach was right, the yaw was not;
+- ``collision``: the hand hit something at pre-grasp or on the way in, whatever its yaw;
+- ``wrong_approach``: the fingers closed on nothing, whatever the yaw: the grasp point or
+  the approach direction misses the object;
+- ``slip`` / ``multiple``: an object was grasped and lost, or two were lifted.
+
+Replays run on `World.snapshot` copies and the world is put back exactly as the failed
+trial left it, so diagnosing does not change the round (tested).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from symgrasp.sim import World
+from symgrasp.sim.execute import Outcome, execute_grasp
+from symgrasp.sim.world import Snapshot
+
+YAW_OFFSETS = np.deg2rad([30.0, 60.0, 90.0, 120.0, 150.0])
+"""Turns about the approach axis tried to tell a wrong yaw from a wrong approach [rad]."""
+
+MODES = ("success", "wrong_yaw", "wrong_approach", "collision", "slip", "multiple", "none_found")
+"""Every attempt's mode, in report order (``none_found``: the detector proposed no grasp)."""
+
+_BY_OUTCOME = {
+    Outcome.SUCCESS: "success",
+    Outcome.PREGRASP_COLLISION: "collision",
+    Outcome.APPROACH_COLLISION: "collision",
+    Outcome.NO_CONTACT: "wrong_approach",
+    Outcome.SLIPPED: "slip",
+    Outcome.MULTIPLE: "multiple",
+}
+
+
+def turned_about_approach(T_world_tcp: np.ndarray, angle: float) -> np.ndarray:
+    """``T_world_tcp`` rotated by ``angle`` [rad] about its own ``e_x`` (4×4): same position,
+    same approach, closing axis turned."""
+    c, s = np.cos(angle), np.sin(angle)
+    T_tcp_turned = np.eye(4)
+    T_tcp_turned[1:3, 1:3] = [[c, -s], [s, c]]
+    return T_world_tcp @ T_tcp_turned
+
+
+def failure_mode(
+    world: World, before: Snapshot, grasp_pose: np.ndarray, gripper: str, outcome: Outcome
+) -> str:
+    """The mode of a trial of ``grasp_pose`` that ended in ``outcome`` after starting from
+    ``before`` (a snapshot of ``world``); ``world`` is left in the state it is in now."""
+    if outcome is Outcome.SUCCESS:
+        return "success"
+    after = world.snapshot()
+    try:
+        for angle in YAW_OFFSETS:
+            world.restore(before)
+            turned = turned_about_approach(grasp_pose, float(angle))
+            if execute_grasp(world, turned, gripper, remove=False).success:
+                return "wrong_yaw"
+    finally:
+        world.restore(after)
+    return _BY_OUTCOME[outcome]
