@@ -1,0 +1,145 @@
+"""The paper's Table 1 on symgrasp's simulator → benchmarks/results/declutter.{json,md}.
+
+    PYTHONPATH=src python benchmarks/declutter_table.py [--runs runs] [--out out/bench]
+        [--rounds 100] [--workers 2] [--collate-only]
+
+Runs `symgrasp bench declutter` (`symgrasp.benchmark.runner.run_benchmark`, failure modes
+on) for every representation × gripper × object set of issue 8, plus ``bingham2d`` without
+its confidence threshold. ``bingham2d`` is the shipped model of each gripper; the baselines
+are the checkpoints ``--runs/REP-<robotiq|franka>/best.pt`` that ``symgrasp train --rep REP``
+wrote (commands in docs/results.md). A cell whose model is missing is listed as not trained;
+a cell whose ``--out`` folder already holds the same configuration's diagnosed results is
+read, not rerun, so the script resumes after an interruption and fills cells as runs finish.
+The collated table (with the paper's numbers beside ours) goes to ``--result``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+from dataclasses import asdict
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from common import cpu_model
+
+from symgrasp.benchmark.runner import BenchmarkConfig, run_benchmark
+
+GRIPPERS = {"robotiq-2f85": "robotiq", "franka": "franka"}
+OBJECTS = ("household-test", "large-box")
+ROWS = (  # (representation, confidence threshold on)
+    ("bingham2d", True),
+    ("bingham2d", False),
+    ("rotmat6d", True),
+    ("quaternion", True),
+    ("bingham3d", True),
+)
+PAPER = {  # Table 1 of the paper, SR / CR [%], on its own simulator and objects
+    ("robotiq-2f85", "bingham2d", True): {"household-test": (79.0, 76.6), "large-box": (62.9, 70.6)},
+    ("robotiq-2f85", "bingham2d", False): {"household-test": (73.7, 74.9), "large-box": (54.3, 59.9)},
+    ("robotiq-2f85", "rotmat6d", True): {"household-test": (65.5, 70.2), "large-box": (46.1, 52.0)},
+    ("robotiq-2f85", "quaternion", True): {"household-test": (58.3, 62.4), "large-box": (22.2, 24.6)},
+    ("robotiq-2f85", "bingham3d", True): {"household-test": (45.6, 47.4), "large-box": (16.4, 17.5)},
+    ("franka", "bingham2d", True): {"household-test": (63.1, 64.9), "large-box": (67.7, 80.6)},
+    ("franka", "bingham2d", False): {"household-test": (63.6, 66.6), "large-box": (66.2, 79.4)},
+    ("franka", "rotmat6d", True): {"household-test": (58.7, 63.8), "large-box": (48.7, 57.5)},
+    ("franka", "quaternion", True): {"household-test": (47.8, 48.2), "large-box": (38.5, 48.4)},
+    ("franka", "bingham3d", True): {"household-test": (39.1, 39.8), "large-box": (20.5, 23.4)},
+}  # fmt: skip
+
+
+def model_for(gripper: str, rep: str, runs: Path) -> str:
+    """The model of a cell: the shipped ``bingham2d`` or the baseline's training run."""
+    if rep == "bingham2d":
+        return f"bingham2d-{gripper}"
+    return str(runs / f"{rep}-{GRIPPERS[gripper]}" / "best.pt")
+
+
+def cell(config: BenchmarkConfig, out: Path, workers: int, collate_only: bool) -> dict | None:
+    """The summary of one cell: read when ``out`` holds it, else run (unless collating)."""
+    saved = out / "results.json"
+    if saved.exists():
+        result = json.loads(saved.read_text())
+        if result["config"] == json.loads(json.dumps(asdict(config))):
+            return result["summary"]
+    if collate_only:
+        return None
+    return run_benchmark(config, out, workers)
+
+
+def pct(summary: dict[str, Any], name: str) -> str:
+    lo, hi = summary[f"{name}_ci95"]
+    return f"{100 * summary[name]:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
+
+
+def markdown(rows: list[dict[str, Any]]) -> str:
+    """One table per gripper, the paper's numbers beside ours."""
+    text = []
+    for gripper in GRIPPERS:
+        text += [
+            f"### {gripper}\n",
+            "| representation | household-test SR | household-test CR | large-box SR | "
+            "large-box CR | paper household SR / CR | paper large box SR / CR |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for rep, threshold in ROWS:
+            cells = {r["objects"]: r for r in rows if r["key"] == [gripper, rep, threshold]}
+            name = f"`{rep}`" + ("" if threshold else ", no threshold")
+            ours = []
+            for objects in OBJECTS:
+                summary = cells.get(objects, {}).get("summary")
+                ours += [pct(summary, n) for n in ("success_ratio", "clear_ratio")] if summary else ["–", "–"]  # fmt: skip
+            paper = PAPER[(gripper, rep, threshold)]
+            theirs = [f"{paper[o][0]} / {paper[o][1]}" for o in OBJECTS]
+            text.append(f"| {name} | " + " | ".join(ours + theirs) + " |")
+        text.append("")
+    return "\n".join(text)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", default="runs", help="folder of the baselines' training runs")
+    parser.add_argument("--out", default="out/bench", help="folder of the per-cell benchmark runs")
+    parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
+    parser.add_argument("--workers", type=int, default=2, help="round processes (default: 2)")
+    parser.add_argument(
+        "--collate-only", action="store_true", help="tabulate the cells already run; run none"
+    )
+    parser.add_argument("--result", default="benchmarks/results/declutter", help="result stem")
+    args = parser.parse_args()
+
+    rows = []
+    for gripper, short in GRIPPERS.items():
+        for rep, threshold in ROWS:
+            model = model_for(gripper, rep, Path(args.runs))
+            for objects in OBJECTS:
+                key = [gripper, rep, threshold]
+                if not model.startswith("bingham2d-") and not Path(model).exists():
+                    rows.append({"key": key, "objects": objects, "model": model, "summary": None})
+                    continue
+                options = () if threshold else (("confidence_threshold", None),)
+                config = BenchmarkConfig(model, objects, 5, args.rounds, 0, options)
+                folder = Path(args.out) / short / (rep + ("" if threshold else "-noconf")) / objects
+                print(f"{gripper} {rep}{'' if threshold else ' (no threshold)'} on {objects}")
+                summary = cell(config, folder, args.workers, args.collate_only)
+                rows.append({"key": key, "objects": objects, "model": model, "summary": summary})
+
+    table = markdown(rows)
+    print(table)
+    result = {
+        "benchmark": "declutter comparison (issue 8): SR / CR per representation, gripper, objects",
+        "command": "PYTHONPATH=src python benchmarks/declutter_table.py",
+        "rounds": args.rounds,
+        "seed": 0,
+        "machine": {"cpu": cpu_model(), "python": platform.python_version()},
+        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "cells": rows,
+    }
+    Path(f"{args.result}.json").write_text(json.dumps(result, indent=1) + "\n")
+    Path(f"{args.result}.md").write_text(table)
+
+
+if __name__ == "__main__":
+    main()
