@@ -15,10 +15,9 @@ from symgrasp.data.grasp_db import (
     randomised_frames,
     rejection_score,
     side_normals,
-    surface_samples,
 )
 from symgrasp.sim import get_gripper
-from symgrasp.sim.objects import ObjectSpec, Part
+from symgrasp.sim.objects import ObjectSpec, Part, surface_samples
 
 HALF = (0.02, 0.03, 0.045)  # 4 × 6 × 9 cm: only the 4 and 6 cm sides fit the 8 cm Franka
 FRICTION = 0.5

@@ -35,6 +35,17 @@ def test_surface_samples_lie_on_the_union_not_inside_it():
     np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0)
 
 
+def test_curved_parts_are_sampled_too():
+    """Faceted meshes lie inside the exact shapes: the sampler must not reject their points."""
+    ball = ObjectSpec("ball", "ball", (Part("sphere", (0.03,)),), 0.1, 0.5)
+    points, normals = ball.sample_surface(300, seed=2)
+    assert points.shape == normals.shape == (300, 3)
+    radius = np.linalg.norm(points, axis=1)
+    assert np.all((radius > 0.029) & (radius <= 0.0301))  # on the icosphere's facets
+    assert np.all(np.sum(points * normals, axis=1) > 0)  # outward
+    assert np.array_equal(ball.sample_surface(300, seed=2)[0], points)
+
+
 def test_object_sets_are_reproducible_and_test_has_its_own_families():
     a, b = object_set("household-test", 60, seed=3), object_set("household-test", 60, seed=3)
     assert a == b

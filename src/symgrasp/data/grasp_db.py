@@ -25,14 +25,13 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-import trimesh
 from scipy.spatial.transform import Rotation
 
 from symgrasp.data.directions import fibonacci_directions
 from symgrasp.sim import World, get_gripper
 from symgrasp.sim.execute import pull_out_force
 from symgrasp.sim.grippers import PREFIX
-from symgrasp.sim.objects import ObjectSpec
+from symgrasp.sim.objects import ObjectSpec, surface_samples
 
 GRAVITY = 9.81
 """Standard gravity [m/s²], the unit of the normalised score."""
@@ -127,33 +126,6 @@ class GraspDatabase:
         return cls(**fields)
 
 
-def surface_samples(
-    obj: ObjectSpec, n: int, rng: np.random.Generator
-) -> tuple[np.ndarray, np.ndarray]:
-    """About ``n`` points (P, 3) on the outer surface of ``obj`` and their outward normals.
-
-    Each part's mesh is sampled in proportion to its area and points inside *another* part
-    are dropped. (``ObjectSpec.sample_surface`` also tests a point against its own part, which
-    rejects nearly every sample on the faceted mesh of a sphere, capsule or ellipsoid.)
-    """
-    meshes = [p.mesh() for p in obj.parts]
-    areas = np.array([m.area for m in meshes])
-    points, normals = [], []
-    for i, (mesh, count) in enumerate(
-        zip(meshes, rng.multinomial(n, areas / areas.sum()), strict=True)
-    ):
-        if count == 0:
-            continue
-        p, face = trimesh.sample.sample_surface(mesh, int(count), seed=int(rng.integers(2**31)))
-        keep = np.ones(len(p), dtype=bool)
-        for j, other in enumerate(obj.parts):
-            if j != i:
-                keep &= ~other.contains(p)
-        points.append(p[keep])
-        normals.append(mesh.face_normals[face[keep]])
-    return np.concatenate(points), np.concatenate(normals)
-
-
 def rejection_score(resisted_force: np.ndarray, weight: float, clip: float) -> np.ndarray:
     """The normalised gravity-rejection score ``log(1 + min(F / (m g), C)) / log(1 + C)``.
 
@@ -175,7 +147,7 @@ def antipodal_pairs(
     """Contact pairs of surface samples whose line lies in both friction cones (``atan μ``).
 
     Args:
-        points, normals: (P, 3) surface samples and outward normals (:func:`surface_samples`).
+        points, normals: (P, 3) surface samples and outward normals (`symgrasp.sim.objects.surface_samples`).
         friction: the object's friction coefficient μ.
         max_width: the gripper's largest opening [m].
 

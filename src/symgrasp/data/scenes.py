@@ -23,10 +23,10 @@ import numpy as np
 
 from symgrasp.data.collision import hand_collides
 from symgrasp.data.directions import interpolate
-from symgrasp.data.grasp_db import DatabaseConfig, GraspDatabase, surface_samples
+from symgrasp.data.grasp_db import DatabaseConfig, GraspDatabase
 from symgrasp.data.labels import RESOLUTION, voxelise
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, look_at, make_renderer
-from symgrasp.sim.objects import ObjectSpec, object_set
+from symgrasp.sim.objects import ObjectSpec, object_set, surface_samples
 from symgrasp.sim.world import SCENES, WORKSPACE_SIZE, packed_scene, pile_scene
 
 DEPTH_UNIT = 1e-4

@@ -16,9 +16,9 @@ from scipy.spatial.transform import Rotation
 from tqdm import tqdm
 
 from symgrasp.data.dataset import load_scene, scene_path
-from symgrasp.data.grasp_db import surface_samples
 from symgrasp.data.scenes import SceneConfig
 from symgrasp.sim import World, execute_grasp
+from symgrasp.sim.objects import surface_samples
 
 
 @dataclass(frozen=True)

@@ -149,23 +149,15 @@ class ObjectSpec:
         return trimesh.util.concatenate([p.mesh() for p in self.parts])
 
     def sample_surface(self, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-        """``n`` points on the outer surface and their outward normals, both (n, 3).
-
-        Points of one part that fall inside another part are rejected, so the samples lie
-        on the surface of the union.
-        """
+        """Exactly ``n`` points on the outer surface and their outward normals, both (n, 3)
+        (`surface_samples` until there are enough)."""
         if n <= 0:
             raise ValueError(f"n must be a positive number of points, got {n}")
         rng = np.random.default_rng(seed)
-        mesh = self.mesh()
         points, normals = np.empty((0, 3)), np.empty((0, 3))
         while len(points) < n:
-            p, face = trimesh.sample.sample_surface(mesh, 2 * n, seed=int(rng.integers(2**31)))
-            inside = np.zeros(len(p), dtype=bool)
-            for part in self.parts:
-                inside |= part.contains(p)
-            points = np.vstack([points, p[~inside]])
-            normals = np.vstack([normals, mesh.face_normals[face[~inside]]])
+            p, normal = surface_samples(self, n, rng)
+            points, normals = np.vstack([points, p]), np.vstack([normals, normal])
         return points[:n], normals[:n]
 
     def footprint(self) -> tuple[np.ndarray, float]:
@@ -174,6 +166,34 @@ class ObjectSpec:
         xy = self.mesh().vertices[:, :2]
         centre = (xy.min(axis=0) + xy.max(axis=0)) / 2
         return centre, float(np.max(np.linalg.norm(xy - centre, axis=1)))
+
+
+def surface_samples(
+    obj: ObjectSpec, n: int, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """About ``n`` points (P, 3) on the outer surface of ``obj`` and their outward normals.
+
+    Each part's mesh is sampled in proportion to its area and points inside *another* part
+    are dropped, so the samples lie on the surface of the union. (A point is not tested
+    against its own part: on the faceted mesh of a sphere, capsule or ellipsoid nearly every
+    sample lies inside the exact shape.)
+    """
+    meshes = [p.mesh() for p in obj.parts]
+    areas = np.array([m.area for m in meshes])
+    points, normals = [], []
+    for i, (mesh, count) in enumerate(
+        zip(meshes, rng.multinomial(n, areas / areas.sum()), strict=True)
+    ):
+        if count == 0:
+            continue
+        p, face = trimesh.sample.sample_surface(mesh, int(count), seed=int(rng.integers(2**31)))
+        keep = np.ones(len(p), dtype=bool)
+        for j, other in enumerate(obj.parts):
+            if j != i:
+                keep &= ~other.contains(p)
+        points.append(p[keep])
+        normals.append(mesh.face_normals[face[keep]])
+    return np.concatenate(points), np.concatenate(normals)
 
 
 def _quat_about(axis: str, angle: float) -> tuple[float, float, float, float]:
