@@ -7,7 +7,7 @@ Runs `symgrasp bench declutter` (`symgrasp.benchmark.runner.run_benchmark`, fail
 on) for every representation × gripper × object set of issue 8, plus ``bingham2d`` without
 its confidence threshold. ``bingham2d`` is the shipped model of each gripper; the baselines
 are the checkpoints ``--runs/REP-<robotiq|franka>/best.pt`` that ``symgrasp train --rep REP``
-wrote (commands in docs/results.md). A cell whose model is missing is listed as not trained;
+wrote (commands in docs/results.md). A cell whose run is missing or unfinished is listed as –;
 a cell whose ``--out`` folder already holds the same configuration's diagnosed results is
 read, not rerun, so the script resumes after an interruption and fills cells as runs finish.
 The collated table (with the paper's numbers beside ours) goes to ``--result``.
@@ -23,8 +23,10 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+import torch
 from common import cpu_model
 
+from symgrasp.benchmark.failures import MODES
 from symgrasp.benchmark.runner import BenchmarkConfig, run_benchmark
 
 GRIPPERS = {"robotiq-2f85": "robotiq", "franka": "franka"}
@@ -50,11 +52,16 @@ PAPER = {  # Table 1 of the paper, SR / CR [%], on its own simulator and objects
 }  # fmt: skip
 
 
-def model_for(gripper: str, rep: str, runs: Path) -> str:
-    """The model of a cell: the shipped ``bingham2d`` or the baseline's training run."""
+def model_for(gripper: str, rep: str, runs: Path) -> str | None:
+    """The model of a cell: the shipped ``bingham2d``, or the baseline's training run once it
+    has run all its epochs (None before)."""
     if rep == "bingham2d":
         return f"bingham2d-{gripper}"
-    return str(runs / f"{rep}-{GRIPPERS[gripper]}" / "best.pt")
+    run = runs / f"{rep}-{GRIPPERS[gripper]}"
+    if not (run / "last.pt").exists():
+        return None
+    last = torch.load(run / "last.pt", map_location="cpu", weights_only=False)
+    return str(run / "best.pt") if last["epoch"] >= last["config"]["epochs"] else None
 
 
 def cell(config: BenchmarkConfig, out: Path, workers: int, collate_only: bool) -> dict | None:
@@ -94,6 +101,15 @@ def markdown(rows: list[dict[str, Any]]) -> str:
             paper = PAPER[(gripper, rep, threshold)]
             theirs = [f"{paper[o][0]} / {paper[o][1]}" for o in OBJECTS]
             text.append(f"| {name} | " + " | ".join(ours + theirs) + " |")
+        text += ["", f"Attempts by mode ({gripper}; `symgrasp.benchmark.failures`):", ""]
+        text += ["| representation | objects | " + " | ".join(MODES) + " |",
+                 "|---|---|" + "---|" * len(MODES)]  # fmt: skip
+        for row in rows:
+            if row["key"][0] == gripper and row["summary"] and row["summary"]["modes"]:
+                rep, threshold = row["key"][1:]
+                name = f"`{rep}`" + ("" if threshold else ", no threshold")
+                counts = [str(row["summary"]["modes"].get(mode, 0)) for mode in MODES]
+                text.append(f"| {name} | {row['objects']} | " + " | ".join(counts) + " |")
         text.append("")
     return "\n".join(text)
 
@@ -116,7 +132,7 @@ def main() -> None:
             model = model_for(gripper, rep, Path(args.runs))
             for objects in OBJECTS:
                 key = [gripper, rep, threshold]
-                if not model.startswith("bingham2d-") and not Path(model).exists():
+                if model is None:
                     rows.append({"key": key, "objects": objects, "model": model, "summary": None})
                     continue
                 options = () if threshold else (("confidence_threshold", None),)
