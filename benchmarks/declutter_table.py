@@ -10,12 +10,14 @@ are the checkpoints ``--runs/REP-<robotiq|franka>/best.pt`` that ``symgrasp trai
 wrote (commands in docs/results.md). A cell whose run is missing or unfinished is listed as –;
 a cell whose ``--out`` folder already holds the same configuration's diagnosed results is
 read, not rerun, so the script resumes after an interruption and fills cells as runs finish.
-The collated table (with the paper's numbers beside ours) goes to ``--result``.
+The collated table (with the paper's numbers beside ours) goes to ``--result``, a bar chart
+to ``--figure``.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import platform
 from dataclasses import asdict
@@ -114,6 +116,46 @@ def markdown(rows: list[dict[str, Any]]) -> str:
     return "\n".join(text)
 
 
+def figure(rows: list[dict[str, Any]], path: str | Path) -> None:
+    """Bars of SR and CR with their 95 % intervals per representation, one panel per gripper
+    and object set; the paper's values as black ticks."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharey=True)
+    for (i, gripper), (j, objects) in itertools.product(enumerate(GRIPPERS), enumerate(OBJECTS)):
+        ax = axes[i, j]
+        for k, (rep, threshold) in enumerate(ROWS):
+            row = next(r for r in rows if r["key"] == [gripper, rep, threshold]
+                       and r["objects"] == objects)  # fmt: skip
+            paper = PAPER[(gripper, rep, threshold)][objects]
+            for m, (name, colour) in enumerate((("success_ratio", "C0"), ("clear_ratio", "C1"))):
+                x = k + (m - 0.5) * 0.38
+                ax.plot([x - 0.17, x + 0.17], [paper[m]] * 2, color="k", lw=2)
+                if row["summary"] is None:
+                    ax.text(x, 2, "–", ha="center")
+                    continue
+                value = 100 * row["summary"][name]
+                lo, hi = (100 * v for v in row["summary"][f"{name}_ci95"])
+                ax.bar(x, value, 0.36, color=colour, yerr=[[value - lo], [hi - value]],
+                       capsize=3, label=name.replace("_", " ") if k == 0 else None)  # fmt: skip
+        labels = [rep + ("" if threshold else "\nno thr.") for rep, threshold in ROWS]
+        ax.set_xticks(range(len(ROWS)), labels, fontsize=8)
+        ax.set_title(f"{gripper}, {objects}")
+        ax.set_ylim(0, 100)
+        ax.grid(axis="y", alpha=0.3)
+    axes[0, 0].set_ylabel("%")
+    axes[1, 0].set_ylabel("%")
+    axes[0, 0].plot([], [], color="k", lw=2, label="the paper (its simulator)")
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="lower center", ncol=3, fontsize=9)
+    fig.suptitle("Simulated decluttering, 100 rounds of 5 objects, 95 % intervals")
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", default="runs", help="folder of the baselines' training runs")
@@ -124,6 +166,9 @@ def main() -> None:
         "--collate-only", action="store_true", help="tabulate the cells already run; run none"
     )
     parser.add_argument("--result", default="benchmarks/results/declutter", help="result stem")
+    parser.add_argument(
+        "--figure", default="docs/figures/declutter_comparison.png", help="bar chart path"
+    )
     args = parser.parse_args()
 
     rows = []
@@ -155,6 +200,7 @@ def main() -> None:
     }
     Path(f"{args.result}.json").write_text(json.dumps(result, indent=1) + "\n")
     Path(f"{args.result}.md").write_text(table)
+    figure(rows, args.figure)
 
 
 if __name__ == "__main__":
