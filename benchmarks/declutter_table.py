@@ -10,8 +10,8 @@ are the checkpoints ``--runs/REP-<robotiq|franka>/best.pt`` that ``symgrasp trai
 wrote (commands in docs/results.md). A cell whose run is missing or unfinished is listed as –;
 a cell whose ``--out`` folder already holds the same configuration's diagnosed results is
 read, not rerun, so the script resumes after an interruption and fills cells as runs finish.
-The collated table (with the paper's numbers beside ours) goes to ``--result``, a bar chart
-to ``--figure``.
+The collated table (with the paper's numbers beside ours) goes to ``--result`` and into
+``--docs`` (between its markers), a bar chart to ``--figure``.
 """
 
 from __future__ import annotations
@@ -104,14 +104,17 @@ def markdown(rows: list[dict[str, Any]]) -> str:
             theirs = [f"{paper[o][0]} / {paper[o][1]}" for o in OBJECTS]
             text.append(f"| {name} | " + " | ".join(ours + theirs) + " |")
         text += ["", f"Attempts by mode ({gripper}; `symgrasp.benchmark.failures`):", ""]
-        text += ["| representation | objects | " + " | ".join(MODES) + " |",
-                 "|---|---|" + "---|" * len(MODES)]  # fmt: skip
+        text += ["| representation | objects | " + " | ".join(MODES) + " | wrong yaw / executed |",
+                 "|---|---|" + "---|" * (len(MODES) + 1)]  # fmt: skip
         for row in rows:
             if row["key"][0] == gripper and row["summary"] and row["summary"]["modes"]:
                 rep, threshold = row["key"][1:]
                 name = f"`{rep}`" + ("" if threshold else ", no threshold")
                 counts = [str(row["summary"]["modes"].get(mode, 0)) for mode in MODES]
-                text.append(f"| {name} | {row['objects']} | " + " | ".join(counts) + " |")
+                share = row["summary"]["modes"].get("wrong_yaw", 0) / row["summary"]["executed"]
+                text.append(
+                    f"| {name} | {row['objects']} | " + " | ".join(counts) + f" | {share:.0%} |"
+                )
         text.append("")
     return "\n".join(text)
 
@@ -156,6 +159,18 @@ def figure(rows: list[dict[str, Any]], path: str | Path) -> None:
     plt.close(fig)
 
 
+BEGIN, END = "<!-- declutter-table: begin -->", "<!-- declutter-table: end -->"
+
+
+def update_page(page: Path, table: str) -> None:
+    """Replace the text between the ``BEGIN`` and ``END`` markers of ``page`` by ``table``."""
+    text = page.read_text()
+    if BEGIN not in text or END not in text:
+        raise SystemExit(f"error: --docs {page} has no {BEGIN} … {END} markers")
+    head, rest = text.split(BEGIN, 1)
+    page.write_text(f"{head}{BEGIN}\n{table}{END}{rest.split(END, 1)[1]}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", default="runs", help="folder of the baselines' training runs")
@@ -168,6 +183,11 @@ def main() -> None:
     parser.add_argument("--result", default="benchmarks/results/declutter", help="result stem")
     parser.add_argument(
         "--figure", default="docs/figures/declutter_comparison.png", help="bar chart path"
+    )
+    parser.add_argument(
+        "--docs",
+        default="docs/results.md",
+        help="page whose tables (between the declutter-table markers) are replaced",
     )
     args = parser.parse_args()
 
@@ -201,6 +221,7 @@ def main() -> None:
     Path(f"{args.result}.json").write_text(json.dumps(result, indent=1) + "\n")
     Path(f"{args.result}.md").write_text(table)
     figure(rows, args.figure)
+    update_page(Path(args.docs), table)
 
 
 if __name__ == "__main__":
