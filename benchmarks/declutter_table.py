@@ -29,7 +29,7 @@ import torch
 from common import cpu_model
 
 from symgrasp.benchmark.failures import MODES
-from symgrasp.benchmark.runner import BenchmarkConfig, run_benchmark
+from symgrasp.benchmark.runner import BenchmarkConfig, percent_with_interval, run_benchmark
 
 GRIPPERS = {"robotiq-2f85": "robotiq", "franka": "franka"}
 OBJECTS = ("household-test", "large-box")
@@ -78,9 +78,9 @@ def cell(config: BenchmarkConfig, out: Path, workers: int, collate_only: bool) -
     return run_benchmark(config, out, workers)
 
 
-def pct(summary: dict[str, Any], name: str) -> str:
-    lo, hi = summary[f"{name}_ci95"]
-    return f"{100 * summary[name]:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
+def label(rep: str, threshold: bool) -> str:
+    """A table row's name."""
+    return f"`{rep}`" + ("" if threshold else ", no threshold")
 
 
 def markdown(rows: list[dict[str, Any]]) -> str:
@@ -95,25 +95,24 @@ def markdown(rows: list[dict[str, Any]]) -> str:
         ]
         for rep, threshold in ROWS:
             cells = {r["objects"]: r for r in rows if r["key"] == [gripper, rep, threshold]}
-            name = f"`{rep}`" + ("" if threshold else ", no threshold")
             ours = []
             for objects in OBJECTS:
                 summary = cells.get(objects, {}).get("summary")
-                ours += [pct(summary, n) for n in ("success_ratio", "clear_ratio")] if summary else ["–", "–"]  # fmt: skip
+                ours += [percent_with_interval(summary, n) for n in ("success_ratio", "clear_ratio")] if summary else ["–", "–"]  # fmt: skip
             paper = PAPER[(gripper, rep, threshold)]
             theirs = [f"{paper[o][0]} / {paper[o][1]}" for o in OBJECTS]
-            text.append(f"| {name} | " + " | ".join(ours + theirs) + " |")
+            text.append(f"| {label(rep, threshold)} | " + " | ".join(ours + theirs) + " |")
         text += ["", f"Attempts by mode ({gripper}; `symgrasp.benchmark.failures`):", ""]
         text += ["| representation | objects | " + " | ".join(MODES) + " | wrong yaw / executed |",
                  "|---|---|" + "---|" * (len(MODES) + 1)]  # fmt: skip
         for row in rows:
             if row["key"][0] == gripper and row["summary"] and row["summary"]["modes"]:
-                rep, threshold = row["key"][1:]
-                name = f"`{rep}`" + ("" if threshold else ", no threshold")
                 counts = [str(row["summary"]["modes"].get(mode, 0)) for mode in MODES]
                 share = row["summary"]["modes"].get("wrong_yaw", 0) / row["summary"]["executed"]
                 text.append(
-                    f"| {name} | {row['objects']} | " + " | ".join(counts) + f" | {share:.0%} |"
+                    f"| {label(*row['key'][1:])} | {row['objects']} | "
+                    + " | ".join(counts)
+                    + f" | {share:.0%} |"
                 )
         text.append("")
     return "\n".join(text)

@@ -618,13 +618,16 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
         from symgrasp.benchmark.runner import BenchmarkConfig, markdown_table, run_benchmark
         from symgrasp.detect import GraspDetector
 
-        detector = GraspDetector.from_pretrained(args.model, device="cpu")
-        for option, wanted, actual in (
-            ("--rep", args.rep, detector.representation.name),
-            ("--gripper", args.gripper, detector.gripper),
-        ):
-            if wanted is not None and wanted != actual:
-                raise SystemExit(f"error: {option} {wanted}, but --model {args.model} is {actual}")
+        if args.rep is not None or args.gripper is not None:
+            detector = GraspDetector.from_pretrained(args.model, device="cpu")
+            for option, wanted, actual in (
+                ("--rep", args.rep, detector.representation.name),
+                ("--gripper", args.gripper, detector.gripper),
+            ):
+                if wanted is not None and wanted != actual:
+                    raise SystemExit(
+                        f"error: {option} {wanted}, but --model {args.model} is {actual}"
+                    )
 
         options = ()
         if args.no_confidence:

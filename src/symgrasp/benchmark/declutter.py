@@ -142,10 +142,10 @@ def run_round(
         if chosen is None:
             outcome = NONE_FOUND
         else:
-            state = world.snapshot()
+            state = world.snapshot() if diagnose else None
             result = execute_grasp(world, chosen.pose, detector.gripper).outcome
             outcome = result.value
-            if diagnose:
+            if state is not None:
                 mode = failure_mode(world, state, chosen.pose, detector.gripper, result)
         attempt = Attempt(outcome, chosen, len(candidates), rejected, planning, before, mode)
         record.attempts.append(attempt)

@@ -178,18 +178,20 @@ def _ratio(numerator: np.ndarray, denominator: np.ndarray) -> float:
     return float(numerator.sum()) / total if total else float("nan")
 
 
+def percent_with_interval(summary: dict[str, Any], name: str) -> str:
+    """``summary[name]`` and its 95 % interval in percent, e.g. ``81.7 [77.0, 86.2]``."""
+    lo, hi = summary[f"{name}_ci95"]
+    return f"{100 * summary[name]:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
+
+
 def markdown_table(summary: dict[str, Any], config: BenchmarkConfig) -> str:
     """One Markdown row per benchmark (with its header)."""
-
-    def pct(name: str) -> str:
-        lo, hi = summary[f"{name}_ci95"]
-        return f"{100 * summary[name]:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
 
     return (
         "| model | objects | rounds | SR % [95 % CI] | CR % [95 % CI] | grasps | errors |\n"
         "|---|---|---|---|---|---|---|\n"
-        f"| {config.model} | {config.objects} | {summary['rounds']} | {pct('success_ratio')} "
-        f"| {pct('clear_ratio')} | {summary['executed']} | {len(summary['errors'])} |\n"
+        f"| {config.model} | {config.objects} | {summary['rounds']} | {percent_with_interval(summary, 'success_ratio')} "
+        f"| {percent_with_interval(summary, 'clear_ratio')} | {summary['executed']} | {len(summary['errors'])} |\n"
     )
 
 
