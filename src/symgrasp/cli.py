@@ -50,6 +50,28 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(run=run)
 
 
+def _add_confidence_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument(
+        "--confidence",
+        type=float,
+        default=None,
+        help="Bingham confidence threshold (default: 15 for bingham2d, none otherwise)",
+    )
+    group.add_argument(
+        "--no-confidence",
+        action="store_true",
+        help="turn the confidence threshold off (the paper's 'without threshold' ablation)",
+    )
+
+
+def _confidence_threshold(args: argparse.Namespace) -> float | str | None:
+    """``GraspDetector``'s ``confidence_threshold`` from ``--confidence``/``--no-confidence``."""
+    if args.no_confidence:
+        return None
+    return "default" if args.confidence is None else args.confidence
+
+
 def _add_detect(subparsers: argparse._SubParsersAction) -> None:
     from symgrasp.detect.detector import DEFAULT_VALIDITY
 
@@ -98,12 +120,7 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
         default=DEFAULT_VALIDITY,
         help=f"validity threshold (default: {DEFAULT_VALIDITY}, docs/detect.md)",
     )
-    parser.add_argument(
-        "--confidence",
-        type=float,
-        default=None,
-        help="Bingham confidence threshold (default: 15 for bingham2d, none otherwise)",
-    )
+    _add_confidence_options(parser)
     parser.add_argument("--top-k", type=int, default=None, help="keep the best K grasps")
     parser.add_argument(
         "--samples-per-voxel",
@@ -129,7 +146,7 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
             args.model,
             device=args.device,
             validity_threshold=args.validity,
-            confidence_threshold="default" if args.confidence is None else args.confidence,
+            confidence_threshold=_confidence_threshold(args),
             top_k=args.top_k,
             samples_per_voxel=args.samples_per_voxel,
             workspace_origin=tuple(args.workspace_origin),
@@ -578,17 +595,7 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
     declutter.add_argument(
         "--workers", type=int, default=1, help="rounds run in parallel processes (default: 1)"
     )
-    declutter.add_argument(
-        "--confidence",
-        type=float,
-        default=None,
-        help="Bingham confidence threshold (default: 15 for bingham2d, none otherwise)",
-    )
-    declutter.add_argument(
-        "--no-confidence",
-        action="store_true",
-        help="turn the confidence threshold off (the paper's 'without threshold' ablation)",
-    )
+    _add_confidence_options(declutter)
     declutter.add_argument(
         "--rep",
         default=None,
@@ -629,11 +636,8 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
                         f"error: {option} {wanted}, but --model {args.model} is {actual}"
                     )
 
-        options = ()
-        if args.no_confidence:
-            options = (("confidence_threshold", None),)
-        elif args.confidence is not None:
-            options = (("confidence_threshold", args.confidence),)
+        threshold = _confidence_threshold(args)
+        options = () if threshold == "default" else (("confidence_threshold", threshold),)
         config = BenchmarkConfig(
             args.model, args.objects, args.num_objects, args.rounds, args.seed, options,
             diagnose=not args.no_diagnose, pictures=args.pictures,
