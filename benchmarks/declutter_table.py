@@ -10,6 +10,7 @@ are the checkpoints ``--runs/REP-<robotiq|franka>/best.pt`` that ``symgrasp trai
 wrote (commands in docs/results.md). A cell whose run is missing or unfinished is listed as –;
 a cell whose ``--out`` folder already holds the same configuration's diagnosed results is
 read, not rerun, so the script resumes after an interruption and fills cells as runs finish.
+Household cells are also broken down by the family of the object each grasp was aimed at.
 The collated table (with the paper's numbers beside ours) goes to ``--result`` and into
 ``--docs`` (between its markers), a bar chart to ``--figure``.
 """
@@ -71,7 +72,8 @@ def cell(config: BenchmarkConfig, out: Path, workers: int, collate_only: bool) -
     saved = out / "results.json"
     if saved.exists():
         result = json.loads(saved.read_text())
-        if result["config"] == json.loads(json.dumps(asdict(config))):
+        current = "families" in result["summary"]  # older results lack the per-family counts
+        if current and result["config"] == json.loads(json.dumps(asdict(config))):
             return result["summary"]
     if collate_only:
         return None
@@ -114,8 +116,31 @@ def markdown(rows: list[dict[str, Any]]) -> str:
                     + " | ".join(counts)
                     + f" | {share:.0%} |"
                 )
-        text.append("")
+        text += ["", *family_table(rows, gripper), ""]
     return "\n".join(text)
+
+
+def family_table(rows: list[dict[str, Any]], gripper: str) -> list[str]:
+    """Household-test grasps per aimed-at object family: SR and wrong-yaw share of the
+    executed grasps (their count in brackets) for each representation with its threshold."""
+    cells = {r["key"][1]: r["summary"]["families"] for r in rows
+             if r["key"][0] == gripper and r["key"][2] and r["objects"] == "household-test"
+             and r["summary"] and "families" in r["summary"]}  # fmt: skip
+    if not cells:
+        return []
+    text = [f"Household-test grasps by the family of the object aimed at ({gripper}): success "
+            "ratio / wrong-yaw share of executed grasps, [executed]:", "",
+            "| family | " + " | ".join(f"`{rep}`" for rep in cells) + " |",
+            "|---|" + "---|" * len(cells)]  # fmt: skip
+    for family in sorted({f for families in cells.values() for f in families}):
+        entries = []
+        for families in cells.values():
+            n = families.get(family, {"executed": 0, "successes": 0, "wrong_yaw": 0})
+            shares = [f"{n[k] / n['executed']:.0%}" if n["executed"] else "–"
+                      for k in ("successes", "wrong_yaw")]  # fmt: skip
+            entries.append(f"{shares[0]} / {shares[1]} [{n['executed']}]")
+        text.append(f"| {family} | " + " | ".join(entries) + " |")
+    return text
 
 
 def figure(rows: list[dict[str, Any]], path: str | Path) -> None:

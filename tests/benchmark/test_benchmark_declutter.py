@@ -6,6 +6,7 @@ import pytest
 from symgrasp.benchmark.declutter import NONE_FOUND, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES
 from symgrasp.detect import GraspDetector
+from symgrasp.sim.objects import object_set
 
 
 @pytest.fixture(scope="module")
@@ -36,9 +37,13 @@ def test_a_round_is_reproducible_undisturbed_by_diagnosis_and_its_counts_add_up(
     assert 0 <= first.clear_ratio <= 1
     assert all(a.mode is None for a in again.attempts)
     assert any(not a.success for a in first.attempts[:-1])
+    families = {spec.family for spec in object_set("household-test", 3, seed=10)}
     for a in first.attempts:
         assert a.mode in MODES and (a.mode == "success") == a.success
         assert (a.mode == NONE_FOUND) == (a.outcome == NONE_FOUND)
+        assert (a.target is None) == (a.outcome == NONE_FOUND)
+        assert a.target is None or a.target in families
+    assert [a.target for a in first.attempts] == [a.target for a in again.attempts]
 
 
 def test_pictures_are_drawn_per_attempt(detector, tmp_path):

@@ -3,7 +3,12 @@
 import numpy as np
 import pytest
 
-from symgrasp.benchmark.failures import MODES, failure_mode, turned_about_approach
+from symgrasp.benchmark.failures import (
+    MODES,
+    aimed_object,
+    failure_mode,
+    turned_about_approach,
+)
 from symgrasp.sim import World, execute_grasp, get_gripper, large_box
 from symgrasp.sim.execute import Outcome, top_grasp
 from symgrasp.sim.objects import ObjectSpec, Part
@@ -90,3 +95,18 @@ def test_a_snapshot_replays_a_trial_bit_for_bit_and_is_refused_after_a_rebuild()
     world.remove_object(1)
     with pytest.raises(ValueError, match="snapshot"):
         world.restore(snapshot)
+
+
+def test_a_grasp_is_aimed_at_the_nearest_surface_not_the_nearest_centre():
+    long, cube = _box((0.10, 0.02, 0.02)), _box((0.02, 0.02, 0.02))
+    poses = np.tile(np.eye(4), (2, 1, 1))
+    poses[:, :3, 3] = [[0.10, 0.15, TABLE_HEIGHT], [0.27, 0.15, TABLE_HEIGHT]]
+    world = World([long, cube], poses)
+    # 1.5 cm beyond the long box's end (its centre 11.5 cm away), 3.5 cm from the cube's side
+    near_end = top_grasp(np.array([0.215, 0.15, TABLE_HEIGHT + 0.02]))
+    assert aimed_object(world, near_end) == 0
+    assert aimed_object(world, top_grasp(np.array([0.245, 0.15, TABLE_HEIGHT + 0.02]))) == 1
+    turned = poses.copy()  # the long box turned 90° about z: its end no longer there
+    turned[0, :3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
+    assert aimed_object(World([long, cube], turned), near_end) == 1
+    assert aimed_object(World([]), near_end) is None

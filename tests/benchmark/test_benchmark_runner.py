@@ -9,8 +9,9 @@ from symgrasp.benchmark import runner
 from symgrasp.benchmark.runner import BenchmarkConfig, markdown_table, summarise
 
 
-def _round(seed, objects, outcomes, modes=None):
+def _round(seed, objects, outcomes, modes=None, targets=None):
     modes = modes or [None] * len(outcomes)
+    targets = targets or [None] * len(outcomes)
     return {
         "seed": seed,
         "objects": objects,
@@ -18,8 +19,8 @@ def _round(seed, objects, outcomes, modes=None):
         "successes": outcomes.count("success"),
         "executed": sum(o != "none_found" for o in outcomes),
         "attempts": [
-            {"outcome": o, "mode": m, "planning_s": 0.1 * (i + 1)}
-            for i, (o, m) in enumerate(zip(outcomes, modes, strict=True))
+            {"outcome": o, "mode": m, "target": t, "planning_s": 0.1 * (i + 1)}
+            for i, (o, m, t) in enumerate(zip(outcomes, modes, targets, strict=True))
         ],
     }
 
@@ -46,6 +47,24 @@ def test_ratios_pool_all_rounds_and_the_interval_brackets_them():
     assert summarise(rounds) == s  # seeded bootstrap
     row = markdown_table(s, BenchmarkConfig(rounds=4)).splitlines()[2]
     assert "70.0 [" in row and "50.0 [" in row and row.endswith("| 1 |")
+
+
+def test_attempts_are_counted_per_aimed_at_family():
+    rounds = [
+        _round(
+            0,
+            3,
+            ["success", "no_contact", "success"],
+            ["success", "wrong_yaw", "success"],
+            ["box", "box", "sphere"],
+        ),
+        _round(1, 2, ["slipped", "none_found"], ["slip", "none_found"], ["box", None]),
+        _round(2, 1, ["success"]),  # an older record: no targets
+    ]
+    assert summarise(rounds)["families"] == {
+        "box": {"executed": 3, "successes": 1, "wrong_yaw": 1},
+        "sphere": {"executed": 1, "successes": 1, "wrong_yaw": 0},
+    }
 
 
 def test_bootstrap_interval_shrinks_like_one_over_sqrt_rounds():

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from symgrasp.benchmark.failures import failure_mode
+from symgrasp.benchmark.failures import aimed_object, failure_mode
 from symgrasp.data.collision import hand_collides
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.perception import CameraIntrinsic, make_renderer
@@ -48,6 +48,9 @@ class Attempt:
         objects_before: objects on the table before the attempt.
         mode: why it failed or ``"success"`` (`symgrasp.benchmark.failures.MODES`); None
             when the round was played without diagnosis.
+        target: the family of the object the grasp was for: the lifted one on success,
+            else the one nearest the TCP (`symgrasp.benchmark.failures.aimed_object`); None
+            when none was found.
     """
 
     outcome: str
@@ -57,6 +60,7 @@ class Attempt:
     planning_s: float
     objects_before: int
     mode: str | None = None
+    target: str | None = None
 
     @property
     def success(self) -> bool:
@@ -139,15 +143,21 @@ def run_round(
         planning = time.perf_counter() - start
         before = len(world.objects)
         mode: str | None = NONE_FOUND if diagnose else None
+        target = None
         if chosen is None:
             outcome = NONE_FOUND
         else:
+            families = [spec.family for spec in world.objects]
+            aimed = aimed_object(world, chosen.pose)
             state = world.snapshot() if diagnose else None
-            result = execute_grasp(world, chosen.pose, detector.gripper).outcome
-            outcome = result.value
+            result = execute_grasp(world, chosen.pose, detector.gripper)
+            outcome = result.outcome.value
+            target = families[aimed if result.object_index is None else result.object_index]
             if state is not None:
-                mode = failure_mode(world, state, chosen.pose, detector.gripper, result)
-        attempt = Attempt(outcome, chosen, len(candidates), rejected, planning, before, mode)
+                mode = failure_mode(world, state, chosen.pose, detector.gripper, result.outcome)
+        attempt = Attempt(
+            outcome, chosen, len(candidates), rejected, planning, before, mode, target
+        )
         record.attempts.append(attempt)
         if observer is not None:
             observer(world, points, candidates, attempt)

@@ -16,6 +16,9 @@ position, same ``e_x``, closing axis ``e_z`` rotated in the plane ⊥ ``e_x``; o
 
 Replays run on `World.snapshot` copies and the world is put back exactly as the failed
 trial left it, so diagnosing does not change the round (tested).
+
+A grasp is also attributed to the object it was aimed at (`aimed_object`), so modes can be
+broken down by object family: does a representation fail on boxes and not on spheres?
 """
 
 from __future__ import annotations
@@ -49,6 +52,19 @@ def turned_about_approach(T_world_tcp: np.ndarray, angle: float) -> np.ndarray:
     T_tcp_turned = np.eye(4)
     T_tcp_turned[1:3, 1:3] = [[c, -s], [s, c]]
     return T_world_tcp @ T_tcp_turned
+
+
+def aimed_object(world: World, T_world_tcp: np.ndarray, samples: int = 256) -> int | None:
+    """Index of the object whose surface is nearest the grasp's TCP (the point between the
+    fingertips), from ``samples`` surface points per object; None when there is none."""
+    if not world.objects:
+        return None
+    position = T_world_tcp[:3, 3]
+    nearest = []
+    for spec, T_world_object in zip(world.objects, world.object_poses(), strict=True):
+        points = spec.sample_surface(samples)[0] @ T_world_object[:3, :3].T + T_world_object[:3, 3]
+        nearest.append(np.linalg.norm(points - position, axis=1).min())
+    return int(np.argmin(nearest))
 
 
 def failure_mode(

@@ -68,6 +68,7 @@ def round_record(record: Round) -> dict[str, Any]:
             {
                 "outcome": a.outcome,
                 "mode": a.mode,
+                "target": a.target,
                 "score": None if a.grasp is None else a.grasp.score,
                 "confidence": None if a.grasp is None else a.grasp.confidence,
                 "candidates": a.candidates,
@@ -138,7 +139,7 @@ def run_rounds(
 
 def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
     """Pooled SR and CR with bootstrap 95 % intervals, outcome and failure-mode counts,
-    planning time."""
+    executed grasps, successes and wrong yaws per aimed-at object family, planning time."""
     done = [r for r in rounds if "error" not in r]
     successes = np.array([r["successes"] for r in done], dtype=float)
     executed = np.array([r["executed"] for r in done], dtype=float)
@@ -157,6 +158,7 @@ def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
         "clear_ratio": _ratio(successes, objects),
         "outcomes": dict(sorted(outcomes.items())),
         "modes": {mode: modes[mode] for mode in MODES if mode in modes},
+        "families": _by_family([a for r in done for a in r["attempts"]]),
         "planning_s_median": float(np.median(planning)) if planning else float("nan"),
         "renderers": sorted({r["renderer"] for r in done}),
     }
@@ -170,6 +172,21 @@ def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
             interval = [float(np.percentile(ratios, q)) for q in (2.5, 97.5)]
         summary[f"{name}_ci95"] = interval
     return summary
+
+
+def _by_family(attempts: list[dict[str, Any]]) -> dict[str, dict[str, int]]:
+    """Executed grasps, successes and wrong yaws per ``target`` family (older records
+    without targets count nowhere)."""
+    families: dict[str, Counter] = {}
+    for a in attempts:
+        if a.get("target") is None:
+            continue
+        counts = families.setdefault(a["target"], Counter())
+        counts["executed"] += 1
+        counts["successes"] += a["outcome"] == "success"
+        counts["wrong_yaw"] += a.get("mode") == "wrong_yaw"
+    keys = ("executed", "successes", "wrong_yaw")
+    return {name: {k: families[name][k] for k in keys} for name in sorted(families)}
 
 
 def _ratio(numerator: np.ndarray, denominator: np.ndarray) -> float:
