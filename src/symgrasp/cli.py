@@ -138,6 +138,7 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
             load_intrinsic,
             write_detection,
         )
+        from symgrasp.perception import depth_to_points
 
         depth = load_depth(args.depth, args.png_scale)
         intrinsic = load_intrinsic(args.intrinsic, depth.shape)
@@ -153,7 +154,8 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
         )
         volume = detector.fuse(depth, intrinsic, extrinsic)
         grasps = detector.detect_tsdf(volume.grid())
-        paths = write_detection(args.out, detector, volume, grasps)
+        points = depth_to_points(depth, intrinsic, extrinsic)
+        paths = write_detection(args.out, detector, volume, grasps, points)
         print(f"{len(grasps)} grasps; " + ", ".join(str(p) for p in paths.values()))
 
     parser.set_defaults(run=run)

@@ -11,6 +11,7 @@ from symgrasp.perception import (
     TSDFVolume,
     add_depth_noise,
     default_extrinsic,
+    depth_to_points,
     gl_available,
     look_at,
     make_renderer,
@@ -36,6 +37,28 @@ def test_look_at_points_the_optical_axis_at_the_target_with_image_down_toward_mi
     np.testing.assert_allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-12)
     with pytest.raises(ValueError, match="up"):
         look_at((0, 0, 1), (0, 0, 0))
+
+
+def test_depth_to_points_inverts_the_projection_and_crops_to_the_workspace():
+    rng = np.random.default_rng(0)
+    T = default_extrinsic()
+    points = rng.uniform(0.02, 0.28, (50, 3))  # inside the workspace
+    camera = (points - T[:3, 3]) @ T[:3, :3]  # T⁻¹ applied to each point
+    u = SMALL.fx * camera[:, 0] / camera[:, 2] + SMALL.cx
+    v = SMALL.fy * camera[:, 1] / camera[:, 2] + SMALL.cy
+    depth = np.zeros((SMALL.height, SMALL.width))
+    pixels = np.round(u).astype(int), np.round(v).astype(int)
+    keep = np.unique(pixels[1] * SMALL.width + pixels[0], return_index=True)[1]
+    depth[pixels[1][keep], pixels[0][keep]] = camera[keep, 2]
+    back = depth_to_points(depth, SMALL, T)
+    # rounding to the pixel centre moves a point by < ½ px · depth / f across the ray
+    error = np.linalg.norm(back[:, None] - points[None, keep], axis=-1).min(1)
+    assert len(back) == len(keep) and error.max() < 0.5 * np.sqrt(2) * 0.8 / SMALL.fx
+    depth[0, 0] = 5.0  # far behind the workspace: cropped, unless asked not to
+    assert len(depth_to_points(depth, SMALL, T)) == len(keep)
+    assert len(depth_to_points(depth, SMALL, T, crop=False)) == len(keep) + 1
+    with pytest.raises(ValueError, match="depth must have shape"):
+        depth_to_points(depth.T, SMALL, T)
 
 
 def test_raycast_depth_of_the_table_seen_straight_down_is_the_camera_height():

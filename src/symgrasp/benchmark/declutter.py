@@ -23,7 +23,7 @@ import numpy as np
 from symgrasp.benchmark.failures import aimed_object, failure_mode
 from symgrasp.data.collision import hand_collides
 from symgrasp.detect import Grasp, GraspDetector
-from symgrasp.perception import CameraIntrinsic, make_renderer
+from symgrasp.perception import CameraIntrinsic, depth_to_points, make_renderer
 from symgrasp.perception.camera import default_extrinsic
 from symgrasp.sim import World, get_gripper
 from symgrasp.sim.execute import execute_grasp
@@ -98,8 +98,9 @@ class Round:
 
 
 Observer = Callable[[World, np.ndarray, list[Grasp], Attempt], None]
-"""Called after each attempt with the world (as the attempt left it), the surface points
-(P, 3) observed before the attempt, the candidate grasps and the attempt."""
+"""Called after each attempt with the world (as the attempt left it), the points (P, 3) of
+the depth image taken before the attempt (`depth_to_points`), the candidate grasps and the
+attempt."""
 
 
 def run_round(
@@ -160,7 +161,7 @@ def run_round(
         )
         record.attempts.append(attempt)
         if observer is not None:
-            observer(world, points, candidates, attempt)
+            observer(world, depth_to_points(depth, intrinsic, T_world_camera), candidates, attempt)
         if chosen is None:
             break
         failures = 0 if attempt.success else failures + 1

@@ -90,11 +90,16 @@ def grasp_record(grasp: Grasp) -> dict[str, Any]:
 
 
 def write_detection(
-    out: str | Path, detector: GraspDetector, volume: TSDFVolume, grasps: list[Grasp]
+    out: str | Path,
+    detector: GraspDetector,
+    volume: TSDFVolume,
+    grasps: list[Grasp],
+    points: np.ndarray | None = None,
 ) -> dict[str, Path]:
     """Write ``grasps.json``, ``grasps.png`` and ``grasps.html`` for ``grasps`` detected in
-    ``volume``; the HTML view shows closing-axis samples of the best voxels when the model
-    predicts a distribution."""
+    ``volume``, drawn over ``points`` (N, 3) (the depth image's, `depth_to_points`; default:
+    the volume's surface points); the HTML view shows closing-axis samples of the best
+    voxels when the model predicts a distribution."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     meta = {
@@ -105,7 +110,8 @@ def write_detection(
     }
     paths = {"json": out / "grasps.json", "png": out / "grasps.png", "html": out / "grasps.html"}
     paths["json"].write_text(json.dumps(meta, indent=1))
-    points = volume.point_cloud().cpu().numpy()
+    if points is None:
+        points = volume.point_cloud().cpu().numpy()
     shown = grasps[:DRAWN]
     poses = np.array([g.pose for g in shown]).reshape(-1, 4, 4)
     scores = np.array([g.score for g in shown])

@@ -107,6 +107,7 @@ def save_grasps_png(
     if highlight is not None and not 0 <= highlight < len(poses):
         raise ValueError(f"highlight must index one of the {len(poses)} grasps, got {highlight}")
     cloud = _subsample(points, PNG_MAX_POINTS)
+    cloud = cloud[np.argsort(cloud[:, 2])]  # the top view shows the highest point of a column
     order = np.argsort(scores)  # the best grasps are drawn last, on top
     outlines = gripper_outline(poses[order], gripper)
     segments = outlines.reshape(-1, 2, 3)

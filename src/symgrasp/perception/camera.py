@@ -83,3 +83,29 @@ def default_extrinsic(offset: np.ndarray = DEFAULT_EYE_OFFSET) -> np.ndarray:
     """``T_world_camera`` looking at the workspace centre from ``centre + offset`` [m]."""
     centre = np.full(3, WORKSPACE_SIZE / 2)
     return look_at(centre + np.asarray(offset, dtype=float), centre)
+
+
+def depth_to_points(
+    depth: np.ndarray,
+    intrinsic: CameraIntrinsic,
+    T_world_camera: np.ndarray,
+    crop: bool = True,
+) -> np.ndarray:
+    """The world points (N, 3) [m] seen by the pixels of ``depth`` (H, W) [m] that saw
+    something (depth > 0); with ``crop``, only those inside the workspace cube
+    [0, WORKSPACE_SIZE]³. Denser than a TSDF's surface points: the pictures draw these."""
+    depth = np.asarray(depth, dtype=float)
+    if depth.shape != (intrinsic.height, intrinsic.width):
+        raise ValueError(
+            f"depth must have shape ({intrinsic.height}, {intrinsic.width}) as the intrinsic "
+            f"says, got {depth.shape}"
+        )
+    T_world_camera = np.asarray(T_world_camera, dtype=float)
+    if T_world_camera.shape != (4, 4):
+        raise ValueError(f"T_world_camera must be 4×4, got {T_world_camera.shape}")
+    seen = np.isfinite(depth) & (depth > 0)
+    points_camera = depth[seen][:, None] * intrinsic.pixel_rays()[seen]
+    points = points_camera @ T_world_camera[:3, :3].T + T_world_camera[:3, 3]
+    if crop:
+        points = points[np.all((points >= 0.0) & (points <= WORKSPACE_SIZE), axis=1)]
+    return points
