@@ -29,6 +29,15 @@ def test_demo_clears_a_small_pile_and_writes_its_pictures(tmp_path, capsys):
     assert "attempt 1:" in printed and "clear ratio" in printed
 
 
+def test_demo_says_which_failures_were_a_wrong_yaw(tmp_path, capsys):
+    # seed 4: the shipped model's second grasp hits a neighbour on its way in; turned, it holds
+    main(["demo", "--out", str(tmp_path), "--seed", "4"])
+    modes = json.loads((tmp_path / "summary.json").read_text())["modes"]
+    printed = capsys.readouterr().out
+    assert "wrong_yaw" in modes
+    assert printed.count("→ wrong yaw") == modes.count("wrong_yaw")
+
+
 @pytest.fixture(scope="module")
 def scene_files(tmp_path_factory):
     """A depth image of a 3-object pile as .npy and 16-bit .png, and the camera as JSON."""

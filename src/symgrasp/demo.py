@@ -42,13 +42,16 @@ def run_demo(
 
     def observe(world: World, points: np.ndarray, grasps: list[Grasp], attempt: Attempt) -> None:
         n = len(pictures) + 1
-        line = f"attempt {n}: {attempt.outcome}"
+        outcome = attempt.outcome
+        if attempt.mode == "wrong_yaw":  # symgrasp.benchmark.failures
+            outcome += " → wrong yaw (turned about its approach, it would succeed)"
+        line = f"attempt {n}: {outcome}"
         if attempt.grasp is not None:
             g = attempt.grasp
             line += f"  (score {g.score:.2f}, confidence {_fmt(g.confidence)}, "
             line += f"{attempt.rejected} colliding skipped, planning {attempt.planning_s:.2f} s)"
         print(line)
-        title = f"attempt {n}: {attempt.outcome} ({attempt.objects_before} objects)"
+        title = f"attempt {n}: {outcome} ({attempt.objects_before} objects)"
         pictures.append(
             save_attempt_png(
                 out / f"attempt_{n:02d}.png", points, grasps, attempt, detector.gripper, title
@@ -63,6 +66,7 @@ def run_demo(
         "seed": seed,
         "objects_presented": record.objects,
         "attempts": [a.outcome for a in record.attempts],
+        "modes": [a.mode for a in record.attempts],
         "successes": record.successes,
         "success_ratio": record.success_ratio,
         "clear_ratio": record.clear_ratio,
