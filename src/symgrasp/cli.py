@@ -557,6 +557,8 @@ def _add_train(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _add_bench(subparsers: argparse._SubParsersAction) -> None:
+    from symgrasp.detect.detector import DEFAULT_VALIDITY
+
     parser = subparsers.add_parser(
         "bench",
         help="benchmarks of trained detectors",
@@ -599,6 +601,12 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
     )
     _add_confidence_options(declutter)
     declutter.add_argument(
+        "--validity",
+        type=float,
+        default=None,
+        help=f"validity threshold (default: {DEFAULT_VALIDITY}; docs/models.md has a sweep)",
+    )
+    declutter.add_argument(
         "--rep",
         default=None,
         help="refuse to run unless --model uses this rotation representation (a guard for "
@@ -640,6 +648,10 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
 
         threshold = _confidence_threshold(args)
         options = () if threshold == "default" else (("confidence_threshold", threshold),)
+        if args.validity is not None:
+            if not 0.0 <= args.validity <= 1.0:
+                raise SystemExit(f"error: --validity must be in [0, 1], got {args.validity}")
+            options += (("validity_threshold", args.validity),)
         config = BenchmarkConfig(
             args.model, args.objects, args.num_objects, args.rounds, args.seed, options,
             diagnose=not args.no_diagnose, pictures=args.pictures,

@@ -4,6 +4,7 @@ import json
 
 import numpy as np
 import pytest
+import torch
 
 from symgrasp.benchmark import runner
 from symgrasp.benchmark.runner import BenchmarkConfig, markdown_table, summarise
@@ -122,3 +123,18 @@ def test_cli_writes_results_modes_and_pictures_and_guards_the_model(tmp_path, ca
         main([*argv, "--rep", "rotmat6d", "--out", str(tmp_path / "x")])
     with pytest.raises(SystemExit, match="--gripper franka"):
         main([*argv, "--gripper", "franka", "--out", str(tmp_path / "x")])
+    with pytest.raises(SystemExit, match=r"--validity must be in \[0, 1\], got 2.0"):
+        main([*argv, "--validity", "2", "--out", str(tmp_path / "x")])
+
+
+def test_cli_thresholds_reach_the_detector(tmp_path):
+    from symgrasp.cli import main
+
+    argv = ["bench", "declutter", "--rounds", "1", "--num-objects", "1", "--seed", "3"]
+    main([*argv, "--no-confidence", "--validity", "0.3", "--out", str(tmp_path)])
+    options = json.loads((tmp_path / "results.json").read_text())["config"]["options"]
+    assert options == [["confidence_threshold", None], ["validity_threshold", 0.3]]
+    config = BenchmarkConfig(options=tuple(map(tuple, options)))
+    runner._init_worker(config, torch.get_num_threads(), tmp_path)
+    detector = runner._WORKER["detector"]
+    assert detector.validity_threshold == 0.3 and detector.confidence_threshold is None
