@@ -140,7 +140,7 @@ def run_round(
         volume = detector.fuse(depth, intrinsic, T_world_camera)
         candidates = detector.detect_tsdf(volume.grid())
         points = volume.point_cloud().cpu().numpy()
-        chosen, rejected = _first_free(candidates, detector.gripper, points)
+        chosen, rejected = first_free(candidates, detector.gripper, points)
         planning = time.perf_counter() - start
         before = len(world.objects)
         mode: str | None = NONE_FOUND if diagnose else None
@@ -211,7 +211,7 @@ def picture_observer(folder: str | Path, gripper: str, caption: str = "") -> Obs
     return observe
 
 
-def _first_free(
+def first_free(
     candidates: list[Grasp], gripper: str, points: np.ndarray, batch: int = 8
 ) -> tuple[Grasp | None, int]:
     """The first candidate whose approach misses ``points`` and the table, and how many
