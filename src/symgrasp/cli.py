@@ -626,8 +626,8 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
     declutter.add_argument(
         "--pictures",
         action="store_true",
-        help="draw every attempt: --out/pictures/seed_NNNN/attempt_NN.png (the depth image's points, "
-        "the best grasps coloured by score, the executed one thick)",
+        help="draw every attempt: --out/pictures/seed_NNNN/attempt_NN.png (the depth "
+        "image's points, the best grasps coloured by score, the executed one thick)",
     )
     declutter.add_argument("--out", required=True, help="output folder")
 
