@@ -1,0 +1,82 @@
+"""Training-seed variation of the Robotiq comparison → benchmarks/results/seed_check.json.
+
+    PYTHONPATH=src python benchmarks/seed_check.py [--workers 2]
+
+The comparison (`declutter_table.py`) trains every detector once (``--seed 0``). This script
+benchmarks the second runs of the Robotiq ``bingham2d`` and ``rotmat6d``, trained with
+
+    symgrasp train --data data/robotiq-train --rep REP --gripper robotiq-2f85 \\
+        --out runs/REP-robotiq-seed1 --epochs 30 --batch-size 4 --seed 1
+
+on the same 100 rounds as the table (cells in ``out/bench/seed1/robotiq/REP/OBJECTS``, read
+back when present), and compares ``bingham2d`` with ``rotmat6d`` within each training seed on
+the same rounds (`validity_sweep.paired_change`). The seed-0 cells are the table's
+(``out/bench/robotiq/REP/OBJECTS``; run ``declutter_table.py`` first).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+from datetime import datetime, timezone
+from pathlib import Path
+
+from common import cpu_model
+from validity_sweep import cell, paired_change
+
+from symgrasp.benchmark.runner import BenchmarkConfig, summarise
+
+REPS = ("bingham2d", "rotmat6d")
+OBJECTS = ("household-test", "large-box")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", default="runs", help="folder of the training runs")
+    parser.add_argument("--out", default="out/bench", help="folder of the benchmark cells")
+    parser.add_argument("--workers", type=int, default=2, help="round processes (default: 2)")
+    parser.add_argument("--result", default="benchmarks/results/seed_check.json")
+    args = parser.parse_args()
+
+    rounds = {}
+    for rep in REPS:
+        for objects in OBJECTS:
+            seed0 = Path(args.out) / "robotiq" / rep / objects / "rounds.jsonl"
+            if not seed0.exists():
+                raise SystemExit(f"error: {seed0} is missing; run declutter_table.py first")
+            rounds[rep, 0, objects] = [json.loads(x) for x in seed0.read_text().splitlines()]
+            model = str(Path(args.runs) / f"{rep}-robotiq-seed1" / "best.pt")
+            config = BenchmarkConfig(model, objects, 5, 100, 0)
+            folder = Path(args.out) / "seed1" / "robotiq" / rep / objects
+            rounds[rep, 1, objects] = cell(config, folder, args.workers)
+
+    cells = [{"rep": rep, "training_seed": seed, "objects": objects,
+              "summary": summarise(rounds[rep, seed, objects], 0)}
+             for rep, seed, objects in rounds]  # fmt: skip
+    lead = [{"training_seed": seed, "objects": objects,
+             "bingham2d_minus_rotmat6d": paired_change(rounds["bingham2d", seed, objects],
+                                                       rounds["rotmat6d", seed, objects])}
+            for seed in (0, 1) for objects in OBJECTS]  # fmt: skip
+    for row in cells:
+        s = row["summary"]
+        print(f"{row['rep']:10s} seed {row['training_seed']} {row['objects']:15s} "
+              f"SR {100 * s['success_ratio']:.1f} CR {100 * s['clear_ratio']:.1f}")  # fmt: skip
+    for row in lead:
+        change = row["bingham2d_minus_rotmat6d"]
+        print(f"bingham2d − rotmat6d, seed {row['training_seed']}, {row['objects']}: "
+              + ", ".join(f"{k} {100 * v[0]:+.1f} [{100 * v[1]:+.1f}, {100 * v[2]:+.1f}]"
+                          for k, v in change.items()))  # fmt: skip
+    result = {
+        "benchmark": "training-seed variation of the Robotiq bingham2d and rotmat6d",
+        "command": "PYTHONPATH=src python benchmarks/seed_check.py",
+        "machine": {"cpu": cpu_model(), "python": platform.python_version()},
+        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "cells": cells,
+        "paired_lead": lead,
+    }
+    Path(args.result).write_text(json.dumps(result, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
