@@ -19,18 +19,20 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
-import platform
-from dataclasses import asdict
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 import torch
-from common import cpu_model
+from common import write_result
 
 from symgrasp.benchmark.failures import MODES
-from symgrasp.benchmark.runner import BenchmarkConfig, percent_with_interval, run_benchmark
+from symgrasp.benchmark.runner import (
+    BenchmarkConfig,
+    percent_with_interval,
+    run_or_reuse,
+    saved_rounds,
+    summarise,
+)
 
 GRIPPERS = {"robotiq-2f85": "robotiq", "franka": "franka"}
 OBJECTS = ("household-test", "large-box")
@@ -69,15 +71,10 @@ def model_for(gripper: str, rep: str, runs: Path) -> str | None:
 
 def cell(config: BenchmarkConfig, out: Path, workers: int, collate_only: bool) -> dict | None:
     """The summary of one cell: read when ``out`` holds it, else run (unless collating)."""
-    saved = out / "results.json"
-    if saved.exists():
-        result = json.loads(saved.read_text())
-        current = "families" in result["summary"]  # older results lack the per-family counts
-        if current and result["config"] == json.loads(json.dumps(asdict(config))):
-            return result["summary"]
-    if collate_only:
-        return None
-    return run_benchmark(config, out, workers)
+    rounds = saved_rounds(config, out)
+    if rounds is None and not collate_only:
+        rounds = run_or_reuse(config, out, workers)
+    return None if rounds is None else summarise(rounds, config.seed)
 
 
 def label(rep: str, threshold: bool) -> str:
@@ -233,17 +230,15 @@ def main() -> None:
 
     table = markdown(rows)
     print(table)
-    result = {
-        "benchmark": "declutter comparison (issue 8): SR / CR per representation, gripper, objects",
-        "command": "PYTHONPATH=src python benchmarks/declutter_table.py",
-        "rounds": args.rounds,
-        "seed": 0,
-        "machine": {"cpu": cpu_model(), "python": platform.python_version()},
-        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "cells": rows,
-    }
-    Path(f"{args.result}.json").write_text(json.dumps(result, indent=1) + "\n")
-    Path(f"{args.result}.md").write_text(table)
+    write_result(
+        args.result,
+        "declutter comparison (issue 8): SR / CR per representation, gripper, objects",
+        "PYTHONPATH=src python benchmarks/declutter_table.py",
+        rows,
+        table,
+        rounds=args.rounds,
+        seed=0,
+    )
     figure(rows, args.figure)
     update_page(Path(args.docs), table)
 

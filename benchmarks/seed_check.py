@@ -18,14 +18,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
-from datetime import datetime, timezone
 from pathlib import Path
 
-from common import cpu_model
-from validity_sweep import cell, paired_change
+from common import write_result
+from validity_sweep import paired_change
 
-from symgrasp.benchmark.runner import BenchmarkConfig, summarise
+from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
 
 REPS = ("bingham2d", "rotmat6d")
 OBJECTS = ("household-test", "large-box")
@@ -36,7 +34,7 @@ def main() -> None:
     parser.add_argument("--runs", default="runs", help="folder of the training runs")
     parser.add_argument("--out", default="out/bench", help="folder of the benchmark cells")
     parser.add_argument("--workers", type=int, default=2, help="round processes (default: 2)")
-    parser.add_argument("--result", default="benchmarks/results/seed_check.json")
+    parser.add_argument("--result", default="benchmarks/results/seed_check", help="stem")
     args = parser.parse_args()
 
     rounds = {}
@@ -49,7 +47,7 @@ def main() -> None:
             model = str(Path(args.runs) / f"{rep}-robotiq-seed1" / "best.pt")
             config = BenchmarkConfig(model, objects, 5, 100, 0)
             folder = Path(args.out) / "seed1" / "robotiq" / rep / objects
-            rounds[rep, 1, objects] = cell(config, folder, args.workers)
+            rounds[rep, 1, objects] = run_or_reuse(config, folder, args.workers)
 
     cells = [{"rep": rep, "training_seed": seed, "objects": objects,
               "summary": summarise(rounds[rep, seed, objects], 0)}
@@ -67,15 +65,13 @@ def main() -> None:
         print(f"bingham2d − rotmat6d, seed {row['training_seed']}, {row['objects']}: "
               + ", ".join(f"{k} {100 * v[0]:+.1f} [{100 * v[1]:+.1f}, {100 * v[2]:+.1f}]"
                           for k, v in change.items()))  # fmt: skip
-    result = {
-        "benchmark": "training-seed variation of the Robotiq bingham2d and rotmat6d",
-        "command": "PYTHONPATH=src python benchmarks/seed_check.py",
-        "machine": {"cpu": cpu_model(), "python": platform.python_version()},
-        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "cells": cells,
-        "paired_lead": lead,
-    }
-    Path(args.result).write_text(json.dumps(result, indent=1) + "\n")
+    write_result(
+        args.result,
+        "training-seed variation of the Robotiq bingham2d and rotmat6d",
+        "PYTHONPATH=src python benchmarks/seed_check.py",
+        cells,
+        paired_lead=lead,
+    )
 
 
 if __name__ == "__main__":

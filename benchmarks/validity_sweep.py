@@ -9,27 +9,24 @@ script plays 100 declutter rounds (`symgrasp bench declutter --validity V`) of e
 the test sets, as a sensitivity analysis of the published table (not to choose by). Each
 threshold is compared with the default on the same rounds (same seeds, so the same piles at
 the start): the change of CR and SR with a paired bootstrap 95 % interval over rounds. A cell
-whose folder already holds the same configuration's results is read, not rerun.
+whose folder already holds the same configuration's results is read, not rerun
+(`runner.run_or_reuse`).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import platform
-from dataclasses import asdict
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import cpu_model
+from common import write_result
 
 from symgrasp.benchmark.runner import (
     BOOTSTRAP,
     BenchmarkConfig,
     percent_with_interval,
-    run_benchmark,
+    run_or_reuse,
     summarise,
 )
 from symgrasp.detect.detector import DEFAULT_VALIDITY
@@ -41,15 +38,6 @@ SETS = (  # (objects, seed of round 0, what the rows are for)
     ("household-test", 0, "sensitivity"),
     ("large-box", 0, "sensitivity"),
 )
-
-
-def cell(config: BenchmarkConfig, folder: Path, workers: int) -> list[dict[str, Any]]:
-    """The round records of ``config``: read from ``folder`` when it holds them, else run."""
-    saved = folder / "results.json"
-    same = json.loads(json.dumps(asdict(config)))
-    if not (saved.exists() and json.loads(saved.read_text())["config"] == same):
-        run_benchmark(config, folder, workers)
-    return [json.loads(line) for line in (folder / "rounds.jsonl").read_text().splitlines()]
 
 
 def paired_change(
@@ -114,7 +102,7 @@ def main() -> None:
                     model, objects, 5, args.rounds, seed, (("validity_threshold", validity),)
                 )
                 folder = Path(args.out) / model / objects / str(validity)
-                played[validity] = cell(config, folder, args.workers)
+                played[validity] = run_or_reuse(config, folder, args.workers)
             for validity, rounds in played.items():
                 rows.append({"model": model, "objects": objects, "seed": seed,
                              "purpose": purpose, "validity": validity,
@@ -122,17 +110,15 @@ def main() -> None:
                              "change": paired_change(rounds, played[DEFAULT_VALIDITY])})  # fmt: skip
     table = markdown(rows)
     print(table)
-    result = {
-        "benchmark": "declutter SR / CR of the shipped bingham2d models per validity threshold",
-        "command": "PYTHONPATH=src python benchmarks/validity_sweep.py",
-        "rounds": args.rounds,
-        "default_validity": DEFAULT_VALIDITY,
-        "machine": {"cpu": cpu_model(), "python": platform.python_version()},
-        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "cells": rows,
-    }
-    Path(f"{args.result}.json").write_text(json.dumps(result, indent=1) + "\n")
-    Path(f"{args.result}.md").write_text(table)
+    write_result(
+        args.result,
+        "declutter SR / CR of the shipped bingham2d models per validity threshold",
+        "PYTHONPATH=src python benchmarks/validity_sweep.py",
+        rows,
+        table,
+        rounds=args.rounds,
+        default_validity=DEFAULT_VALIDITY,
+    )
 
 
 if __name__ == "__main__":

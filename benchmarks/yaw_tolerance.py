@@ -15,15 +15,11 @@ too (`failures.aimed_object`).
 from __future__ import annotations
 
 import argparse
-import json
-import platform
 from collections import defaultdict
-from datetime import datetime, timezone
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import cpu_model
+from common import write_result
 from tqdm import tqdm
 
 from symgrasp.benchmark.declutter import first_free
@@ -122,17 +118,15 @@ def main() -> None:
         text.append(f"| {family} | " + " | ".join(entries) + " |")
     table = "\n".join(text) + "\n"
     print(table)
-    result = {
-        "benchmark": "yaw tolerance of the first grasp of each declutter round",
-        "command": "PYTHONPATH=src python benchmarks/yaw_tolerance.py",
-        "rounds": args.rounds,
-        "yaw_offsets_deg": np.rad2deg(YAW_OFFSETS).tolist(),
-        "machine": {"cpu": cpu_model(), "python": platform.python_version()},
-        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "cells": cells,
-    }
-    Path(f"{args.result}.json").write_text(json.dumps(result, indent=1) + "\n")
-    Path(f"{args.result}.md").write_text(table)
+    write_result(
+        args.result,
+        "yaw tolerance of the first grasp of each declutter round",
+        "PYTHONPATH=src python benchmarks/yaw_tolerance.py",
+        cells,
+        table,
+        rounds=args.rounds,
+        yaw_offsets_deg=np.rad2deg(YAW_OFFSETS).tolist(),
+    )
 
 
 if __name__ == "__main__":

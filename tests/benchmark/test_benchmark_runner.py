@@ -138,3 +138,29 @@ def test_cli_thresholds_reach_the_detector(tmp_path):
     runner._init_worker(config, torch.get_num_threads(), tmp_path)
     detector = runner._WORKER["detector"]
     assert detector.validity_threshold == 0.3 and detector.confidence_threshold is None
+
+
+def test_a_finished_benchmark_is_reused_and_another_configuration_is_run(monkeypatch, tmp_path):
+    class Detector:
+        gripper = "franka"
+
+    played = []
+
+    def fake_round(detector, objects, num_objects, seed, observer, diagnose):
+        from symgrasp.benchmark.declutter import Round
+
+        played.append(seed)
+        return Round(seed, num_objects, "gl")
+
+    monkeypatch.setattr(runner, "run_round", fake_round)
+    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
+        config=config, detector=Detector(), out=out))  # fmt: skip
+    config = BenchmarkConfig(rounds=2, seed=5)
+    assert runner.saved_rounds(config, tmp_path) is None
+    first = runner.run_or_reuse(config, tmp_path)
+    assert [r["seed"] for r in first] == [5, 6] and played == [5, 6]
+    assert runner.run_or_reuse(config, tmp_path) == first and played == [5, 6]  # read back
+    other = BenchmarkConfig(rounds=2, seed=5, objects="large-box")
+    assert runner.saved_rounds(other, tmp_path) is None
+    runner.run_or_reuse(other, tmp_path)
+    assert played == [5, 6, 5, 6]

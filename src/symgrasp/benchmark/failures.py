@@ -23,10 +23,13 @@ broken down by object family: does a representation fail on boxes and not on sph
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from symgrasp.sim import World
 from symgrasp.sim.execute import Outcome, execute_grasp
+from symgrasp.sim.objects import ObjectSpec
 from symgrasp.sim.world import Snapshot
 
 YAW_OFFSETS = np.deg2rad([30.0, 60.0, 90.0, 120.0, 150.0])
@@ -62,9 +65,18 @@ def aimed_object(world: World, T_world_tcp: np.ndarray, samples: int = 256) -> i
     position = T_world_tcp[:3, 3]
     nearest = []
     for spec, T_world_object in zip(world.objects, world.object_poses(), strict=True):
-        points = spec.sample_surface(samples)[0] @ T_world_object[:3, :3].T + T_world_object[:3, 3]
+        points = _surface(spec, samples) @ T_world_object[:3, :3].T + T_world_object[:3, 3]
         nearest.append(np.linalg.norm(points - position, axis=1).min())
     return int(np.argmin(nearest))
+
+
+@functools.lru_cache(maxsize=256)
+def _surface(spec: ObjectSpec, samples: int) -> np.ndarray:
+    """``spec``'s seeded surface samples (samples, 3), once per object of a round: a round
+    asks for the same objects at every attempt."""
+    points = spec.sample_surface(samples)[0]
+    points.flags.writeable = False
+    return points
 
 
 def failure_mode(

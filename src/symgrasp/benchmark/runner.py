@@ -227,3 +227,25 @@ def run_benchmark(config: BenchmarkConfig, out: str | Path, workers: int = 1) ->
     (out / "results.json").write_text(json.dumps(result, indent=1) + "\n")
     (out / "results.md").write_text(markdown_table(summary, config))
     return summary
+
+
+def saved_rounds(config: BenchmarkConfig, out: str | Path) -> list[dict[str, Any]] | None:
+    """The round records in ``out`` when its ``results.json`` is of ``config``, else None."""
+    saved = Path(out) / "results.json"
+    if not saved.exists():
+        return None
+    if json.loads(saved.read_text())["config"] != json.loads(json.dumps(asdict(config))):
+        return None
+    return [json.loads(line) for line in (Path(out) / "rounds.jsonl").read_text().splitlines()]
+
+
+def run_or_reuse(
+    config: BenchmarkConfig, out: str | Path, workers: int = 1
+) -> list[dict[str, Any]]:
+    """The round records of ``config``: those already in ``out`` (`saved_rounds`), else
+    `run_benchmark`'s, so scripts over many benchmarks resume where they stopped."""
+    rounds = saved_rounds(config, out)
+    if rounds is None:
+        run_benchmark(config, out, workers)
+        rounds = saved_rounds(config, out)
+    return rounds
