@@ -34,7 +34,7 @@ from symgrasp.data.card import dataset_card
 from symgrasp.data.generate import generate
 from symgrasp.data.grasp_db import cached_database
 from symgrasp.data.scenes import SceneConfig
-from symgrasp.perception import make_renderer
+from symgrasp.sim.render import make_renderer
 
 TARGET_SCENES, TARGET_MINUTES, DEFAULT_POOL = 2000, 60.0, SceneConfig().pool_size
 

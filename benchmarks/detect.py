@@ -24,8 +24,9 @@ import torch
 from common import cpu_model
 
 from symgrasp.detect import GraspDetector
-from symgrasp.perception import CameraIntrinsic, default_extrinsic, make_renderer
+from symgrasp.perception import CameraIntrinsic, default_extrinsic
 from symgrasp.sim.objects import object_set
+from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
 
 TARGET_MS = 50.0

@@ -26,18 +26,12 @@ import numpy as np
 import torch
 from common import cpu_model
 
-from symgrasp.perception import (
-    CameraIntrinsic,
-    GLRenderer,
-    RaycastRenderer,
-    TSDFVolume,
-    default_extrinsic,
-    gl_available,
-)
+from symgrasp.perception import CameraIntrinsic, TSDFVolume, default_extrinsic
 from symgrasp.sim import World, execute_grasp, get_gripper, make_scene
 from symgrasp.sim.execute import top_grasp
 from symgrasp.sim.objects import ObjectSpec, Part
-from symgrasp.sim.world import TABLE_HEIGHT
+from symgrasp.sim.render import GLRenderer, RaycastRenderer, gl_available
+from symgrasp.workspace import TABLE_HEIGHT
 
 TARGETS_MS = {"grasp_trial": 50.0, "pile_5_objects": 200.0, "render_plus_tsdf_gl": 30.0}
 

@@ -26,9 +26,10 @@ from symgrasp.benchmark.declutter import first_free
 from symgrasp.benchmark.failures import YAW_OFFSETS, aimed_object, turned_about_approach
 from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.detect import GraspDetector
-from symgrasp.perception import CameraIntrinsic, default_extrinsic, make_renderer
+from symgrasp.perception import CameraIntrinsic, default_extrinsic
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.objects import object_set
+from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
 
 GRIPPERS = ("robotiq-2f85", "franka")

@@ -7,8 +7,9 @@ import pytest
 
 from symgrasp.cli import build_parser, main
 from symgrasp.detect.files import save_png_depth
-from symgrasp.perception import CameraIntrinsic, default_extrinsic, make_renderer
+from symgrasp.perception import CameraIntrinsic, default_extrinsic
 from symgrasp.sim.objects import object_set
+from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
 
 

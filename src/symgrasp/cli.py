@@ -208,8 +208,8 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
     show.add_argument("--out", default="out/sim", help="output folder (default: out/sim)")
 
     def run(args: argparse.Namespace) -> None:
-        from symgrasp.perception.show import save_scene_pictures
         from symgrasp.sim import make_scene
+        from symgrasp.sim.show import save_scene_pictures
 
         world = make_scene(args.scene, args.objects, n=args.n, seed=args.seed)
         stem = f"{args.scene}_{args.objects}_seed{args.seed}"
@@ -223,7 +223,7 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _add_data(subparsers: argparse._SubParsersAction) -> None:
-    from symgrasp.sim import GRIPPERS, OBJECT_SETS
+    from symgrasp.names import GRIPPERS, OBJECT_SETS
 
     parser = subparsers.add_parser(
         "data",

@@ -12,7 +12,7 @@ from symgrasp.benchmark.failures import (
 from symgrasp.sim import World, execute_grasp, get_gripper, large_box
 from symgrasp.sim.execute import Outcome, top_grasp
 from symgrasp.sim.objects import ObjectSpec, Part
-from symgrasp.sim.world import TABLE_HEIGHT
+from symgrasp.workspace import TABLE_HEIGHT
 
 GRIPPER = "robotiq-2f85"
 CENTRE = np.array([0.15, 0.15])

@@ -16,7 +16,8 @@ from symgrasp.data.dataset import (
     rotate_quarter_turns,
     shift_vertical,
 )
-from symgrasp.data.labels import RESOLUTION, VOXEL_SIZE, voxelise
+from symgrasp.data.labels import voxelise
+from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 CENTRE = np.array([0.15, 0.15, 0.0])
 

@@ -10,7 +10,7 @@ import torch
 
 from symgrasp.cli import main
 from symgrasp.data.dataset import GraspDataset, collate_scenes
-from symgrasp.data.labels import VOXEL_SIZE
+from symgrasp.workspace import VOXEL_SIZE
 
 TINY = ["--objects", "blocks", "--gripper", "franka", "--pool-size", "2", "--grasps", "40"]
 TINY += ["--directions", "8"]

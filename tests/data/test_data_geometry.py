@@ -6,11 +6,11 @@ from scipy.spatial.transform import Rotation
 
 from symgrasp.data.collision import hand_collides
 from symgrasp.data.directions import fibonacci_directions, interpolate
-from symgrasp.data.labels import VOXEL_SIZE, rotation_angle_up_to_flip, voxelise
+from symgrasp.data.labels import rotation_angle_up_to_flip, voxelise
 from symgrasp.sim import World, object_set
 from symgrasp.sim.execute import top_grasp
 from symgrasp.sim.objects import surface_samples
-from symgrasp.sim.world import TABLE_HEIGHT
+from symgrasp.workspace import TABLE_HEIGHT, VOXEL_SIZE
 
 FLIP = np.diag([1.0, -1.0, -1.0])
 

@@ -11,9 +11,10 @@ from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.detect.pretrained import export_model
 from symgrasp.model.checkpoint import save_checkpoint
 from symgrasp.model.network import GraspNet, GraspOutput, NetworkConfig
-from symgrasp.perception import CameraIntrinsic, make_renderer
+from symgrasp.perception import CameraIntrinsic
 from symgrasp.perception.camera import default_extrinsic
 from symgrasp.sim import World
+from symgrasp.sim.render import make_renderer
 
 R = 40
 VOXEL = 0.3 / R

@@ -6,19 +6,16 @@ import torch
 
 from symgrasp.perception import (
     CameraIntrinsic,
-    GLRenderer,
-    RaycastRenderer,
     TSDFVolume,
     add_depth_noise,
     default_extrinsic,
     depth_to_points,
-    gl_available,
     look_at,
-    make_renderer,
 )
 from symgrasp.sim import World
 from symgrasp.sim.objects import ObjectSpec, Part
-from symgrasp.sim.world import TABLE_HEIGHT
+from symgrasp.sim.render import GLRenderer, RaycastRenderer, gl_available, make_renderer
+from symgrasp.workspace import TABLE_HEIGHT
 
 SMALL = CameraIntrinsic(160, 120, 135.0, 135.0, 79.5, 59.5)
 

@@ -6,7 +6,7 @@ import pytest
 from symgrasp.sim import World, execute_grasp, get_gripper, large_box, make_scene
 from symgrasp.sim.execute import Outcome, pull_out_force, top_grasp
 from symgrasp.sim.objects import ObjectSpec, Part
-from symgrasp.sim.world import TABLE_HEIGHT
+from symgrasp.workspace import TABLE_HEIGHT
 
 GRIPPERS = ["franka", "robotiq-2f85"]
 CENTRE = np.array([0.15, 0.15])

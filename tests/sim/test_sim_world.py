@@ -5,7 +5,7 @@ import pytest
 
 from symgrasp.sim import World, large_box, make_scene, object_set
 from symgrasp.sim.objects import TEST_FAMILIES, TRAIN_FAMILIES, ObjectSpec, Part
-from symgrasp.sim.world import TABLE_HEIGHT, WORKSPACE_SIZE
+from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 
 
 def test_mesh_volume_matches_the_primitives():

@@ -23,11 +23,12 @@ import numpy as np
 from symgrasp.benchmark.failures import aimed_object, failure_mode
 from symgrasp.data.collision import hand_collides
 from symgrasp.detect import Grasp, GraspDetector
-from symgrasp.perception import CameraIntrinsic, depth_to_points, make_renderer
+from symgrasp.perception import CameraIntrinsic, depth_to_points
 from symgrasp.perception.camera import default_extrinsic
 from symgrasp.sim import World, get_gripper
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.objects import object_set
+from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
 
 NONE_FOUND = "none_found"

@@ -16,9 +16,9 @@ import numpy as np
 from symgrasp.atomic import write_atomic
 from symgrasp.data.dataset import GraspDataset, load_scene, scene_path
 from symgrasp.data.generate import config_from_dict
-from symgrasp.data.labels import RESOLUTION, VOXEL_SIZE
 from symgrasp.data.scenes import DEPTH_UNIT
 from symgrasp.data.validate import validate_labels
+from symgrasp.workspace import RESOLUTION, VOXEL_SIZE, WORKSPACE_SIZE
 
 SCORE_BINS = np.linspace(0.0, 1.0, 11)
 
@@ -109,7 +109,8 @@ def show_scene(root: str | Path, scene_id: int, out: str | Path | None = None) -
         tcp, approach = pose[:, :3, 3], pose[:, :3, 0]
         ax.quiver(*(tcp - 0.02 * approach).T, *(0.02 * approach).T, color=plt.cm.viridis(score))
         ax.scatter(*tcp.T, s=4, c=score, cmap="viridis", vmin=0, vmax=1)
-    ax.set(xlim=(0, 0.3), ylim=(0, 0.3), zlim=(0, 0.3), xlabel="x", ylabel="y", zlabel="z")
+    limits = (0, WORKSPACE_SIZE)
+    ax.set(xlim=limits, ylim=limits, zlim=limits, xlabel="x", ylabel="y", zlabel="z")
     ax.set_title(f"scene {scene_id} ({r['kind']}): {len(r['voxel_index'])} valid voxels")
     ax2 = fig.add_subplot(1, 2, 2)
     ax2.imshow(r["depth"] * DEPTH_UNIT, cmap="gray")

@@ -16,9 +16,9 @@ import mujoco
 import numpy as np
 
 from symgrasp.sim import World, get_gripper
-from symgrasp.sim.execute import PREGRASP_DISTANCE
 from symgrasp.sim.physics import HAND_GROUP
-from symgrasp.sim.world import TABLE_HEIGHT
+from symgrasp.sim.protocol import PREGRASP_DISTANCE
+from symgrasp.workspace import TABLE_HEIGHT
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-from symgrasp.data.labels import RESOLUTION
+from symgrasp.workspace import RESOLUTION
 
 SPLITS = ("train", "val", "all")
 VAL_EVERY = 10

@@ -30,9 +30,9 @@ from tqdm import tqdm
 from symgrasp.atomic import write_atomic
 from symgrasp.data.dataset import load_scene, scene_path
 from symgrasp.data.grasp_db import DatabaseConfig, GraspDatabase, cached_database
-from symgrasp.data.labels import RESOLUTION, VOXEL_SIZE
 from symgrasp.data.scenes import SceneConfig, make_scene_record
-from symgrasp.sim import GRIPPERS, OBJECT_SETS
+from symgrasp.names import GRIPPERS, OBJECT_SETS
+from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 
 def config_from_dict(d: dict[str, Any]) -> SceneConfig:

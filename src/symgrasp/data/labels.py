@@ -13,10 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from symgrasp.sim.world import WORKSPACE_SIZE
+from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
-RESOLUTION = 40
-VOXEL_SIZE = WORKSPACE_SIZE / RESOLUTION
 FLIP = np.diag([1.0, -1.0, -1.0])
 
 

@@ -24,10 +24,13 @@ import numpy as np
 from symgrasp.data.collision import hand_collides
 from symgrasp.data.directions import interpolate
 from symgrasp.data.grasp_db import DatabaseConfig, GraspDatabase
-from symgrasp.data.labels import RESOLUTION, voxelise
-from symgrasp.perception import CameraIntrinsic, TSDFVolume, look_at, make_renderer
+from symgrasp.data.labels import voxelise
+from symgrasp.names import SCENES
+from symgrasp.perception import CameraIntrinsic, TSDFVolume, look_at
 from symgrasp.sim.objects import ObjectSpec, object_set, surface_samples
-from symgrasp.sim.world import SCENES, WORKSPACE_SIZE, packed_scene, pile_scene
+from symgrasp.sim.render import make_renderer
+from symgrasp.sim.world import packed_scene, pile_scene
+from symgrasp.workspace import RESOLUTION, WORKSPACE_SIZE
 
 DEPTH_UNIT = 1e-4
 """Depth images are stored as uint16 in units of 0.1 mm (up to 6.5 m)."""

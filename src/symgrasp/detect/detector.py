@@ -23,16 +23,13 @@ import torch.nn.functional as F
 from symgrasp import rotation
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.pretrained import resolve_model
+from symgrasp.device import resolve_device
 from symgrasp.model.checkpoint import load_model
 from symgrasp.model.network import GraspNet
-from symgrasp.model.train import resolve_device
 from symgrasp.perception import CameraIntrinsic, TSDFVolume
-from symgrasp.sim.world import WORKSPACE_SIZE
+from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 Tensor = torch.Tensor
-
-RESOLUTION = 40
-"""Voxels per workspace edge (the network's input)."""
 
 DEFAULT_VALIDITY = 0.08
 """Default validity threshold, chosen by declutter rounds on training objects (docs/detect.md):
@@ -120,7 +117,7 @@ class GraspDetector:
         self.bounds = None if bounds is None else _check_bounds(bounds)
         self.samples_per_voxel = int(samples_per_voxel)
         self.origin = np.asarray(workspace_origin, dtype=float).reshape(3)
-        self.voxel_size = WORKSPACE_SIZE / RESOLUTION
+        self.voxel_size = VOXEL_SIZE
         self.seed = seed
         self.info = info or {}
         self.timing: dict[str, float] = {}

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from symgrasp.sim.execute import LIFT_HEIGHT, PREGRASP_DISTANCE
+from symgrasp.sim.protocol import LIFT_HEIGHT, PREGRASP_DISTANCE
 
 
 @dataclass(frozen=True)

@@ -10,9 +10,7 @@ from importlib import resources
 from pathlib import Path
 
 from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
-
-PRETRAINED = ("bingham2d-robotiq-2f85", "bingham2d-franka")
-"""Names `GraspDetector.from_pretrained` knows."""
+from symgrasp.names import PRETRAINED
 
 
 def shipped_path(name: str) -> Path:

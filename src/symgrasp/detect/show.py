@@ -27,7 +27,7 @@ from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
 from symgrasp.atomic import write_atomic
 from symgrasp.sim.grippers import GripperSpec
-from symgrasp.sim.world import TABLE_HEIGHT, WORKSPACE_SIZE
+from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 
 STEM_LENGTH = 0.04
 """Length of the outline's stem behind the palm, along ``−e_x`` [m]."""

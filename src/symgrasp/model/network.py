@@ -34,6 +34,7 @@ from torch import nn
 from torch.utils.flop_counter import FlopCounterMode
 
 from symgrasp import rotation
+from symgrasp.workspace import RESOLUTION
 
 Tensor = torch.Tensor
 
@@ -163,7 +164,7 @@ def count_parameters(model: nn.Module) -> int:
     return sum(p.numel() for p in model.parameters() if p.requires_grad)
 
 
-def count_flops(model: nn.Module, resolution: int = 40) -> int:
+def count_flops(model: nn.Module, resolution: int = RESOLUTION) -> int:
     """Floating-point operations of one forward pass on one ``resolution³`` volume.
 
     Counted by `torch.utils.flop_counter.FlopCounterMode`: a multiply–add is 2 FLOP;

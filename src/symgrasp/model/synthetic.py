@@ -28,14 +28,13 @@ import math
 import torch
 from torch.utils.data import Dataset
 
+from symgrasp.perception.tsdf import TRUNCATION_VOXELS
+from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, VOXEL_SIZE
+
 Tensor = torch.Tensor
 
-RESOLUTION = 40
-VOXEL_SIZE = 0.0075
-"""[m]; the 40³ grid covers the workspace cube [0, 0.3]³ m."""
-TRUNCATION = 4 * VOXEL_SIZE
-TABLE_HEIGHT = 0.05
-"""[m] z of the table top inside the workspace."""
+TRUNCATION = TRUNCATION_VOXELS * VOXEL_SIZE
+"""[m], as `symgrasp.perception.TSDFVolume` truncates."""
 GRASP_DEPTHS = (0.0125, 0.02, 0.0275)
 """[m] how far inside the face the TCPs of a synthetic grasp line lie."""
 END_ON_GAP = 0.045

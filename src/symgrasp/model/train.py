@@ -32,6 +32,7 @@ from torch.utils.data import DataLoader, Dataset, RandomSampler
 from tqdm import tqdm
 
 import symgrasp
+from symgrasp.device import resolve_device
 from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
 from symgrasp.model.loss import LossWeights, grasp_losses
 from symgrasp.model.metrics import MetricAccumulator
@@ -81,19 +82,6 @@ class TrainConfig:
     @property
     def network(self) -> NetworkConfig:
         return NetworkConfig(self.representation, self.widths, self.features)
-
-
-def resolve_device(name: str) -> torch.device:
-    """``"auto"`` → CUDA when available, else CPU; anything else as given."""
-    if name == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    try:
-        device = torch.device(name)
-    except RuntimeError:
-        raise ValueError(f"device must be 'auto', 'cpu' or 'cuda[:N]', got {name!r}") from None
-    if device.type == "cuda" and not torch.cuda.is_available():
-        raise ValueError(f"device {name!r} asked for, but CUDA is not available")
-    return device
 
 
 def open_dataset(config: TrainConfig) -> tuple[Dataset, Dataset, Collate]:

@@ -1,4 +1,8 @@
-"""Perception: pinhole camera, depth rendering of the simulated world, TSDF fusion."""
+"""Perception on the robot's side: pinhole camera, depth noise, TSDF fusion.
+
+Nothing here knows the simulator: depth images of the simulated world come from
+`symgrasp.sim.render`.
+"""
 
 from symgrasp.perception.camera import (
     CameraIntrinsic,
@@ -7,23 +11,13 @@ from symgrasp.perception.camera import (
     look_at,
 )
 from symgrasp.perception.noise import add_depth_noise
-from symgrasp.perception.render import (
-    GLRenderer,
-    RaycastRenderer,
-    gl_available,
-    make_renderer,
-)
 from symgrasp.perception.tsdf import TSDFVolume
 
 __all__ = [
     "CameraIntrinsic",
-    "GLRenderer",
-    "RaycastRenderer",
     "TSDFVolume",
     "add_depth_noise",
     "default_extrinsic",
     "depth_to_points",
-    "gl_available",
     "look_at",
-    "make_renderer",
 ]

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from symgrasp.sim.world import WORKSPACE_SIZE
+from symgrasp.workspace import WORKSPACE_SIZE
 
 DEFAULT_EYE_OFFSET = (0.5, 0.0, 0.5)
 """Default camera position relative to the workspace centre [m] (GIGA/VGN-like side view)."""

@@ -13,7 +13,10 @@ import numpy as np
 import torch
 
 from symgrasp.perception.camera import CameraIntrinsic
-from symgrasp.sim.world import WORKSPACE_SIZE
+from symgrasp.workspace import RESOLUTION, WORKSPACE_SIZE
+
+TRUNCATION_VOXELS = 4.0
+"""Default truncation distance [voxels]."""
 
 
 class TSDFVolume:
@@ -30,8 +33,8 @@ class TSDFVolume:
     def __init__(
         self,
         size: float = WORKSPACE_SIZE,
-        resolution: int = 40,
-        truncation_voxels: float = 4.0,
+        resolution: int = RESOLUTION,
+        truncation_voxels: float = TRUNCATION_VOXELS,
         origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
         device: str | torch.device = "cpu",
     ) -> None:

@@ -17,6 +17,7 @@ Rotations are grasp frames R = [e_x e_y e_z] (approach, e_z × e_x, closing axis
 the same as its flip R·diag(1, −1, −1); see ``docs/conventions.md`` and ``docs/rotation.md``.
 """
 
+from symgrasp.names import REPRESENTATIONS
 from symgrasp.rotation.base import Decoded, Representation
 from symgrasp.rotation.bingham2d import PAPER_CONFIDENCE_THRESHOLD, Bingham2D
 from symgrasp.rotation.bingham3d import Bingham3D
@@ -34,8 +35,8 @@ _REPRESENTATIONS: dict[str, Representation] = {
     r.name: r for r in (Bingham2D(), RotMat6D(), RotMat6DNaive(), Quaternion(), Bingham3D())
 }
 
-NAMES = tuple(_REPRESENTATIONS)
-"""The names `get` knows."""
+NAMES = REPRESENTATIONS
+"""The names `get` knows (`symgrasp.names.REPRESENTATIONS`)."""
 
 
 def get(name: str) -> Representation:

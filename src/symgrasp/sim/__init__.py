@@ -1,26 +1,38 @@
-"""The MuJoCo simulation world: procedural objects, the two grippers, scenes, grasp trials."""
+"""The MuJoCo simulation world: procedural objects, the two grippers, scenes, grasp trials.
 
-from symgrasp.sim.execute import GraspResult, Outcome, execute_grasp
-from symgrasp.sim.grippers import FRANKA, GRIPPERS, ROBOTIQ_2F85, GripperSpec, get_gripper
-from symgrasp.sim.objects import OBJECT_SETS, ObjectSpec, Part, large_box, object_set
-from symgrasp.sim.world import TABLE_HEIGHT, WORKSPACE_SIZE, World, make_scene
+The gripper specs (`grippers`), contact settings (`physics`) and the grasp protocol
+(`protocol`) are plain data that perception and detection read on a robot, so this package
+loads MuJoCo (and trimesh) only when one of the simulator's names below is first used.
+"""
+
+from importlib import import_module
+from typing import Any
+
+from symgrasp.sim.grippers import FRANKA, ROBOTIQ_2F85, GripperSpec, get_gripper
+
+_LAZY = {
+    "GraspResult": "symgrasp.sim.execute",
+    "Outcome": "symgrasp.sim.execute",
+    "execute_grasp": "symgrasp.sim.execute",
+    "ObjectSpec": "symgrasp.sim.objects",
+    "Part": "symgrasp.sim.objects",
+    "large_box": "symgrasp.sim.objects",
+    "object_set": "symgrasp.sim.objects",
+    "World": "symgrasp.sim.world",
+    "make_scene": "symgrasp.sim.world",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'symgrasp.sim' has no attribute {name!r}")
+
 
 __all__ = [
     "FRANKA",
-    "GRIPPERS",
-    "OBJECT_SETS",
     "ROBOTIQ_2F85",
-    "TABLE_HEIGHT",
-    "WORKSPACE_SIZE",
-    "GraspResult",
     "GripperSpec",
-    "ObjectSpec",
-    "Outcome",
-    "Part",
-    "World",
-    "execute_grasp",
     "get_gripper",
-    "large_box",
-    "make_scene",
-    "object_set",
+    *_LAZY,
 ]

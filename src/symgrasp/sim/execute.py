@@ -13,13 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from symgrasp.sim.grippers import GripperSpec, get_gripper
+from symgrasp.sim.protocol import LIFT_HEIGHT, PREGRASP_DISTANCE
 from symgrasp.sim.world import PARK_POSITION, World
-
-PREGRASP_DISTANCE = 0.10
-"""Pre-grasp offset back along the approach axis [m]."""
-
-LIFT_HEIGHT = 0.30
-"""Lift along world +z [m]."""
 
 BLOCKED_ERROR = 0.004
 """The hand counts as blocked when it lags its commanded pose by this much [m] ..."""

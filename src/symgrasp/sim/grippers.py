@@ -27,9 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from symgrasp.names import GRIPPERS
 from symgrasp.sim.physics import WELD_SOLREF
 
-GRIPPERS = ("franka", "robotiq-2f85")
 PREFIX = "hand_"
 """Name prefix of every hand element; the world finds bodies, joints and actuators by it."""
 

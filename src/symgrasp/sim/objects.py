@@ -22,6 +22,7 @@ import numpy as np
 import trimesh
 from scipy.spatial.transform import Rotation
 
+from symgrasp.names import OBJECT_SETS
 from symgrasp.sim.physics import OBJECT_TORSION_ROLL
 
 PART_KINDS = ("box", "cylinder", "capsule", "sphere", "ellipsoid")
@@ -313,7 +314,6 @@ TEST_FAMILIES = (*TRAIN_FAMILIES, "mug", "t_shape", "cup")
 LARGE_BOX_SIZE = (0.07, 0.2, 0.03)
 """The paper's precision case (Appx. D): 70 × 200 mm footprint, 30 mm thick, laid flat."""
 
-OBJECT_SETS = ("household-train", "household-test", "large-box", "blocks")
 _SET_STREAM = {name: i for i, name in enumerate(OBJECT_SETS)}  # disjoint seed streams
 
 

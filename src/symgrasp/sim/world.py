@@ -1,8 +1,7 @@
 """The simulated world: a table, a 0.30 m cubic workspace, objects and one hand (MuJoCo).
 
-World frame = workspace frame: the workspace is ``[0, 0.3]³`` (the 40³ TSDF grid with
-7.5 mm voxels) and the table top is the plane ``z = TABLE_HEIGHT`` inside it, so the
-volume sees the table as VGN's does.
+World frame = workspace frame (`symgrasp.workspace`): the workspace is ``[0, 0.3]³`` and the
+table top is the plane ``z = TABLE_HEIGHT`` inside it.
 
 :class:`World` is the backend interface that grasp execution and perception use; a Drake
 world would implement the same methods. Its model is rebuilt from MJCF whenever the set of
@@ -19,20 +18,14 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
+from symgrasp.names import SCENES
 from symgrasp.sim.grippers import PREFIX, GripperSpec, get_gripper, hand_xml, open_joint_positions
 from symgrasp.sim.objects import ObjectSpec, object_set
 from symgrasp.sim.physics import HAND_GROUP, HIDDEN_GROUP, option_xml
-
-WORKSPACE_SIZE = 0.30
-"""Edge of the cubic workspace [m]."""
-
-TABLE_HEIGHT = 0.05
-"""Height of the table top inside the workspace [m]."""
+from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 
 PARK_POSITION = (0.15, 0.15, 1.0)
 """Where the idle hand waits, far above the workspace [m]."""
-
-SCENES = ("pile", "packed")
 
 PILE_BOX_HALF = 0.1
 """Inner half-width of the bottomless box a pile is dropped into [m]."""

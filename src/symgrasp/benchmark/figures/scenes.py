@@ -19,10 +19,11 @@ from matplotlib.image import AxesImage
 from matplotlib.patches import Circle, Patch, Rectangle
 
 from symgrasp.detect import GraspDetector
-from symgrasp.detect.detector import RESOLUTION
-from symgrasp.perception import CameraIntrinsic, default_extrinsic, make_renderer
+from symgrasp.perception import CameraIntrinsic, default_extrinsic
 from symgrasp.rotation import Representation
-from symgrasp.sim import TABLE_HEIGHT, WORKSPACE_SIZE, ObjectSpec, Part, World
+from symgrasp.sim import ObjectSpec, Part, World
+from symgrasp.sim.render import make_renderer
+from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, WORKSPACE_SIZE
 
 SLICE_HEIGHT = 0.057
 """World height [m] of the paper's cross-sections (z = 57 mm, 7 mm above the table). Where a

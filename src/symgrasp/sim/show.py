@@ -9,8 +9,9 @@ import numpy as np
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from symgrasp.perception.camera import CameraIntrinsic, default_extrinsic
-from symgrasp.perception.render import GLRenderer, gl_available, make_renderer
-from symgrasp.sim.world import TABLE_HEIGHT, WORKSPACE_SIZE, World
+from symgrasp.sim.render import GLRenderer, gl_available, make_renderer
+from symgrasp.sim.world import World
+from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 
 
 def _plot_meshes(world: World, path: Path) -> None:
