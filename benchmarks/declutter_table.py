@@ -221,7 +221,7 @@ def main() -> None:
                 if model is None:
                     rows.append({"key": key, "objects": objects, "model": model, "summary": None})
                     continue
-                options = () if threshold else (("confidence_threshold", None),)
+                options = () if threshold else (("confidence_threshold", 0.0),)
                 config = BenchmarkConfig(model, objects, 5, args.rounds, 0, options)
                 folder = Path(args.out) / short / (rep + ("" if threshold else "-noconf")) / objects
                 print(f"{gripper} {rep}{'' if threshold else ' (no threshold)'} on {objects}")

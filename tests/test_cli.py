@@ -12,7 +12,7 @@ DECLUTTER = ["bench", "declutter", "--model", "m.pt", "--out", "o"]
 @pytest.mark.parametrize("command", [DETECT, DECLUTTER], ids=["detect", "declutter"])
 @pytest.mark.parametrize(
     ("extra", "expected"),
-    [([], "default"), (["--confidence", "7.5"], 7.5), (["--no-confidence"], None)],
+    [([], None), (["--confidence", "7.5"], 7.5), (["--no-confidence"], 0.0)],
 )
 def test_confidence_options_map_to_the_detector_threshold(command, extra, expected):
     args = build_parser().parse_args([*command, *extra])

@@ -10,6 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from symgrasp import rotation
 from symgrasp.bingham import sym_to_triu
+from symgrasp.names import REPRESENTATIONS
 from symgrasp.rotation import flip
 
 CHANNELS = {"bingham2d": 9, "rotmat6d": 6, "rotmat6d_naive": 6, "quaternion": 4, "bingham3d": 10}
@@ -78,6 +79,32 @@ def test_get_returns_every_named_representation():
         representation = rotation.get(name)
         assert representation.name == name
         assert representation.channels == channels
+
+
+@pytest.mark.parametrize("name", CHANNELS)
+def test_capabilities_match_what_the_representation_does(name):
+    representation = rotation.get(name)
+    pred = torch.randn(7, representation.channels, dtype=torch.float64)
+    decoded = representation.decode(pred)
+    assert (decoded.confidence is not None) == representation.has_confidence
+    assert representation.default_confidence is None or representation.has_confidence
+    bounded = representation.bounded_channels
+    assert bounded is None or 0 <= bounded.start < bounded.stop <= representation.channels
+    if representation.closing_axis_up_to_sign:  # the same output decodes either sign of e_z
+        assert representation.has_distribution
+
+
+def test_only_the_bingham_representations_have_confidences_and_bounds():
+    with_confidence = {n for n in CHANNELS if rotation.get(n).has_confidence}
+    bounded = {n for n in CHANNELS if rotation.get(n).bounded_channels is not None}
+    assert with_confidence == bounded == {"bingham2d", "bingham3d"}
+    assert rotation.get("bingham2d").default_confidence == rotation.PAPER_CONFIDENCE_THRESHOLD
+    assert rotation.get("bingham3d").default_confidence is None
+
+
+def test_the_light_name_list_names_exactly_the_implementations():
+    assert [rotation.get(n).name for n in REPRESENTATIONS] == list(REPRESENTATIONS)
+    assert set(rotation._REPRESENTATIONS) == set(REPRESENTATIONS)
 
 
 def test_get_unknown_name_lists_the_known_ones():

@@ -65,11 +65,9 @@ def _add_confidence_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _confidence_threshold(args: argparse.Namespace) -> float | str | None:
+def _confidence_threshold(args: argparse.Namespace) -> float | None:
     """``GraspDetector``'s ``confidence_threshold`` from ``--confidence``/``--no-confidence``."""
-    if args.no_confidence:
-        return None
-    return "default" if args.confidence is None else args.confidence
+    return 0.0 if args.no_confidence else args.confidence
 
 
 def _add_detect(subparsers: argparse._SubParsersAction) -> None:
@@ -647,7 +645,7 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
                     )
 
         threshold = _confidence_threshold(args)
-        options = () if threshold == "default" else (("confidence_threshold", threshold),)
+        options = () if threshold is None else (("confidence_threshold", threshold),)
         if args.validity is not None:
             if not 0.0 <= args.validity <= 1.0:
                 raise SystemExit(f"error: --validity must be in [0, 1], got {args.validity}")

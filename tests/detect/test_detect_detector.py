@@ -84,7 +84,7 @@ def test_thresholds_drop_invalid_and_unconfident_voxels():
         (20, 20, 20): (0.1, 0.9, _bingham2d(ROT_A)),
     }
     assert [g.voxel for g in _detector(voxels).detect_tsdf(np.ones((R,) * 3))] == [(20, 20, 20)]
-    loose = _detector(voxels, confidence_threshold=None, validity_threshold=0.03)
+    loose = _detector(voxels, confidence_threshold=0.0, validity_threshold=0.03)
     assert len(loose.detect_tsdf(np.ones((R,) * 3))) == 3
 
 
@@ -127,8 +127,17 @@ def test_samples_per_voxel_draw_closing_axes_around_the_mode_and_keep_the_approa
 def test_confidence_threshold_defaults_to_the_papers_value_only_for_bingham2d():
     assert _detector({}).confidence_threshold == 15.0
     assert GraspDetector(FixedNet("rotmat6d", {}), "franka").confidence_threshold is None
+    assert (
+        GraspDetector(
+            FixedNet("rotmat6d", {}), "franka", confidence_threshold=0
+        ).confidence_threshold
+        == 0
+    )
     with pytest.raises(ValueError, match="confidence_threshold"):
         GraspDetector(FixedNet("quaternion", {}), "franka", confidence_threshold=10.0)
+    for bad in (float("nan"), -1.0, "default"):
+        with pytest.raises(ValueError, match="confidence_threshold"):
+            _detector({}, confidence_threshold=bad)
 
 
 def test_approach_trajectory_is_pregrasp_grasp_lift():

@@ -11,6 +11,7 @@ B(A) several times per voxel (the paper's third decoding mode, Sec. 3.3).
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from pathlib import Path
@@ -20,7 +21,6 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from symgrasp import rotation
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.device import resolve_device
@@ -36,9 +36,6 @@ DEFAULT_VALIDITY = 0.08
 the validity head is calibrated to the rare valid voxels (≈ 0.1 % of the grid), so its
 probabilities are low on unfamiliar piles, and 0.5 left most rounds without a grasp."""
 
-DEFAULT_CONFIDENCE = {"bingham2d": rotation.PAPER_CONFIDENCE_THRESHOLD}
-"""Default confidence threshold per representation; the others have none."""
-
 
 class GraspDetector:
     """A trained `GraspNet` with its decoding options.
@@ -47,9 +44,11 @@ class GraspDetector:
         model: the network (any representation).
         gripper: the gripper the network was trained for.
         validity_threshold: keep voxels whose validity probability is at least this.
-        confidence_threshold: keep grasps whose Bingham confidence is at least this;
-            ``"default"`` is 15 for ``bingham2d`` (the paper's value) and off for the others,
-            None turns it off.
+        confidence_threshold: keep grasps whose confidence is at least this. None: the
+            representation's `~symgrasp.rotation.Representation.default_confidence` (15 for
+            ``bingham2d``, the paper's value; none for the others); 0 keeps every grasp (a
+            Bingham confidence, a sum of eigenvalue gaps, is never negative). A positive
+            threshold needs a representation with a confidence.
         nms_radius: a kept voxel must have the highest score within this many voxels
             (a (2r+1)³ neighbourhood); 0 turns non-maximum suppression off.
         top_k: return at most this many grasps (None: all).
@@ -69,7 +68,7 @@ class GraspDetector:
         gripper: str,
         *,
         validity_threshold: float = DEFAULT_VALIDITY,
-        confidence_threshold: float | str | None = "default",
+        confidence_threshold: float | None = None,
         nms_radius: int = 2,
         top_k: int | None = None,
         bounds: tuple[np.ndarray, np.ndarray] | None = None,
@@ -82,20 +81,20 @@ class GraspDetector:
         self.representation = model.representation
         if not 0.0 <= validity_threshold <= 1.0:
             raise ValueError(f"validity_threshold must be in [0, 1], got {validity_threshold}")
-        if confidence_threshold == "default":
-            confidence_threshold = DEFAULT_CONFIDENCE.get(self.representation.name)
-        elif isinstance(confidence_threshold, str):
-            raise ValueError(
-                f"confidence_threshold must be a number, 'default' or None, "
-                f"got {confidence_threshold!r}"
-            )
-        if confidence_threshold is not None and self.representation.name not in (
-            "bingham2d",
-            "bingham3d",
+        if confidence_threshold is None:
+            confidence_threshold = self.representation.default_confidence
+        elif not (
+            isinstance(confidence_threshold, int | float)
+            and math.isfinite(confidence_threshold)
+            and confidence_threshold >= 0
         ):
             raise ValueError(
-                f"confidence_threshold needs a Bingham representation; this model is "
-                f"{self.representation.name!r} (pass None)"
+                f"confidence_threshold must be a finite number ≥ 0 or None, got {confidence_threshold!r}"
+            )
+        elif confidence_threshold > 0 and not self.representation.has_confidence:
+            raise ValueError(
+                f"confidence_threshold needs a representation with a confidence; this model is "
+                f"{self.representation.name!r} (pass None or 0)"
             )
         if nms_radius < 0 or (top_k is not None and top_k < 1) or samples_per_voxel < 0:
             raise ValueError(

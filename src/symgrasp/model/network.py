@@ -44,9 +44,6 @@ VALID_PRIOR = 0.01
 BINGHAM_BOUND = 20.0
 """Bingham parameter channels pass through ``BINGHAM_BOUND · tanh(a / BINGHAM_BOUND)``."""
 
-_BINGHAM_CHANNELS = {"bingham2d": slice(0, 6), "bingham3d": slice(0, 10)}
-"""The channels of each Bingham representation that hold ``a`` (A = triu(a))."""
-
 
 @dataclass(frozen=True)
 class NetworkConfig:
@@ -135,7 +132,8 @@ class GraspNet(nn.Module):
         )
 
     def _bound(self, rotation: Tensor) -> Tensor:
-        """Soft-clip the Bingham parameters (identity for other representations).
+        """Soft-clip the representation's `bounded_channels`, the Bingham parameters
+        (identity for other representations).
 
         A voxel whose targets share one closing axis has a Bingham NLL unbounded below: the
         loss keeps rewarding a sharper A, the head's weights and the shared features grow
@@ -143,7 +141,7 @@ class GraspNet(nn.Module):
         of A up to ±`BINGHAM_BOUND` = 20 still allow eigenvalue gaps of ≈ 40, a spread of a few
         degrees; the paper's BNLL of ±0.5 means gaps of 5–10 (docs/model.md).
         """
-        channels = _BINGHAM_CHANNELS.get(self.config.representation)
+        channels = self.representation.bounded_channels
         if channels is None:
             return rotation
         a = rotation[:, channels]

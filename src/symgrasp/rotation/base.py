@@ -44,6 +44,16 @@ class Representation(ABC):
     """How the losses of K targets are combined (see the module docstring)."""
     has_distribution: ClassVar[bool] = False
     """Whether `sample` is defined."""
+    has_confidence: ClassVar[bool] = False
+    """Whether `decode` returns a confidence (the Bingham eigenvalue gaps)."""
+    default_confidence: ClassVar[float | None] = None
+    """The confidence threshold a detector applies unless told otherwise (None: none)."""
+    bounded_channels: ClassVar[slice | None] = None
+    """The channels the network soft-clips (a Bingham parameter matrix grows without bound on
+    targets that share one axis, see `symgrasp.model.network`); None: none."""
+    closing_axis_up_to_sign: ClassVar[bool] = False
+    """Whether the decoded closing axis e_z has no meaningful sign (±e_z are one parameter
+    set), so that a flip of e_z between neighbouring outputs is no change."""
 
     def loss(self, pred: Tensor, R_gt: Tensor, mask: Tensor | None = None) -> Tensor:
         """Per-element training loss.

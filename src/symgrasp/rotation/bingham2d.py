@@ -40,6 +40,10 @@ class Bingham2D(Representation):
     channels = 9
     combine = "mean"
     has_distribution = True
+    has_confidence = True
+    default_confidence = PAPER_CONFIDENCE_THRESHOLD
+    bounded_channels = slice(0, 6)  # a of A = triu(a); e_x is a plain vector
+    closing_axis_up_to_sign = True
 
     def _target_losses(self, pred: Tensor, R: Tensor) -> Tensor:
         # A is [..., 1, 3, 3] against K targets: `nll` decomposes it once, not K times.

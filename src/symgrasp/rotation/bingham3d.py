@@ -36,6 +36,8 @@ class Bingham3D(Representation):
     channels = 10
     combine = "mean"
     has_distribution = True
+    has_confidence = True
+    bounded_channels = slice(0, 10)
 
     def _target_losses(self, pred: Tensor, R: Tensor) -> Tensor:
         q = matrix_to_quaternion(R)  # [..., K, 4]

@@ -94,7 +94,7 @@ def plot_continuity(
         image = draw_field(ax, field, valid, objects, "viridis")
         figure.colorbar(image, ax=ax, label="gravity-rejection score", orientation="horizontal")
         e_z = closing_axes(field)[valid]
-        signs = (1, -1) if field.representation.name == "bingham2d" else (1,)
+        signs = (1, -1) if field.representation.closing_axis_up_to_sign else (1,)
         for sign in signs:
             ax.quiver(
                 *xy[valid].T,
@@ -147,7 +147,7 @@ def continuity_figure(
                 **continuity_statistics(
                     closing_axes(field),
                     field.validity >= validity,
-                    field.representation.name == "bingham2d",
+                    field.representation.closing_axis_up_to_sign,
                 ),
             }
             for label, field in fields.items()
