@@ -43,7 +43,7 @@ def _databases(cfg: SceneConfig, root: Path, n: int) -> dict:
     times, sizes = [], []
     for k, obj in enumerate(cfg.pool()[:n]):
         start = time.perf_counter()
-        db = cached_database(obj, cfg.gripper, root / "db", cfg.database, seed=k)
+        db = cached_database(obj, cfg.hand, root / "db", cfg.database, seed=k)
         times.append(time.perf_counter() - start)
         sizes.append(int(db.held.sum()))
         print(f"{cfg.gripper} {obj.name}: {times[-1]:.1f} s, {sizes[-1]} held of {db.candidates}")

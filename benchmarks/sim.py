@@ -82,8 +82,8 @@ def main() -> None:
     for gripper in ("franka", "robotiq-2f85"):
         outcomes = []
 
-        def trial(world_pose, gripper=gripper, outcomes=outcomes):
-            outcomes.append(execute_grasp(world_pose[0], world_pose[1], gripper).outcome.value)
+        def trial(world_pose, outcomes=outcomes):
+            outcomes.append(execute_grasp(world_pose[0], world_pose[1]).outcome.value)
 
         timing = _time(trial, args.repeats, setup=lambda _, g=gripper: _box_world(g))
         timing["outcomes"] = sorted(set(outcomes))

@@ -55,7 +55,7 @@ def first_grasp_at_every_yaw(
     for angle in (0.0, *YAW_OFFSETS):
         world.restore(start)
         turned = turned_about_approach(chosen.pose, float(angle))
-        held.append(execute_grasp(world, turned, detector.gripper, remove=False).success)
+        held.append(execute_grasp(world, turned, remove=False).success)
     return family, held
 
 

@@ -38,7 +38,7 @@ def run_demo(
     name = model or f"bingham2d-{gripper}"
     detector = GraspDetector.from_pretrained(name, device="cpu", gripper=gripper)
     pictures: list[Path] = []
-    print(f"model {name} ({detector.representation.name}, {detector.gripper}); seed {seed}")
+    print(f"model {name} ({detector.representation.name}, {detector.gripper.name}); seed {seed}")
 
     def observe(world: World, points: np.ndarray, grasps: list[Grasp], attempt: Attempt) -> None:
         n = len(pictures) + 1
@@ -61,7 +61,7 @@ def run_demo(
     record = run_round(detector, objects, num_objects, seed, observer=observe)
     summary = {
         "model": name,
-        "gripper": detector.gripper,
+        "gripper": detector.gripper.name,
         "objects": objects,
         "seed": seed,
         "objects_presented": record.objects,

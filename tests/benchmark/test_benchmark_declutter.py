@@ -48,7 +48,7 @@ def test_a_round_is_reproducible_undisturbed_by_diagnosis_and_its_counts_add_up(
 
 def test_pictures_are_drawn_per_attempt(detector, tmp_path):
     record = run_round(
-        detector, "household-test", 2, seed=3, observer=picture_observer(tmp_path, "robotiq-2f85")
+        detector, "household-test", 2, seed=3, observer=picture_observer(tmp_path, detector.gripper)
     )
     drawn = sorted(p.name for p in tmp_path.glob("*.png"))
     assert drawn == [f"attempt_{n:02d}.png" for n in range(1, len(record.attempts) + 1)]

@@ -32,7 +32,7 @@ def _failed_trial(obj, pose):
     world = World([obj], gripper=GRIPPER)
     world.settle(0.5)
     before = world.snapshot()
-    outcome = execute_grasp(world, pose, GRIPPER).outcome
+    outcome = execute_grasp(world, pose).outcome
     return world, before, outcome
 
 
@@ -51,7 +51,7 @@ def test_closing_along_the_large_boxs_length_is_a_wrong_yaw_and_the_world_is_kep
     world, before, outcome = _failed_trial(large_box(), pose)
     assert outcome is Outcome.APPROACH_COLLISION
     left = world.object_poses()
-    assert failure_mode(world, before, pose, GRIPPER, outcome) == "wrong_yaw"  # 90° turn fits
+    assert failure_mode(world, before, pose, outcome) == "wrong_yaw"  # 90° turn fits
     assert np.array_equal(world.object_poses(), left)  # back where the failed trial left it
 
 
@@ -59,14 +59,14 @@ def test_closing_beside_the_box_is_a_wrong_approach_whatever_the_yaw():
     beside = np.r_[CENTRE + np.array([0.0, 0.09]), _height(TABLE_HEIGHT + 0.06)]
     world, before, outcome = _failed_trial(_box((0.025, 0.025, 0.03)), top_grasp(beside))
     assert outcome is Outcome.NO_CONTACT
-    assert failure_mode(world, before, top_grasp(beside), GRIPPER, outcome) == "wrong_approach"
+    assert failure_mode(world, before, top_grasp(beside), outcome) == "wrong_approach"
 
 
 def test_a_heavy_slippery_box_slips_whatever_the_yaw():
     pose = top_grasp(np.r_[CENTRE, _height(TABLE_HEIGHT + 0.06)])
     world, before, outcome = _failed_trial(_box((0.025, 0.025, 0.03), 2.0, 0.02), pose)
     assert outcome is Outcome.SLIPPED
-    assert failure_mode(world, before, pose, GRIPPER, outcome) == "slip"
+    assert failure_mode(world, before, pose, outcome) == "slip"
 
 
 def test_a_pregrasp_under_the_table_is_a_collision_whatever_the_yaw():
@@ -74,12 +74,12 @@ def test_a_pregrasp_under_the_table_is_a_collision_whatever_the_yaw():
     pose[:3, :3] = pose[:3, :3] @ np.diag([-1.0, 1.0, -1.0])  # approach upwards from below
     world, before, outcome = _failed_trial(_box((0.025, 0.025, 0.03)), pose)
     assert outcome is Outcome.PREGRASP_COLLISION
-    assert failure_mode(world, before, pose, GRIPPER, outcome) == "collision"
+    assert failure_mode(world, before, pose, outcome) == "collision"
 
 
 def test_a_success_needs_no_replay_and_modes_cover_the_outcomes():
     world = World([_box((0.025, 0.025, 0.03))], gripper=GRIPPER)
-    assert failure_mode(world, world.snapshot(), np.eye(4), GRIPPER, Outcome.SUCCESS) == "success"
+    assert failure_mode(world, world.snapshot(), np.eye(4), Outcome.SUCCESS) == "success"
     assert {"wrong_yaw", "wrong_approach", "collision", "slip", "none_found"} <= set(MODES)
 
 

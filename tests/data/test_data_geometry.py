@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from symgrasp.data.collision import hand_collides
 from symgrasp.data.directions import fibonacci_directions, interpolate
 from symgrasp.data.labels import rotation_angle_up_to_flip, voxelise
-from symgrasp.sim import World, object_set
+from symgrasp.sim import FRANKA, ROBOTIQ_2F85, World, object_set
+from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.execute import top_grasp
 from symgrasp.sim.objects import surface_samples
 from symgrasp.workspace import TABLE_HEIGHT, VOXEL_SIZE
@@ -34,7 +34,7 @@ def test_interpolation_is_exact_at_stored_directions_and_keeps_constants():
     assert np.all(between >= values.min(axis=1)) and np.all(between <= values.max(axis=1))
 
 
-@pytest.mark.parametrize("gripper", ["franka", "robotiq-2f85"])
+@pytest.mark.parametrize("gripper", [FRANKA, ROBOTIQ_2F85], ids=lambda g: g.name)
 def test_collision_check_agrees_with_mujoco_contacts(gripper):
     """Oracle: MuJoCo's own collision detection on the hand's full model, at random poses."""
     rng = np.random.default_rng(0)
@@ -61,7 +61,7 @@ def test_collision_check_agrees_with_mujoco_contacts(gripper):
 
 
 def test_collision_check_sees_the_table_and_the_approach_path():
-    gripper = "franka"
+    gripper = FRANKA
     above = top_grasp([0.15, 0.15, TABLE_HEIGHT + 0.03])
     below = top_grasp([0.15, 0.15, TABLE_HEIGHT - 0.01])  # fingertips 9 mm past the TCP
     assert list(hand_collides(np.stack([above, below]), gripper, np.zeros((0, 3)))) == [False, True]

@@ -16,7 +16,7 @@ from symgrasp.data.grasp_db import (
     rejection_score,
     side_normals,
 )
-from symgrasp.sim import get_gripper
+from symgrasp.sim import FRANKA, get_gripper
 from symgrasp.sim.objects import ObjectSpec, Part, surface_samples
 
 HALF = (0.02, 0.03, 0.045)  # 4 × 6 × 9 cm: only the 4 and 6 cm sides fit the 8 cm Franka
@@ -32,7 +32,7 @@ def _box() -> ObjectSpec:
 
 @pytest.fixture(scope="module")
 def database() -> GraspDatabase:
-    return build_database(_box(), "franka", CFG, seed=3)
+    return build_database(_box(), FRANKA, CFG, seed=3)
 
 
 def test_antipodal_pairs_of_a_box_cross_opposite_faces_within_the_friction_cone():
@@ -110,20 +110,20 @@ def test_score_is_the_log_of_the_clipped_force_in_units_of_weight(database):
 
 
 def test_same_seed_same_database_and_the_cache_is_keyed_by_object(database, tmp_path):
-    again = build_database(_box(), "franka", CFG, seed=3)
+    again = build_database(_box(), FRANKA, CFG, seed=3)
     for field in dataclasses.fields(GraspDatabase):
         assert np.array_equal(getattr(again, field.name), getattr(database, field.name))
-    cached_database(_box(), "franka", tmp_path, CFG, seed=3)
+    cached_database(_box(), FRANKA, tmp_path, CFG, seed=3)
     assert len(list(tmp_path.glob("*.npz"))) == 1
-    loaded = cached_database(_box(), "franka", tmp_path, CFG, seed=3)  # from disk
+    loaded = cached_database(_box(), FRANKA, tmp_path, CFG, seed=3)  # from disk
     assert np.array_equal(loaded.T_object_tcp, database.T_object_tcp)
     heavier = dataclasses.replace(_box(), mass=0.3)
     small = dataclasses.replace(CFG, grasps=1, max_candidates=5)
-    cached_database(heavier, "franka", tmp_path, small, seed=3)
+    cached_database(heavier, FRANKA, tmp_path, small, seed=3)
     assert len(list(tmp_path.glob("*.npz"))) == 2
 
 
 def test_bad_gripper_lists_the_known_ones():
-    with pytest.raises(ValueError, match="franka"):
-        build_database(_box(), "shadow-hand", CFG)
+    with pytest.raises(ValueError, match="franka, robotiq-2f85, got 'shadow-hand'"):
+        get_gripper("shadow-hand")
     assert get_gripper("franka").max_width == 0.08

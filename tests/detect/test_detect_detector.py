@@ -206,7 +206,7 @@ def test_from_pretrained_loads_a_checkpoint_and_warns_about_another_gripper(tmp_
     save_checkpoint(tmp_path / "last.pt", state)
     shipped = export_model(tmp_path / "last.pt", tmp_path / "small.pt")
     detector = GraspDetector.from_pretrained(shipped, device="cpu", top_k=5)
-    assert detector.gripper == "robotiq-2f85" and detector.top_k == 5
+    assert detector.gripper.name == "robotiq-2f85" and detector.top_k == 5
     assert "optimizer" not in detector.info and detector.info["epoch"] == 3
     tsdf = torch.rand(R, R, R) * 2 - 1
     with torch.no_grad():

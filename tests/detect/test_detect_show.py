@@ -8,7 +8,8 @@ import pytest
 from matplotlib.image import imread
 
 from symgrasp.detect.show import gripper_outline, save_grasps_html, save_grasps_png
-from symgrasp.sim.grippers import GRIPPERS, get_gripper
+from symgrasp.names import GRIPPERS
+from symgrasp.sim.grippers import get_gripper
 
 FRANKA = get_gripper("franka")
 

@@ -31,7 +31,7 @@ def _settled(obj: ObjectSpec, gripper: str) -> World:
 def test_centred_top_grasp_on_a_box_succeeds_and_removes_it(gripper):
     world = _settled(_box((0.025, 0.025, 0.03)), gripper)
     pose = top_grasp(np.r_[CENTRE, _grasp_height(gripper, TABLE_HEIGHT + 0.06)])
-    result = execute_grasp(world, pose, gripper)
+    result = execute_grasp(world, pose)
     assert result.outcome is Outcome.SUCCESS
     assert result.object_index == 0
     assert world.objects == []
@@ -43,7 +43,7 @@ def test_grasp_7cm_beside_the_box_closes_on_nothing(gripper):
     # shifted along e_y (finger width direction): box half-width 2.5 cm + pad half-width ≤ 1.1 cm
     beside = CENTRE + np.array([0.0, 0.07])
     pose = top_grasp(np.r_[beside, _grasp_height(gripper, TABLE_HEIGHT + 0.06)])
-    assert execute_grasp(world, pose, gripper).outcome is Outcome.NO_CONTACT
+    assert execute_grasp(world, pose).outcome is Outcome.NO_CONTACT
     assert len(world.objects) == 1
 
 
@@ -53,7 +53,7 @@ def test_heavy_low_friction_box_slips(gripper):
     # squeeze on a 5 cm box (70 N Franka, 77 N Robotiq per pad) gives at most 15.4 N
     world = _settled(_box((0.025, 0.025, 0.03), mass=2.0, friction=0.02), gripper)
     pose = top_grasp(np.r_[CENTRE, _grasp_height(gripper, TABLE_HEIGHT + 0.06)])
-    assert execute_grasp(world, pose, gripper).outcome is Outcome.SLIPPED
+    assert execute_grasp(world, pose).outcome is Outcome.SLIPPED
 
 
 @pytest.mark.parametrize("gripper", GRIPPERS)
@@ -62,9 +62,9 @@ def test_large_box_needs_the_right_yaw(gripper):
     top = TABLE_HEIGHT + 0.03
     position = np.r_[CENTRE, _grasp_height(gripper, top)]
     world = _settled(large_box(), gripper)
-    wrong = execute_grasp(world, top_grasp(position, yaw=np.pi / 2), gripper)
+    wrong = execute_grasp(world, top_grasp(position, yaw=np.pi / 2))
     assert wrong.outcome is Outcome.APPROACH_COLLISION
-    right = execute_grasp(world, top_grasp(position, yaw=0.0), gripper)
+    right = execute_grasp(world, top_grasp(position, yaw=0.0))
     assert right.outcome is Outcome.SUCCESS
 
 
@@ -77,7 +77,7 @@ def test_oblique_side_grasp_on_a_tall_box_succeeds(gripper):
     pose = np.eye(4)
     pose[:3, :3] = np.c_[e_x, np.cross(e_z, e_x), e_z]
     pose[:3, 3] = (*CENTRE, TABLE_HEIGHT + 0.07)
-    assert execute_grasp(world, pose, gripper).outcome is Outcome.SUCCESS
+    assert execute_grasp(world, pose).outcome is Outcome.SUCCESS
 
 
 def _yaw_tolerance(gripper: str, box_width: float) -> float:
@@ -96,12 +96,8 @@ def test_large_box_yaw_tolerance_matches_the_geometry(gripper):
         assert np.rad2deg(tolerance) == pytest.approx(22.6, abs=0.2)
     position = np.r_[CENTRE, _grasp_height(gripper, TABLE_HEIGHT + 0.03)]
     margin = np.deg2rad(2.0)
-    inside = execute_grasp(
-        _settled(large_box(), gripper), top_grasp(position, tolerance - margin), gripper
-    )
-    outside = execute_grasp(
-        _settled(large_box(), gripper), top_grasp(position, tolerance + margin), gripper
-    )
+    inside = execute_grasp(_settled(large_box(), gripper), top_grasp(position, tolerance - margin))
+    outside = execute_grasp(_settled(large_box(), gripper), top_grasp(position, tolerance + margin))
     assert inside.outcome is Outcome.SUCCESS
     assert outside.outcome is Outcome.APPROACH_COLLISION
 
@@ -163,7 +159,7 @@ def test_grasp_trials_are_deterministic():
         pose = top_grasp(
             np.r_[CENTRE + 0.004, _grasp_height("robotiq-2f85", TABLE_HEIGHT + 0.06)], yaw=0.3
         )
-        execute_grasp(world, pose, "robotiq-2f85", remove=False)
+        execute_grasp(world, pose, remove=False)
         results.append(world.object_poses())
     np.testing.assert_array_equal(results[0], results[1])
 
@@ -171,7 +167,7 @@ def test_grasp_trials_are_deterministic():
 def test_bad_grasp_pose_is_rejected():
     world = _settled(_box((0.02, 0.02, 0.02)), "franka")
     with pytest.raises(ValueError, match="grasp_pose"):
-        execute_grasp(world, np.eye(3), "franka")
+        execute_grasp(world, np.eye(3))
 
 
 def test_successful_grasp_in_a_scene_removes_only_the_lifted_object():
@@ -183,7 +179,7 @@ def test_successful_grasp_in_a_scene_removes_only_the_lifted_object():
     top = T[2, 3] + 2 * half[2]
     yaw = np.arctan2(T[1, 0], T[0, 0])  # close across the block's local x
     pose = top_grasp(np.r_[T[:2, 3], _grasp_height("franka", top)], yaw)
-    result = execute_grasp(world, pose, "franka")
+    result = execute_grasp(world, pose)
     assert result.outcome is Outcome.SUCCESS and result.object_index == target
     others = np.delete(before, target, axis=0)
     assert len(world.objects) == len(before) - 1
@@ -199,6 +195,6 @@ def test_flipped_grasp_is_the_same_grasp(gripper):
     lifted = []
     for T in (pose, flipped):
         world = _settled(_box((0.02, 0.03, 0.03)), gripper)
-        assert execute_grasp(world, T, gripper, remove=False).outcome is Outcome.SUCCESS
+        assert execute_grasp(world, T, remove=False).outcome is Outcome.SUCCESS
         lifted.append(world.object_positions()[0])
     np.testing.assert_allclose(lifted[0], lifted[1], atol=2e-3)

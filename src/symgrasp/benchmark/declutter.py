@@ -4,7 +4,7 @@ A round drops ``N`` objects of a set as a pile on the table. Before every attemp
 image is rendered from a fixed camera and fused; the detector's grasps are tried in
 gravity-rejection-score order and the first whose open hand, from the pre-grasp along the
 approach to the grasp, misses the *observed* surface and the table
-(`symgrasp.data.collision.hand_collides`, what a robot can check) is executed
+(`symgrasp.sim.collision.hand_collides`, what a robot can check) is executed
 (`symgrasp.sim.execute.execute_grasp`); a successful grasp removes its object. The round ends
 when the table is clear, no grasp is found, or ``max_failures`` attempts in a row fail.
 
@@ -21,15 +21,15 @@ from pathlib import Path
 import numpy as np
 
 from symgrasp.benchmark.failures import aimed_object, failure_mode
-from symgrasp.data.collision import hand_collides
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.perception import CameraIntrinsic, depth_to_points
 from symgrasp.perception.camera import default_extrinsic
-from symgrasp.sim import World, get_gripper
+from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.execute import execute_grasp
+from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
-from symgrasp.sim.world import pile_scene
+from symgrasp.sim.world import World, pile_scene
 
 NONE_FOUND = "none_found"
 """The outcome of an attempt for which the detector proposed no executable grasp."""
@@ -152,11 +152,11 @@ def run_round(
             families = [spec.family for spec in world.objects]
             aimed = aimed_object(world, chosen.pose)
             state = world.snapshot() if diagnose else None
-            result = execute_grasp(world, chosen.pose, detector.gripper)
+            result = execute_grasp(world, chosen.pose)
             outcome = result.outcome.value
             target = families[aimed if result.object_index is None else result.object_index]
             if state is not None:
-                mode = failure_mode(world, state, chosen.pose, detector.gripper, result.outcome)
+                mode = failure_mode(world, state, chosen.pose, result.outcome)
         attempt = Attempt(
             outcome, chosen, len(candidates), rejected, planning, before, mode, target
         )
@@ -174,7 +174,7 @@ def save_attempt_png(
     points: np.ndarray,
     candidates: list[Grasp],
     attempt: Attempt,
-    gripper: str,
+    gripper: GripperSpec,
     title: str,
     drawn: int = 10,
 ) -> Path:
@@ -188,13 +188,13 @@ def save_attempt_png(
         points,
         np.array([g.pose for g in shown]).reshape(-1, 4, 4),
         np.array([g.score for g in shown]),
-        get_gripper(gripper),
+        gripper,
         title=title,
         highlight=next((i for i, g in enumerate(shown) if g is attempt.grasp), None),
     )
 
 
-def picture_observer(folder: str | Path, gripper: str, caption: str = "") -> Observer:
+def picture_observer(folder: str | Path, gripper: GripperSpec, caption: str = "") -> Observer:
     """An `Observer` that draws attempt ``n`` of a round to ``folder/attempt_NN.png``
     (`save_attempt_png`), titled ``caption`` + the attempt's number and mode."""
     folder = Path(folder)
@@ -213,7 +213,7 @@ def picture_observer(folder: str | Path, gripper: str, caption: str = "") -> Obs
 
 
 def first_free(
-    candidates: list[Grasp], gripper: str, points: np.ndarray, batch: int = 8
+    candidates: list[Grasp], gripper: GripperSpec, points: np.ndarray, batch: int = 8
 ) -> tuple[Grasp | None, int]:
     """The first candidate whose approach misses ``points`` and the table, and how many
     before it were rejected. Checked in small batches: the first one usually passes."""

@@ -79,9 +79,7 @@ def _surface(spec: ObjectSpec, samples: int) -> np.ndarray:
     return points
 
 
-def failure_mode(
-    world: World, before: Snapshot, grasp_pose: np.ndarray, gripper: str, outcome: Outcome
-) -> str:
+def failure_mode(world: World, before: Snapshot, grasp_pose: np.ndarray, outcome: Outcome) -> str:
     """The mode of a trial of ``grasp_pose`` that ended in ``outcome`` after starting from
     ``before`` (a snapshot of ``world``); ``world`` is left in the state it is in now."""
     if outcome is Outcome.SUCCESS:
@@ -91,7 +89,7 @@ def failure_mode(
         for angle in YAW_OFFSETS:
             world.restore(before)
             turned = turned_about_approach(grasp_pose, float(angle))
-            if execute_grasp(world, turned, gripper, remove=False).success:
+            if execute_grasp(world, turned, remove=False).success:
                 return "wrong_yaw"
     finally:
         world.restore(after)

@@ -31,7 +31,8 @@ from symgrasp.atomic import write_atomic
 from symgrasp.data.dataset import load_scene, scene_path
 from symgrasp.data.grasp_db import DatabaseConfig, GraspDatabase, cached_database
 from symgrasp.data.scenes import SceneConfig, make_scene_record
-from symgrasp.names import GRIPPERS, OBJECT_SETS
+from symgrasp.names import OBJECT_SETS
+from symgrasp.sim.grippers import get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 
@@ -85,7 +86,7 @@ def _init_worker(cfg: SceneConfig, root: str, seed: int) -> None:
 
 def _database_task(k: int) -> int:
     cfg: SceneConfig = _WORKER["cfg"]
-    db = cached_database(cfg.pool()[k], cfg.gripper, _WORKER["root"] / "db", cfg.database, seed=k)
+    db = cached_database(cfg.pool()[k], cfg.hand, _WORKER["root"] / "db", cfg.database, seed=k)
     return len(db)
 
 
@@ -101,7 +102,7 @@ def _scene_task(scene_id: int) -> int:
 def load_databases(cfg: SceneConfig, db_dir: str | Path) -> list[GraspDatabase]:
     """The pool's databases (built and cached where missing), in pool order."""
     return [
-        cached_database(obj, cfg.gripper, db_dir, cfg.database, seed=k)
+        cached_database(obj, cfg.hand, db_dir, cfg.database, seed=k)
         for k, obj in enumerate(cfg.pool())
     ]
 
@@ -129,8 +130,7 @@ def check_names(object_set: str, gripper: str) -> None:
     """Raise ValueError listing the known names if either is unknown."""
     if object_set not in OBJECT_SETS:
         raise ValueError(f"object set must be one of {OBJECT_SETS}, got {object_set!r}")
-    if gripper not in GRIPPERS:
-        raise ValueError(f"gripper must be one of {GRIPPERS}, got {gripper!r}")
+    get_gripper(gripper)
 
 
 def generate(

@@ -14,7 +14,6 @@ A database is computed once per (object parameters, gripper, configuration) and 
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import hashlib
 import json
@@ -23,15 +22,14 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from symgrasp.data.directions import fibonacci_directions
-from symgrasp.sim import World, get_gripper
 from symgrasp.sim.execute import pull_out_force
-from symgrasp.sim.grippers import PREFIX
+from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.objects import ObjectSpec, surface_samples
+from symgrasp.sim.world import World
 
 GRAVITY = 9.81
 """Standard gravity [m/s²], the unit of the normalised score."""
@@ -235,29 +233,18 @@ def randomised_frames(
     return T
 
 
-def _finger_opening(world: World) -> float:
-    """Distance between the inner faces of the two pads along the closing axis [m]."""
-    m, d = world.model, world.data
-    T = world.hand_pose()
-    pads = [m.geom(f"{PREFIX}pad_{side}").id for side in ("left", "right")]
-    z = [float((d.geom_xpos[g] - T[:3, 3]) @ T[:3, 2]) for g in pads]
-    thickness = sum(float(m.geom_size[g][2]) for g in pads)  # two half-thicknesses
-    return max(0.0, abs(z[0] - z[1]) - thickness)
-
-
 def build_database(
-    obj: ObjectSpec, gripper: str, cfg: DatabaseConfig = DatabaseConfig(), seed: int = 0
+    obj: ObjectSpec, gripper: GripperSpec, cfg: DatabaseConfig = DatabaseConfig(), seed: int = 0
 ) -> GraspDatabase:
     """Sample, close and score grasps on ``obj`` until ``cfg.grasps`` are held (or
     ``cfg.max_candidates`` closures were tried); closures that hold nothing are kept with
     ``held`` False and zero scores. Deterministic for a given seed."""
-    spec = get_gripper(gripper)
     rng = np.random.default_rng(seed)
     T_world_object = np.eye(4)
     T_world_object[:3, 3] = FLOAT_POSITION
-    world = World([obj], T_world_object[None], gripper=spec)
+    world = World([obj], T_world_object[None], gripper=gripper)
     world.set_gravity(np.zeros(3))
-    start = copy.copy(world.data)
+    start = world.snapshot()
     dirs = fibonacci_directions(cfg.directions)
     weight = obj.mass * GRAVITY
     max_force = cfg.score_clip * weight
@@ -270,7 +257,7 @@ def build_database(
         sum(held) < cfg.grasps and tried < cfg.max_candidates and placed < 10 * cfg.max_candidates
     ):
         points, normals = surface_samples(obj, cfg.surface_points, rng)
-        mid, line = antipodal_pairs(points, normals, obj.friction, spec.max_width, rng)
+        mid, line = antipodal_pairs(points, normals, obj.friction, gripper.max_width, rng)
         if not len(mid):
             break
         outward = side_normals(mid, line, points, normals)
@@ -278,7 +265,7 @@ def build_database(
             if sum(held) >= cfg.grasps or tried >= cfg.max_candidates:
                 break
             placed += 1
-            mujoco.mj_copyData(world.data, world.model, start)
+            world.restore(start)
             world.set_hand_pose(T_world_object @ T_object_tcp)
             if world.hand_in_collision():
                 continue  # the open hand would start inside the object
@@ -286,16 +273,16 @@ def build_database(
             world.actuate(close=True)
             T_wo = world.object_poses()[0]
             poses.append(np.linalg.inv(T_wo) @ world.hand_pose())
-            widths.append(_finger_opening(world))
+            widths.append(world.finger_opening())
             forces.append(world.hand_contact_force())
             held.append(bool(world.objects_in_hand()))
             row = np.zeros(len(dirs))
             resisted.append(row)
             if not held[-1]:
                 continue
-            closed = copy.copy(world.data)
+            closed = world.snapshot()
             for k, u in enumerate(dirs):
-                mujoco.mj_copyData(world.data, world.model, closed)
+                world.restore(closed)
                 row[k] = pull_out_force(
                     world, 0, T_wo[:3, :3] @ u, max_force, max_force / cfg.ramp_time, cfg.slip
                 )
@@ -313,23 +300,25 @@ def build_database(
     )
 
 
-def database_key(obj: ObjectSpec, gripper: str, cfg: DatabaseConfig, seed: int) -> str:
-    """Cache key: a hash of the object's parameters, the gripper, the configuration, seed."""
+def database_key(obj: ObjectSpec, gripper: GripperSpec, cfg: DatabaseConfig, seed: int) -> str:
+    """Cache key: a hash of the object's parameters, the gripper's name, the configuration,
+    seed."""
     text = json.dumps(
-        [dataclasses.asdict(obj), gripper, dataclasses.asdict(cfg), seed], sort_keys=True
+        [dataclasses.asdict(obj), gripper.name, dataclasses.asdict(cfg), seed], sort_keys=True
     )
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def cached_database(
     obj: ObjectSpec,
-    gripper: str,
+    gripper: GripperSpec,
     cache_dir: str | Path,
     cfg: DatabaseConfig = DatabaseConfig(),
     seed: int = 0,
 ) -> GraspDatabase:
     """The database of ``obj`` and ``gripper`` from ``cache_dir``, built on the first call."""
-    path = Path(cache_dir) / f"{obj.name}_{gripper}_{database_key(obj, gripper, cfg, seed)}.npz"
+    key = database_key(obj, gripper, cfg, seed)
+    path = Path(cache_dir) / f"{obj.name}_{gripper.name}_{key}.npz"
     if path.exists():
         return GraspDatabase.load(path)
     db = build_database(obj, gripper, cfg, seed)

@@ -9,7 +9,7 @@ processes or by a cluster engine. Steps:
 2. move every object's held database grasps by its settled pose; read each grasp's
    gravity-rejection score along world −z (expressed in the object frame);
 3. drop grasps whose open hand hits the table or any object at the grasp or on the approach
-   from the pre-grasp (:func:`symgrasp.data.collision.hand_collides`);
+   from the pre-grasp (:func:`symgrasp.sim.collision.hand_collides`);
 4. voxelise the survivors (:func:`symgrasp.data.labels.voxelise`);
 5. render one depth image from a random camera on a spherical cap around the workspace and
    fuse it into the 40³ TSDF.
@@ -21,12 +21,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from symgrasp.data.collision import hand_collides
 from symgrasp.data.directions import interpolate
 from symgrasp.data.grasp_db import DatabaseConfig, GraspDatabase
 from symgrasp.data.labels import voxelise
 from symgrasp.names import SCENES
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, look_at
+from symgrasp.sim.collision import hand_collides
+from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.sim.objects import ObjectSpec, object_set, surface_samples
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import packed_scene, pile_scene
@@ -78,6 +79,12 @@ class SceneConfig:
         if self.pool_size < 1 or self.mean_objects < 0 or self.max_objects < 1:
             raise ValueError("pool_size and max_objects must be ≥ 1, mean_objects ≥ 0")
 
+    @property
+    def hand(self) -> GripperSpec:
+        """The spec of the gripper named ``gripper`` (a config holds names: it is saved in the
+        dataset's manifest)."""
+        return get_gripper(self.gripper)
+
     def pool(self) -> list[ObjectSpec]:
         """The objects scenes are drawn from (names ``<family>_<index>``)."""
         return object_set(self.object_set, self.pool_size, seed=self.pool_seed)
@@ -128,7 +135,7 @@ def scene_grasps(
         "score": np.concatenate(score) if score else np.zeros(0),
         "width": np.concatenate(width) if width else np.zeros(0),
         "object": np.concatenate(owner) if owner else np.zeros(0, dtype=int),
-        "collides": hand_collides(T_all, cfg.gripper, cloud, tolerance=-cfg.clearance),
+        "collides": hand_collides(T_all, cfg.hand, cloud, tolerance=-cfg.clearance),
     }
 
 

@@ -46,14 +46,14 @@ def validate_labels(
         objects = [pool[k] for k in record["object_pool_index"]]
         poses = record["object_poses"]
         g = int(rng.integers(len(record["grasp_pose"])))
-        world = World(objects, poses, gripper=cfg.gripper)
-        labelled += execute_grasp(world, record["grasp_pose"][g].astype(float), cfg.gripper).success
+        world = World(objects, poses, gripper=cfg.hand)
+        labelled += execute_grasp(world, record["grasp_pose"][g].astype(float)).success
         i = int(rng.integers(len(objects)))
         p, _ = surface_samples(objects[i], 16, rng)
         T = np.eye(4)
         T[:3, :3] = Rotation.random(random_state=int(rng.integers(2**31))).as_matrix()
         T[:3, 3] = poses[i][:3, :3] @ p[0] + poses[i][:3, 3]
-        world = World(objects, poses, gripper=cfg.gripper)
-        random += execute_grasp(world, T, cfg.gripper).success
+        world = World(objects, poses, gripper=cfg.hand)
+        random += execute_grasp(world, T).success
         done += 1
     return ValidationResult(done, labelled / max(done, 1), random / max(done, 1))

@@ -27,6 +27,7 @@ from symgrasp.device import resolve_device
 from symgrasp.model.checkpoint import load_model
 from symgrasp.model.network import GraspNet
 from symgrasp.perception import CameraIntrinsic, TSDFVolume
+from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 Tensor = torch.Tensor
@@ -42,7 +43,7 @@ class GraspDetector:
 
     Args:
         model: the network (any representation).
-        gripper: the gripper the network was trained for.
+        gripper: the gripper the network was trained for (a spec, or a built-in's name).
         validity_threshold: keep voxels whose validity probability is at least this.
         confidence_threshold: keep grasps whose confidence is at least this. None: the
             representation's `~symgrasp.rotation.Representation.default_confidence` (15 for
@@ -65,7 +66,7 @@ class GraspDetector:
     def __init__(
         self,
         model: GraspNet,
-        gripper: str,
+        gripper: GripperSpec | str,
         *,
         validity_threshold: float = DEFAULT_VALIDITY,
         confidence_threshold: float | None = None,
@@ -108,7 +109,7 @@ class GraspDetector:
             )
         self.device = resolve_device(str(device))
         self.model = model.to(self.device).eval()
-        self.gripper = gripper
+        self.gripper = get_gripper(gripper)
         self.validity_threshold = float(validity_threshold)
         self.confidence_threshold = confidence_threshold
         self.nms_radius = int(nms_radius)
@@ -127,7 +128,7 @@ class GraspDetector:
         cls,
         name_or_path: str | Path,
         device: str | torch.device = "auto",
-        gripper: str | None = None,
+        gripper: GripperSpec | str | None = None,
         **options: Any,
     ) -> GraspDetector:
         """A detector from a shipped model name (`symgrasp.detect.PRETRAINED`) or a checkpoint
@@ -135,11 +136,12 @@ class GraspDetector:
         trained for another one is loaded with a warning. ``options``: see the class."""
         path = resolve_model(name_or_path)
         model, state = load_model(path, map_location="cpu")
-        trained_for = state["gripper"]
-        if gripper is not None and gripper != trained_for:
+        trained_for = get_gripper(state["gripper"])
+        used = trained_for if gripper is None else get_gripper(gripper)
+        if used != trained_for:
             warnings.warn(
-                f"model {name_or_path} was trained for the {trained_for!r} gripper, not "
-                f"{gripper!r}: its grasps fit {trained_for!r}'s geometry",
+                f"model {name_or_path} was trained for the {trained_for.name!r} gripper, not "
+                f"{used.name!r}: its grasps fit {trained_for.name!r}'s geometry",
                 stacklevel=2,
             )
         info = {k: v for k, v in state.items() if k not in ("model", "optimizer")}
@@ -148,7 +150,7 @@ class GraspDetector:
     def __repr__(self) -> str:
         return (
             f"GraspDetector(representation={self.representation.name!r}, "
-            f"gripper={self.gripper!r}, device={str(self.device)!r})"
+            f"gripper={self.gripper.name!r}, device={str(self.device)!r})"
         )
 
     # -- inputs ------------------------------------------------------------------------

@@ -21,7 +21,6 @@ from symgrasp.detect.detector import GraspDetector
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.show import save_grasps_html, save_grasps_png
 from symgrasp.perception import CameraIntrinsic, TSDFVolume
-from symgrasp.sim import get_gripper
 
 DRAWN = 20
 """Grasps drawn in the pictures."""
@@ -104,7 +103,7 @@ def write_detection(
     out.mkdir(parents=True, exist_ok=True)
     meta = {
         "representation": detector.representation.name,
-        "gripper": detector.gripper,
+        "gripper": detector.gripper.name,
         "timing_ms": detector.timing,
         "grasps": [grasp_record(g) for g in grasps],
     }
@@ -115,11 +114,16 @@ def write_detection(
     shown = grasps[:DRAWN]
     poses = np.array([g.pose for g in shown]).reshape(-1, 4, 4)
     scores = np.array([g.score for g in shown])
-    spec = get_gripper(detector.gripper)
-    title = f"{len(grasps)} grasps ({detector.representation.name}, {detector.gripper})"
-    save_grasps_png(paths["png"], points, poses, scores, spec, title=title, highlight=0)
+    title = f"{len(grasps)} grasps ({detector.representation.name}, {detector.gripper.name})"
+    save_grasps_png(paths["png"], points, poses, scores, detector.gripper, title=title, highlight=0)
     save_grasps_html(
-        paths["html"], points, poses, scores, spec, _closing_samples(detector, volume, shown), title
+        paths["html"],
+        points,
+        poses,
+        scores,
+        detector.gripper,
+        _closing_samples(detector, volume, shown),
+        title,
     )
     return paths
 

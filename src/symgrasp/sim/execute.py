@@ -12,7 +12,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.sim.protocol import LIFT_HEIGHT, PREGRASP_DISTANCE
 from symgrasp.sim.world import PARK_POSITION, World
 
@@ -66,23 +65,18 @@ def _check_pose(grasp_pose: np.ndarray) -> np.ndarray:
 
 
 def execute_grasp(
-    world: World,
-    grasp_pose: np.ndarray,
-    gripper: GripperSpec | str,
-    hold_time: float = 0.25,
-    remove: bool = True,
+    world: World, grasp_pose: np.ndarray, hold_time: float = 0.25, remove: bool = True
 ) -> GraspResult:
-    """Run one grasp trial of ``gripper`` at ``grasp_pose`` (``T_world_tcp``) in ``world``.
+    """Run one grasp trial of the world's hand at ``grasp_pose`` (``T_world_tcp``).
 
     Success: exactly one object is lifted above half the lift height and still touches the
     hand after ``hold_time`` seconds. That object is then removed from the world (unless
     ``remove`` is False); the hand is parked again.
     """
     T = _check_pose(grasp_pose)
-    spec = get_gripper(gripper) if isinstance(gripper, str) else gripper
-    if world.gripper is None or world.gripper.name != spec.name:
-        world.rebuild(gripper=spec)
-    result = _trial(world, T, spec, hold_time)
+    if world.gripper is None:
+        raise ValueError("execute_grasp needs a world with a hand; build it with gripper=...")
+    result = _trial(world, T, hold_time)
     park = np.eye(4)
     park[:3, 3] = PARK_POSITION
     if result.success and remove:
@@ -91,7 +85,7 @@ def execute_grasp(
     return result
 
 
-def _trial(world: World, T: np.ndarray, spec: GripperSpec, hold_time: float) -> GraspResult:
+def _trial(world: World, T: np.ndarray, hold_time: float) -> GraspResult:
     pregrasp = T.copy()
     pregrasp[:3, 3] -= PREGRASP_DISTANCE * T[:3, 0]
     world.set_hand_pose(pregrasp)

@@ -1,4 +1,4 @@
-"""The two parallel grippers, built from primitives with their real dimensions.
+"""The parallel grippers: a `GripperSpec` per hand, and its MuJoCo model built from primitives.
 
 Each hand is a free body whose frame *is* the grasp frame (conventions.md): origin at the
 TCP (centre between the open finger pads), ``x`` = approach ``e_x``, ``z`` = closing axis
@@ -8,9 +8,14 @@ compensated, as an arm would hold them.
 
 Actuation: ``ctrl = +close_ctrl`` on every hand actuator closes, ``-close_ctrl`` opens.
 
-- ``franka`` — rigid parallel jaw: two slide joints coupled by an equality (one rack and
+A spec is resolved from a name once, at the edge (`get_gripper`), and carries its own MJCF
+(`GripperSpec.hand_xml`) by its ``kind``; its collision boxes for the swept-hand check are
+read from that model (`symgrasp.sim.collision.hand_boxes`). This module imports no simulator.
+Two kinds are built:
+
+- ``rigid``, the Franka hand (``franka``) — a parallel jaw: two slide joints coupled by an equality (one rack and
   pinion), each pushed by a 70 N motor; max opening 80 mm, 20 mm wide pads.
-- ``robotiq-2f85`` — underactuated two-phalanx fingers, 85 mm max opening, 22 mm wide. Per
+- ``robotiq``, the Robotiq 2F-85 (``robotiq-2f85``) — underactuated two-phalanx fingers, 85 mm max opening, 22 mm wide. Per
   finger: a proximal link on a hinge at the palm; a "parallel-keeping" hinge at its tip,
   tied by an equality to minus the proximal angle, so the pad keeps its orientation (the
   four-bar of the real hand); and a "curl" hinge carrying the pad, held against a stop by a
@@ -24,6 +29,7 @@ Actuation: ``ctrl = +close_ctrl`` on every hand actuator closes, ``-close_ctrl``
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -35,35 +41,65 @@ PREFIX = "hand_"
 
 
 @dataclass(frozen=True)
+class HandXml:
+    """MJCF fragments of a hand, to be placed into the world's sections."""
+
+    worldbody: str
+    tendon: str
+    equality: str
+    actuator: str
+    contact: str = ""
+
+
+@dataclass(frozen=True)
 class GripperSpec:
     """Dimensions [m] and control conventions of a parallel gripper.
 
-    ``max_width``: opening between the pads; ``finger_depth``: from the palm face to the
-    fingertips (how deep an object can enter); ``tcp_offset``: from the wrist flange to the
-    TCP along ``e_x``; ``finger_width``: pad extent along ``e_y``; ``tip_beyond_tcp``: how far
-    the fingertips reach past the TCP along ``e_x``; ``grip_force`` [N] nominal squeeze.
+    ``kind``: how the hand is built, ``"rigid"`` (two slide fingers, as the Franka hand) or
+    ``"robotiq"`` (the 2F-85's underactuated linkage); ``max_width``: opening between the
+    pads; ``finger_depth``: from the palm face to the fingertips (how deep an object can
+    enter); ``tcp_offset``: from the wrist flange to the TCP along ``e_x``; ``finger_width``:
+    pad extent along ``e_y``; ``tip_beyond_tcp``: how far the fingertips reach past the TCP
+    along ``e_x``; ``palm_half``: half-extents of the palm box along ``e_x, e_y, e_z``;
+    ``grip_force`` [N] nominal squeeze; ``close_ctrl``: actuator command that closes;
+    ``close_time`` [s]: how long closing takes.
     """
 
     name: str
+    kind: Literal["rigid", "robotiq"]
     max_width: float
     finger_depth: float
     tcp_offset: float
     finger_width: float
     tip_beyond_tcp: float
+    palm_half: tuple[float, float, float]
     grip_force: float
     close_ctrl: float
     close_time: float
     approach_axis: tuple[float, float, float] = (1.0, 0.0, 0.0)
     closing_axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
+    def hand_xml(self) -> HandXml:
+        """The MJCF fragments of this hand."""
+        return _BUILDERS[self.kind](self)
+
+    def open_joint_positions(self) -> dict[str, float]:
+        """Finger joint positions [m or rad] of the fully open hand, by joint name."""
+        if self.kind == "rigid":
+            return {f"{PREFIX}slide_{s}": self.max_width / 2 for s in ("left", "right")}
+        joints = ("proximal", "keep", "curl")
+        return {f"{PREFIX}{j}_{s}": 0.0 for j in joints for s in ("left", "right")}
+
 
 FRANKA = GripperSpec(
     name="franka",
+    kind="rigid",
     max_width=0.08,
     finger_depth=0.054,
     tcp_offset=0.1034,
     finger_width=0.02,
     tip_beyond_tcp=0.009,
+    palm_half=(0.029, 0.03, 0.1),
     grip_force=70.0,
     close_ctrl=1.0,
     close_time=0.2,
@@ -80,34 +116,30 @@ _R_LEVER = 0.06  # distance from the proximal pivot to the pad centre along e_x 
 
 ROBOTIQ_2F85 = GripperSpec(
     name="robotiq-2f85",
+    kind="robotiq",
     max_width=0.085,
     finger_depth=float(_R_PAD / 2 - _R_PIVOT_X),
     tcp_offset=0.145,
     finger_width=0.022,
     tip_beyond_tcp=_R_PAD / 2,
+    palm_half=(0.035, 0.035, 0.05),
     grip_force=60.0,
     close_ctrl=2.5,
     close_time=0.6,
 )
 
 
-def get_gripper(name: str) -> GripperSpec:
-    """The :class:`GripperSpec` called ``name`` (one of :data:`GRIPPERS`)."""
-    specs = {FRANKA.name: FRANKA, ROBOTIQ_2F85.name: ROBOTIQ_2F85}
-    if name not in specs:
-        raise ValueError(f"gripper name must be one of {GRIPPERS}, got {name!r}")
-    return specs[name]
+_SPECS = {spec.name: spec for spec in (FRANKA, ROBOTIQ_2F85)}
 
 
-@dataclass(frozen=True)
-class HandXml:
-    """MJCF fragments of a hand, to be placed into the world's sections."""
-
-    worldbody: str
-    tendon: str
-    equality: str
-    actuator: str
-    contact: str = ""
+def get_gripper(gripper: GripperSpec | str) -> GripperSpec:
+    """The spec of ``gripper``: a spec as it is, or the built-in one of that name (one of
+    `symgrasp.names.GRIPPERS`). Call it once, where a name comes in."""
+    if isinstance(gripper, GripperSpec):
+        return gripper
+    if gripper not in _SPECS:
+        raise ValueError(f"gripper must be one of {', '.join(GRIPPERS)}, got {gripper!r}")
+    return _SPECS[gripper]
 
 
 def _quat_y(angle: float) -> str:
@@ -131,35 +163,36 @@ def _weld() -> str:
     return f'<weld body1="{PREFIX}target" body2="{PREFIX}base" solref="{WELD_SOLREF}"/>'
 
 
-def _franka_finger(side: str, sign: int) -> str:
-    half_len = (FRANKA.finger_depth) / 2
-    x = FRANKA.tip_beyond_tcp - half_len
+def _rigid_finger(spec: GripperSpec, side: str, sign: int) -> str:
+    half_len = spec.finger_depth / 2
+    x = spec.tip_beyond_tcp - half_len
     return f"""
       <body name="{PREFIX}finger_{side}" gravcomp="1">
         <joint name="{PREFIX}slide_{side}" type="slide" axis="0 0 {sign}"
-               range="0 {FRANKA.max_width / 2}" damping="300" armature="0.5"/>
+               range="0 {spec.max_width / 2}" damping="300" armature="0.5"/>
         <geom name="{PREFIX}pad_{side}" class="finger" type="box" mass="0.02"
-              size="{half_len:.4f} {FRANKA.finger_width / 2} 0.005"
+              size="{half_len:.4f} {spec.finger_width / 2} 0.005"
               pos="{x:.4f} 0 {sign * 0.005}"/>
       </body>"""
 
 
-def franka_xml() -> HandXml:
-    """The Franka Emika hand: 0.2 m palm along the closing axis, two 70 N slide fingers."""
-    palm_x = FRANKA.tip_beyond_tcp - FRANKA.finger_depth - 0.029
-    fingers = _franka_finger("left", 1) + _franka_finger("right", -1)
+def _rigid_xml(spec: GripperSpec) -> HandXml:
+    """A rigid parallel jaw (the Franka hand: 0.2 m palm along the closing axis, two 70 N
+    slide fingers): the palm's face is at the fingers' root."""
+    palm_x = spec.tip_beyond_tcp - spec.finger_depth - spec.palm_half[0]
+    fingers = _rigid_finger(spec, "left", 1) + _rigid_finger(spec, "right", -1)
     motors = "".join(
         f'<motor name="{PREFIX}drive_{side}" joint="{PREFIX}slide_{side}" '
-        f'gear="{-FRANKA.grip_force}" ctrlrange="-1 1"/>'
+        f'gear="{-spec.grip_force}" ctrlrange="-1 1"/>'
         for side in ("left", "right")
     )
     equality = _weld() + (
         f'<joint joint1="{PREFIX}slide_right" joint2="{PREFIX}slide_left" polycoef="0 1 0 0 0"/>'
     )
-    return HandXml(_hand_root((0.029, 0.03, 0.1), palm_x, fingers), "", equality, motors)
+    return HandXml(_hand_root(spec.palm_half, palm_x, fingers), "", equality, motors)
 
 
-def _robotiq_finger(side: str, sign: int) -> str:
+def _robotiq_finger(spec: GripperSpec, side: str, sign: int) -> str:
     thick = 0.004
     return f"""
       <body name="{PREFIX}proximal_{side}" pos="{_R_PIVOT_X:.5f} 0 {sign * _R_PIVOT}"
@@ -167,7 +200,7 @@ def _robotiq_finger(side: str, sign: int) -> str:
         <joint name="{PREFIX}proximal_{side}" axis="0 {sign} 0"
                range="0 {_R_OPEN - _R_CLOSED:.4f}" damping="0.01" armature="0.01"/>
         <geom name="{PREFIX}link_{side}" class="finger" type="box" mass="0.02"
-              size="{_R_LINK / 2} {ROBOTIQ_2F85.finger_width / 2} {thick}"
+              size="{_R_LINK / 2} {spec.finger_width / 2} {thick}"
               pos="{_R_LINK / 2} 0 {sign * thick}"/>
         <body name="{PREFIX}keep_{side}" pos="{_R_LINK} 0 0" quat="{_quat_y(sign * _R_OPEN)}"
               gravcomp="1">
@@ -178,17 +211,17 @@ def _robotiq_finger(side: str, sign: int) -> str:
             <joint name="{PREFIX}curl_{side}" axis="0 {sign} 0" range="0 1.3" stiffness="0.5"
                    springref="-1.0" damping="0.3" armature="0.002"/>
             <geom name="{PREFIX}pad_{side}" class="finger" type="box" mass="0.02"
-                  size="{_R_PAD / 2} {ROBOTIQ_2F85.finger_width / 2} 0.003"
+                  size="{_R_PAD / 2} {spec.finger_width / 2} 0.003"
                   pos="{_R_PAD / 2} 0 {sign * (0.003 - _R_INSET)}"/>
           </body>
         </body>
       </body>"""
 
 
-def robotiq_xml() -> HandXml:
+def _robotiq_xml(spec: GripperSpec) -> HandXml:
     """The Robotiq 2F-85 with passive compliance (see the module docstring)."""
-    palm_x = _R_PIVOT_X - 0.035
-    fingers = _robotiq_finger("left", 1) + _robotiq_finger("right", -1)
+    palm_x = _R_PIVOT_X - spec.palm_half[0]
+    fingers = _robotiq_finger(spec, "left", 1) + _robotiq_finger(spec, "right", -1)
     sides = ("left", "right")
     tendon = "".join(
         f'<fixed name="{PREFIX}drive_{s}"><joint joint="{PREFIX}proximal_{s}" coef="1"/>'
@@ -197,11 +230,11 @@ def robotiq_xml() -> HandXml:
     )
     # Integrating actuator: ctrl is the speed of the set-point, so the squeeze only builds
     # up once the finger is blocked (this is what lets the spring keep the pads parallel).
-    kp, torque = 30.0, ROBOTIQ_2F85.grip_force * _R_LEVER
+    kp, torque = 30.0, spec.grip_force * _R_LEVER
     actuator = "".join(
         f'<general name="{PREFIX}drive_{s}" tendon="{PREFIX}drive_{s}" dyntype="integrator" '
         f'gainprm="{kp}" biastype="affine" biasprm="0 {-kp} -0.3" actlimited="true" '
-        f'actrange="0 1.3" ctrlrange="{-ROBOTIQ_2F85.close_ctrl} {ROBOTIQ_2F85.close_ctrl}" '
+        f'actrange="0 1.3" ctrlrange="{-spec.close_ctrl} {spec.close_ctrl}" '
         f'forcelimited="true" forcerange="{-torque} {torque}"/>'
         for s in sides
     )
@@ -217,23 +250,8 @@ def robotiq_xml() -> HandXml:
     exclude = "".join(
         f'<exclude body1="{PREFIX}proximal_{s}" body2="{PREFIX}distal_{s}"/>' for s in sides
     )
-    root = _hand_root((0.035, 0.035, 0.05), palm_x, fingers)
+    root = _hand_root(spec.palm_half, palm_x, fingers)
     return HandXml(root, tendon, equality, actuator, exclude)
 
 
-def hand_xml(gripper: GripperSpec | str) -> HandXml:
-    """MJCF fragments of ``gripper`` (a spec or its name)."""
-    name = gripper if isinstance(gripper, str) else gripper.name
-    get_gripper(name)
-    return franka_xml() if name == "franka" else robotiq_xml()
-
-
-def open_joint_positions(gripper: GripperSpec | str) -> dict[str, float]:
-    """Finger joint positions [m or rad] of the fully open hand, by joint name."""
-    name = gripper if isinstance(gripper, str) else gripper.name
-    get_gripper(name)
-    if name == "franka":
-        return {f"{PREFIX}slide_{s}": FRANKA.max_width / 2 for s in ("left", "right")}
-    return {
-        f"{PREFIX}{j}_{s}": 0.0 for j in ("proximal", "keep", "curl") for s in ("left", "right")
-    }
+_BUILDERS = {"rigid": _rigid_xml, "robotiq": _robotiq_xml}

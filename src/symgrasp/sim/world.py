@@ -19,7 +19,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from symgrasp.names import SCENES
-from symgrasp.sim.grippers import PREFIX, GripperSpec, get_gripper, hand_xml, open_joint_positions
+from symgrasp.sim.grippers import PREFIX, GripperSpec, get_gripper
 from symgrasp.sim.objects import ObjectSpec, object_set
 from symgrasp.sim.physics import HAND_GROUP, HIDDEN_GROUP, option_xml
 from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
@@ -97,7 +97,7 @@ def world_xml(
     objects: Sequence[ObjectSpec], gripper: GripperSpec | None, walls: bool = False
 ) -> str:
     """The complete MJCF of a world."""
-    hand = hand_xml(gripper) if gripper is not None else None
+    hand = gripper.hand_xml() if gripper is not None else None
     body = "".join(_object_xml(i, o) for i, o in enumerate(objects))
     light = '<light pos="0.15 0.15 1.5" dir="0 0 -1" directional="true"/>'
     return f"""
@@ -123,7 +123,7 @@ class World:
     Args:
         objects: the objects, in order; object ``i`` is body ``obj_i``.
         poses: (n, 4, 4) initial ``T_world_object``; default: all at the workspace centre.
-        gripper: name or spec of the hand to include, or None for no hand.
+        gripper: the hand to include (a spec, or a built-in's name), or None for no hand.
         walls: include the removable walls used to drop a pile.
     """
 
@@ -135,7 +135,7 @@ class World:
         walls: bool = False,
     ) -> None:
         self.objects = list(objects)
-        self.gripper = get_gripper(gripper) if isinstance(gripper, str) else gripper
+        self.gripper = None if gripper is None else get_gripper(gripper)
         self.walls = walls
         if poses is None:
             poses = np.tile(np.eye(4), (len(self.objects), 1, 1))
@@ -179,22 +179,12 @@ class World:
         qvel = np.array([self.data.qvel[a : a + 6] for a in self._obj_vadr]).reshape(-1, 6)
         return qpos, qvel
 
-    def rebuild(
-        self,
-        keep: Sequence[int] | None = None,
-        gripper: GripperSpec | str | bool | None = True,
-        walls: bool | None = None,
-    ) -> None:
-        """Rebuild the model keeping objects ``keep`` (default all) with their states.
-
-        ``gripper=True`` keeps the current hand; a name/spec swaps it; None removes it.
-        ``walls`` (default: unchanged) adds or removes the pile walls.
-        """
+    def rebuild(self, keep: Sequence[int] | None = None, walls: bool | None = None) -> None:
+        """Rebuild the model keeping objects ``keep`` (default all) with their states, and the
+        hand; ``walls`` (default: unchanged) adds or removes the pile walls."""
         keep = list(range(len(self.objects))) if keep is None else list(keep)
         qpos, qvel = self._object_states()
         self.objects = [self.objects[i] for i in keep]
-        if gripper is not True:
-            self.gripper = get_gripper(gripper) if isinstance(gripper, str) else gripper
         if walls is not None:
             self.walls = walls
         self._build(qpos[keep], qvel[keep])
@@ -300,7 +290,7 @@ class World:
         d.mocap_pos[0], d.mocap_quat[0] = q[:3], q[3:]
         free = m.joint(f"{PREFIX}free")
         d.qpos[m.jnt_qposadr[free.id] : m.jnt_qposadr[free.id] + 7] = q
-        for name, value in open_joint_positions(gripper).items():
+        for name, value in gripper.open_joint_positions().items():
             d.qpos[m.jnt_qposadr[m.joint(name).id]] = value
         hand_dofs = m.body_rootid[m.dof_bodyid] == m.body(f"{PREFIX}base").id
         d.qvel[hand_dofs] = 0.0
@@ -316,6 +306,27 @@ class World:
         T[:3, :3] = self.data.xmat[b].reshape(3, 3)
         T[:3, 3] = self.data.xpos[b]
         return T
+
+    def hand_boxes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The hand's box geoms in its TCP frame, as they are now: centres (B, 3), rotations
+        (B, 3, 3) whose columns are the box axes, half-extents (B, 3) [m]."""
+        self._require_hand()
+        m, d = self.model, self.data
+        T = np.linalg.inv(self.hand_pose())
+        ids = np.flatnonzero(self._hand_geom & (m.geom_type == mujoco.mjtGeom.mjGEOM_BOX))
+        centre = np.array([T[:3, :3] @ d.geom_xpos[g] + T[:3, 3] for g in ids])
+        rotation = np.array([T[:3, :3] @ d.geom_xmat[g].reshape(3, 3) for g in ids])
+        return centre, rotation, np.array([m.geom_size[g] for g in ids])
+
+    def finger_opening(self) -> float:
+        """Distance between the inner faces of the two pads along the closing axis [m]."""
+        self._require_hand()
+        m, d = self.model, self.data
+        T = self.hand_pose()
+        pads = [m.geom(f"{PREFIX}pad_{side}").id for side in ("left", "right")]
+        z = [float((d.geom_xpos[g] - T[:3, 3]) @ T[:3, 2]) for g in pads]
+        thickness = sum(float(m.geom_size[g][2]) for g in pads)  # two half-thicknesses
+        return max(0.0, abs(z[0] - z[1]) - thickness)
 
     def _hand_contacts(self) -> list[tuple[int, int]]:
         """(hand geom, other geom) for every current contact of the hand with the rest."""

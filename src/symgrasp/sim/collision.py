@@ -1,6 +1,8 @@
 """Fast geometric collision check of the open hand, at a grasp and along its approach.
 
-The open hand is a few oriented boxes (palm, finger links, pads) read from its MuJoCo model.
+The open hand is a few oriented boxes (palm, finger links, pads) read from its simulated model
+(`World.hand_boxes`), so the check and the physics see the same hand. Data generation labels
+with it and the declutter benchmark chooses grasps with it.
 Along the straight approach from the pre-grasp (``PREGRASP_DISTANCE`` back along ``e_x``)
 each box sweeps a box ⊕ segment; a scene point lies in that swept volume exactly when the
 three slab intervals of the segment parameter intersect. Scenes are surface point samples
@@ -12,12 +14,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cache
 
-import mujoco
 import numpy as np
 
-from symgrasp.sim import World, get_gripper
-from symgrasp.sim.physics import HAND_GROUP
+from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.protocol import PREGRASP_DISTANCE
+from symgrasp.sim.world import World
 from symgrasp.workspace import TABLE_HEIGHT
 
 
@@ -32,24 +33,14 @@ class HandBoxes:
 
 
 @cache
-def hand_boxes(gripper: str) -> HandBoxes:
-    """The open ``gripper``'s box geoms (MuJoCo model at the open configuration)."""
-    world = World([], gripper=get_gripper(gripper))
-    m, d = world.model, world.data
-    T = np.linalg.inv(world.hand_pose())
-    ids = [
-        g
-        for g in range(m.ngeom)
-        if m.geom_group[g] == HAND_GROUP and m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX
-    ]
-    centre = np.array([T[:3, :3] @ d.geom_xpos[g] + T[:3, 3] for g in ids])
-    rotation = np.array([T[:3, :3] @ d.geom_xmat[g].reshape(3, 3) for g in ids])
-    return HandBoxes(centre, rotation, np.array([m.geom_size[g] for g in ids]))
+def hand_boxes(gripper: GripperSpec) -> HandBoxes:
+    """The open ``gripper``'s box geoms (its simulated model at the open configuration)."""
+    return HandBoxes(*World([], gripper=gripper).hand_boxes())
 
 
 def hand_collides(
     T_world_tcp: np.ndarray,
-    gripper: str,
+    gripper: GripperSpec,
     points: np.ndarray,
     tolerance: float = 0.002,
     sweep: float = PREGRASP_DISTANCE,
@@ -60,7 +51,7 @@ def hand_collides(
 
     Args:
         T_world_tcp: (G, 4, 4) grasp poses.
-        gripper: gripper name.
+        gripper: the hand.
         points: (P, 3) scene surface samples in the world frame [m].
         tolerance: boxes are shrunk by this much (touching contacts are allowed).
         sweep: approach length [m] behind the grasp.
