@@ -26,3 +26,35 @@ def test_gripper_specs_do_not_load_the_simulator():
 def test_simulator_names_load_on_first_use():
     loaded = loaded_after("from symgrasp.sim import World")
     assert "mujoco" in loaded
+
+
+def test_the_package_renames_written_files_in_one_place():
+    """Every atomic write goes through `symgrasp.atomic.write_atomic`."""
+    from pathlib import Path
+
+    import symgrasp
+
+    root = Path(symgrasp.__file__).parent
+    renaming = sorted(
+        str(p.relative_to(root))
+        for p in root.rglob("*.py")
+        if "os.replace(" in p.read_text() or "os.rename(" in p.read_text()
+    )
+    assert renaming == ["atomic.py"]
+
+
+def test_an_interrupted_write_leaves_the_old_file_and_no_temporary(tmp_path):
+    import pytest
+
+    from symgrasp.atomic import write_atomic
+
+    path = write_atomic(tmp_path / "a.txt", lambda f: f.write("old"), "w")
+
+    def fail(file):
+        file.write("half")
+        raise RuntimeError("killed")
+
+    with pytest.raises(RuntimeError):
+        write_atomic(path, fail, "w")
+    assert path.read_text() == "old"
+    assert [p.name for p in tmp_path.iterdir()] == ["a.txt"]

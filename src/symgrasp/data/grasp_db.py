@@ -18,13 +18,13 @@ import dataclasses
 import hashlib
 import json
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from symgrasp.atomic import write_atomic
 from symgrasp.data.directions import fibonacci_directions
 from symgrasp.sim.execute import pull_out_force
 from symgrasp.sim.grippers import GripperSpec
@@ -108,13 +108,8 @@ class GraspDatabase:
         return len(self.width)
 
     def save(self, path: str | Path) -> None:
-        """Write atomically (temporary file + rename)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        with open(tmp, "wb") as f:
-            np.savez_compressed(f, **dataclasses.asdict(self))
-        os.replace(tmp, path)
+        """Write atomically (`symgrasp.atomic.write_atomic`)."""
+        write_atomic(path, lambda file: np.savez_compressed(file, **dataclasses.asdict(self)))
 
     @classmethod
     def load(cls, path: str | Path) -> GraspDatabase:

@@ -9,12 +9,12 @@ It loads with ``weights_only=True``: plain data and tensors only.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
 import torch
 
+from symgrasp.atomic import write_atomic
 from symgrasp.model.network import GraspNet, NetworkConfig
 
 CHECKPOINT_FORMAT = 1
@@ -22,10 +22,7 @@ CHECKPOINT_FORMAT = 1
 
 def save_checkpoint(path: str | Path, state: dict[str, Any]) -> None:
     """Write ``state`` to ``path`` atomically (a temporary file renamed over it)."""
-    path = Path(path)
-    temporary = path.with_name(path.name + ".tmp")
-    torch.save({"format": CHECKPOINT_FORMAT, **state}, temporary)
-    os.replace(temporary, path)
+    write_atomic(path, lambda file: torch.save({"format": CHECKPOINT_FORMAT, **state}, file))
 
 
 def load_checkpoint(

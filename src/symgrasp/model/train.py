@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import csv
 import math
-import os
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -32,6 +31,7 @@ from torch.utils.data import DataLoader, Dataset, RandomSampler
 from tqdm import tqdm
 
 import symgrasp
+from symgrasp.atomic import write_atomic
 from symgrasp.device import resolve_device
 from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
 from symgrasp.model.loss import LossWeights, grasp_losses
@@ -282,12 +282,13 @@ def evaluate(
 def write_csv(path: Path, history: list[dict[str, float]]) -> None:
     """``history`` as CSV (one row per epoch), written atomically."""
     columns = list(dict.fromkeys(key for row in history for key in row))
-    temporary = path.with_name(path.name + ".tmp")
-    with open(temporary, "w", newline="") as file:
+
+    def write(file: Any) -> None:
         writer = csv.DictWriter(file, fieldnames=columns)
         writer.writeheader()
         writer.writerows(history)
-    os.replace(temporary, path)
+
+    write_atomic(path, write, "w", newline="")
 
 
 def plot_learning_curve(path: Path, history: list[dict[str, float]]) -> None:
@@ -315,7 +316,5 @@ def plot_learning_curve(path: Path, history: list[dict[str, float]]) -> None:
         axis.set_xlabel("epoch")
         if axis.lines:
             axis.legend(fontsize="small")
-    temporary = path.with_name(path.stem + ".tmp.png")
-    figure.savefig(temporary, dpi=90)
+    write_atomic(path, lambda file: figure.savefig(file, format="png", dpi=90))
     plt.close(figure)
-    os.replace(temporary, path)
