@@ -1,4 +1,4 @@
-"""What a robot-side user loads: detection without the simulator."""
+"""Package-wide properties: what a robot-side user loads, how files are written."""
 
 import subprocess
 import sys
