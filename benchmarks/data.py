@@ -30,10 +30,10 @@ from pathlib import Path
 
 import torch
 
+from symgrasp.config import SceneConfig
 from symgrasp.data.card import dataset_card
 from symgrasp.data.generate import generate
 from symgrasp.data.grasp_db import cached_database
-from symgrasp.data.scenes import SceneConfig
 from symgrasp.sim.render import make_renderer
 
 TARGET_SCENES, TARGET_MINUTES, DEFAULT_POOL = 2000, 60.0, SceneConfig().pool_size

@@ -29,7 +29,7 @@ from symgrasp.benchmark.runner import (
     run_or_reuse,
     summarise,
 )
-from symgrasp.detect.detector import DEFAULT_VALIDITY
+from symgrasp.config import DEFAULT_VALIDITY
 
 MODELS = ("bingham2d-robotiq-2f85", "bingham2d-franka")
 THRESHOLDS = tuple(sorted({0.02, 0.04, DEFAULT_VALIDITY, 0.15}))

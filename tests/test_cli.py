@@ -2,7 +2,16 @@
 
 import pytest
 
-from symgrasp.cli import _confidence_threshold, build_parser
+from symgrasp.cli import _TRAIN_PREFIXES, _confidence_threshold, build_parser, config_from_args
+from symgrasp.config import (
+    BenchmarkConfig,
+    DatabaseConfig,
+    LossWeights,
+    NetworkConfig,
+    SceneConfig,
+    TrainConfig,
+    field_docs,
+)
 
 DETECT = ["detect", "--model", "m.pt", "--depth", "d.npy", "--intrinsic", "k.json",
           "--extrinsic", "t.json", "--out", "o"]  # fmt: skip
@@ -24,3 +33,62 @@ def test_confidence_and_no_confidence_are_exclusive(command, capsys):
     with pytest.raises(SystemExit):
         build_parser().parse_args([*command, "--confidence", "3", "--no-confidence"])
     assert "not allowed with argument" in capsys.readouterr().err
+
+
+def test_building_the_parser_loads_neither_torch_nor_mujoco():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from symgrasp.cli import build_parser; build_parser(); "
+        "print(' '.join(m for m in ('torch', 'mujoco', 'trimesh', 'numpy') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == []
+
+
+@pytest.mark.parametrize(
+    ("command", "cls"),
+    [
+        (["data", "generate", "--out", "o"], SceneConfig),
+        (["bench", "declutter", "--out", "o"], BenchmarkConfig),
+    ],
+    ids=["data generate", "bench declutter"],
+)
+def test_options_left_out_give_the_configurations_defaults(command, cls):
+    assert config_from_args(cls, build_parser().parse_args(command)) == cls()
+
+
+def test_train_options_build_the_whole_configuration():
+    argv = ["train", "--data", "d", "--out", "r", "--rep", "rotmat6d", "--no-augment",
+            "--widths", "4", "8", "16", "32", "--weight-score", "0.5"]  # fmt: skip
+    config = config_from_args(
+        TrainConfig, build_parser().parse_args(argv), prefixes=_TRAIN_PREFIXES
+    )
+    expected = TrainConfig(
+        "d", "r", "rotmat6d", augment=False, widths=(4, 8, 16, 32),
+        loss_weights=LossWeights(score=0.5),
+    )  # fmt: skip
+    assert config == expected
+
+
+def test_nested_options_reach_the_database_and_its_policy_applies():
+    args = build_parser().parse_args(["data", "generate", "--out", "o", "--grasps", "1000"])
+    database = config_from_args(SceneConfig, args).database
+    assert (database.grasps, database.max_candidates) == (1000, 4000)  # max(2000, 4 · grasps)
+    assert DatabaseConfig().max_candidates == 2000
+
+
+@pytest.mark.parametrize(
+    "cls", [SceneConfig, DatabaseConfig, TrainConfig, LossWeights, NetworkConfig, BenchmarkConfig]
+)
+def test_every_configuration_field_is_documented(cls):
+    import dataclasses
+
+    assert set(field_docs(cls)) == {f.name for f in dataclasses.fields(cls)}
+
+
+def test_unknown_names_are_refused_with_the_known_ones(capsys):
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["data", "generate", "--out", "o", "--objects", "kitchen"])
+    assert "household-train" in capsys.readouterr().err

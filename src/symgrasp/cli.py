@@ -1,53 +1,46 @@
-"""The ``symgrasp`` command: one sub-command per job, each a thin wrapper over the package."""
+"""The ``symgrasp`` command: one sub-command per job, each a thin wrapper over the package.
+
+A job's options are built from its configuration (`symgrasp.config`): every field is an
+option and its documentation is the option's help, so a new field is on the command line
+without an edit here. The options several commands share (``--objects``, ``--gripper``,
+``--rep``, the confidence pair) are defined once below, with their choices from
+`symgrasp.names`. Building the parser imports no heavy package (``symgrasp --help`` answers
+without torch or MuJoCo); each command's run function imports what it needs.
+"""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import shlex
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from symgrasp.config import (
+    DEFAULT_VALIDITY,
+    BenchmarkConfig,
+    SceneConfig,
+    TrainConfig,
+    field_docs,
+)
+from symgrasp.names import GRIPPERS, OBJECT_SETS, REPRESENTATIONS, SCENES
+
+# -- options shared between commands ------------------------------------------------------
+
+SHARED = {
+    "objects": ("--objects", {"choices": OBJECT_SETS}),
+    "object_set": ("--objects", {"choices": OBJECT_SETS}),
+    "gripper": ("--gripper", {"choices": GRIPPERS}),
+    "representation": ("--rep", {"choices": REPRESENTATIONS}),
+    "kinds": ("--kinds", {"choices": SCENES}),
+}
+"""How a field of these names appears on any command line: its flag and its choices."""
 
 
-def _add_demo(subparsers: argparse._SubParsersAction) -> None:
-    from symgrasp.sim.grippers import GRIPPERS
-
-    parser = subparsers.add_parser(
-        "demo",
-        help="the main job of `make demo`: the shipped detector clears a simulated pile",
-        description="Drop a random pile of objects in the MuJoCo world, then repeatedly render "
-        "one depth image, detect grasps with a shipped model and execute the best "
-        "collision-free one, until the table is clear or two grasps fail in a row. Prints "
-        "every attempt and the round's success and clear ratios; writes a picture per attempt, "
-        "demo.html and summary.json into --out.",
-    )
-    parser.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
-    parser.add_argument(
-        "--seed", type=int, default=0, help="seed of the objects and the pile (default: 0)"
-    )
-    parser.add_argument(
-        "--gripper",
-        default="robotiq-2f85",
-        choices=GRIPPERS,
-        help="gripper; the shipped bingham2d model for it is used (default: robotiq-2f85)",
-    )
-    parser.add_argument(
-        "--objects",
-        default="household-test",
-        help="object set: household-test, household-train, large-box, blocks "
-        "(default: household-test)",
-    )
-    parser.add_argument(
-        "--num-objects", type=int, default=5, help="objects dropped on the table (default: 5)"
-    )
-    parser.add_argument(
-        "--model", default=None, help="a checkpoint path instead of the shipped model"
-    )
-
-    def run(args: argparse.Namespace) -> None:
-        from symgrasp.demo import run_demo
-
-        run_demo(args.out, args.seed, args.gripper, args.objects, args.num_objects, args.model)
-
-    parser.set_defaults(run=run)
+def _add_shared(parser: argparse.ArgumentParser, name: str, help: str, default: Any = None) -> None:
+    """The shared option ``name`` (a key of `SHARED`) with its flag and choices."""
+    flag, options = SHARED[name]
+    parser.add_argument(flag, dest=name, default=default, help=help, **options)
 
 
 def _add_confidence_options(parser: argparse.ArgumentParser) -> None:
@@ -70,9 +63,138 @@ def _confidence_threshold(args: argparse.Namespace) -> float | None:
     return 0.0 if args.no_confidence else args.confidence
 
 
-def _add_detect(subparsers: argparse._SubParsersAction) -> None:
-    from symgrasp.detect.detector import DEFAULT_VALIDITY
+# -- options from a configuration's fields ------------------------------------------------
 
+_SCALARS: dict[str, Callable[[str], Any]] = {"int": int, "float": float, "str": str}
+
+
+def _value_options(annotation: str) -> dict[str, Any]:
+    """argparse keywords for a field annotated ``annotation`` (as written in the source)."""
+    base = annotation.removesuffix(" | None")
+    if base == "bool":
+        return {"action": argparse.BooleanOptionalAction}
+    if base in _SCALARS:
+        return {"type": _SCALARS[base]}
+    if base.startswith("tuple[") and base.endswith("]"):
+        items = [item.strip() for item in base[len("tuple[") : -1].split(",")]
+        nargs: int | str = "+" if items[-1] == "..." else len(items)
+        return {"type": _SCALARS[items[0]], "nargs": nargs}
+    raise TypeError(f"no command-line form for a field of type {annotation}")
+
+
+def _sentence(doc: str) -> str:
+    """A field's documentation as an option's help: lower case, no final full stop."""
+    if len(doc) > 1 and doc[0].isupper() and doc[1].islower():
+        doc = doc[0].lower() + doc[1:]
+    return doc.removesuffix(".").replace("%", "%%")
+
+
+def _shown(default: Any) -> str:
+    if isinstance(default, tuple):
+        return " ".join(_shown(v) for v in default)
+    return f"{default:g}" if isinstance(default, float) else str(default)
+
+
+def add_config_options(
+    parser: argparse.ArgumentParser,
+    cls: type,
+    skip: Sequence[str] = (),
+    prefixes: dict[str, str] | None = None,
+    path: str = "",
+) -> None:
+    """One option per field of the dataclass ``cls`` (nested dataclasses: one per field of
+    theirs, flags prefixed by ``prefixes[field]``); dests are the fields' dotted paths."""
+    prefixes = prefixes or {}
+    docs = field_docs(cls)
+    for f in dataclasses.fields(cls):
+        if f.name in skip:
+            continue
+        dest = path + f.name
+        if f.default_factory is not dataclasses.MISSING:
+            nested = f.default_factory()
+            prefix = prefixes.get(f.name, "")
+            add_config_options(parser, type(nested), (), {}, f"{dest}.{prefix}")
+            continue
+        flag, options = SHARED.get(f.name, (None, {}))
+        name = dest.split(".")[-1]
+        flag = flag or "--" + name.replace("_", "-")
+        options = {**_value_options(str(f.type)), **options}
+        if "choices" not in options and "action" not in options:
+            options["metavar"] = name.upper()
+        help = _sentence(docs[f.name])
+        if f.default is dataclasses.MISSING:
+            parser.add_argument(flag, dest=dest, required=True, help=help, **options)
+            continue
+        if isinstance(f.default, bool):
+            help += f" (default: {'on' if f.default else 'off'})"
+        elif f.default is not None:
+            help += f" (default: {_shown(f.default)})"
+        parser.add_argument(flag, dest=dest, default=f.default, help=help, **options)
+
+
+def config_from_args(
+    cls: type, args: argparse.Namespace, path: str = "", prefixes: dict[str, str] | None = None
+) -> Any:
+    """The ``cls`` whose fields `add_config_options` put on the command line, from ``args``;
+    fields it skipped keep their defaults."""
+    prefixes = prefixes or {}
+    values = {}
+    for f in dataclasses.fields(cls):
+        dest = path + f.name
+        if f.default_factory is not dataclasses.MISSING:
+            nested = type(f.default_factory())
+            values[f.name] = config_from_args(
+                nested, args, f"{dest}.{prefixes.get(f.name, '')}", {}
+            )
+        elif hasattr(args, dest):
+            value = getattr(args, dest)
+            values[f.name] = tuple(value) if isinstance(value, list) else value
+    return cls(**values)
+
+
+# -- demo ---------------------------------------------------------------------------------
+
+
+def _add_demo(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "demo",
+        help="the main job of `make demo`: the shipped detector clears a simulated pile",
+        description="Drop a random pile of objects in the MuJoCo world, then repeatedly render "
+        "one depth image, detect grasps with a shipped model and execute the best "
+        "collision-free one, until the table is clear or two grasps fail in a row. Prints "
+        "every attempt and the round's success and clear ratios; writes a picture per attempt, "
+        "demo.html and summary.json into --out.",
+    )
+    parser.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed of the objects and the pile (default: 0)"
+    )
+    _add_shared(
+        parser,
+        "gripper",
+        "gripper; the shipped bingham2d model for it is used (default: robotiq-2f85)",
+        "robotiq-2f85",
+    )
+    _add_shared(parser, "objects", "object set (default: household-test)", "household-test")
+    parser.add_argument(
+        "--num-objects", type=int, default=5, help="objects dropped on the table (default: 5)"
+    )
+    parser.add_argument(
+        "--model", default=None, help="a checkpoint path instead of the shipped model"
+    )
+    parser.set_defaults(run=_run_demo)
+
+
+def _run_demo(args: argparse.Namespace) -> None:
+    from symgrasp.demo import run_demo
+
+    run_demo(args.out, args.seed, args.gripper, args.objects, args.num_objects, args.model)
+
+
+# -- detect and export --------------------------------------------------------------------
+
+
+def _add_detect(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "detect",
         help="detect grasps in a depth image",
@@ -127,36 +249,31 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
         help="draw N closing axes per voxel from the Bingham output (default: 0, the mode)",
     )
     parser.add_argument("--device", default="auto", help="auto, cpu or cuda (default: auto)")
+    parser.set_defaults(run=_run_detect)
 
-    def run(args: argparse.Namespace) -> None:
-        from symgrasp.detect import GraspDetector
-        from symgrasp.detect.files import (
-            load_depth,
-            load_extrinsic,
-            load_intrinsic,
-            write_detection,
-        )
-        from symgrasp.perception import depth_to_points
 
-        depth = load_depth(args.depth, args.png_scale)
-        intrinsic = load_intrinsic(args.intrinsic, depth.shape)
-        extrinsic = load_extrinsic(args.extrinsic)
-        detector = GraspDetector.from_pretrained(
-            args.model,
-            device=args.device,
-            validity_threshold=args.validity,
-            confidence_threshold=_confidence_threshold(args),
-            top_k=args.top_k,
-            samples_per_voxel=args.samples_per_voxel,
-            workspace_origin=tuple(args.workspace_origin),
-        )
-        volume = detector.fuse(depth, intrinsic, extrinsic)
-        grasps = detector.detect_tsdf(volume.grid())
-        points = depth_to_points(depth, intrinsic, extrinsic)
-        paths = write_detection(args.out, detector, volume, grasps, points)
-        print(f"{len(grasps)} grasps; " + ", ".join(str(p) for p in paths.values()))
+def _run_detect(args: argparse.Namespace) -> None:
+    from symgrasp.detect import GraspDetector
+    from symgrasp.detect.files import load_depth, load_extrinsic, load_intrinsic, write_detection
+    from symgrasp.perception import depth_to_points
 
-    parser.set_defaults(run=run)
+    depth = load_depth(args.depth, args.png_scale)
+    intrinsic = load_intrinsic(args.intrinsic, depth.shape)
+    extrinsic = load_extrinsic(args.extrinsic)
+    detector = GraspDetector.from_pretrained(
+        args.model,
+        device=args.device,
+        validity_threshold=args.validity,
+        confidence_threshold=_confidence_threshold(args),
+        top_k=args.top_k,
+        samples_per_voxel=args.samples_per_voxel,
+        workspace_origin=tuple(args.workspace_origin),
+    )
+    volume = detector.fuse(depth, intrinsic, extrinsic)
+    grasps = detector.detect_tsdf(volume.grid())
+    points = depth_to_points(depth, intrinsic, extrinsic)
+    paths = write_detection(args.out, detector, volume, grasps, points)
+    print(f"{len(grasps)} grasps; " + ", ".join(str(p) for p in paths.values()))
 
 
 def _add_export(subparsers: argparse._SubParsersAction) -> None:
@@ -168,13 +285,16 @@ def _add_export(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("checkpoint", help="checkpoint path, e.g. runs/NAME/best.pt")
     parser.add_argument("out", help="output .pt path")
+    parser.set_defaults(run=_run_export)
 
-    def run(args: argparse.Namespace) -> None:
-        from symgrasp.detect import export_model
 
-        print(export_model(args.checkpoint, args.out))
+def _run_export(args: argparse.Namespace) -> None:
+    from symgrasp.detect import export_model
 
-    parser.set_defaults(run=run)
+    print(export_model(args.checkpoint, args.out))
+
+
+# -- sim ----------------------------------------------------------------------------------
 
 
 def _add_sim(subparsers: argparse._SubParsersAction) -> None:
@@ -192,37 +312,34 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
         description="Build and settle a scene, then write a colour view (OpenGL render, or a "
         "matplotlib fallback without GL) and the depth image from the default camera.",
     )
-    show.add_argument(
-        "--scene", choices=["pile", "packed"], default="pile", help="scene kind (default: pile)"
-    )
-    show.add_argument(
-        "--objects",
-        default="household-train",
-        choices=["household-train", "household-test", "large-box", "blocks"],
-        help="object set to draw from (default: household-train)",
-    )
+    show.add_argument("--scene", choices=SCENES, default="pile", help="scene kind (default: pile)")
+    _add_shared(
+        show, "objects", "object set to draw from (default: household-train)",
+        "household-train",
+    )  # fmt: skip
     show.add_argument("--n", type=int, default=5, help="number of objects (default: 5)")
     show.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     show.add_argument("--out", default="out/sim", help="output folder (default: out/sim)")
+    show.set_defaults(run=_run_sim_show)
 
-    def run(args: argparse.Namespace) -> None:
-        from symgrasp.sim import make_scene
-        from symgrasp.sim.show import save_scene_pictures
 
-        world = make_scene(args.scene, args.objects, n=args.n, seed=args.seed)
-        stem = f"{args.scene}_{args.objects}_seed{args.seed}"
-        paths, renderer = save_scene_pictures(world, args.out, stem)
-        print(f"{len(world.objects)} objects settled: {', '.join(o.name for o in world.objects)}")
-        print(f"depth renderer: {renderer}")
-        for kind, path in paths.items():
-            print(f"{kind}: {path}")
+def _run_sim_show(args: argparse.Namespace) -> None:
+    from symgrasp.sim import make_scene
+    from symgrasp.sim.show import save_scene_pictures
 
-    show.set_defaults(run=run)
+    world = make_scene(args.scene, args.objects, n=args.n, seed=args.seed)
+    stem = f"{args.scene}_{args.objects}_seed{args.seed}"
+    paths, renderer = save_scene_pictures(world, args.out, stem)
+    print(f"{len(world.objects)} objects settled: {', '.join(o.name for o in world.objects)}")
+    print(f"depth renderer: {renderer}")
+    for kind, path in paths.items():
+        print(f"{kind}: {path}")
+
+
+# -- data ---------------------------------------------------------------------------------
 
 
 def _add_data(subparsers: argparse._SubParsersAction) -> None:
-    from symgrasp.names import GRIPPERS, OBJECT_SETS
-
     parser = subparsers.add_parser(
         "data",
         help="generate and inspect grasp datasets",
@@ -237,56 +354,18 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
         help="write a labelled dataset",
         description="Build (or reuse) the grasp database of every pool object, then write "
         "labelled scenes as one compressed file each, atomically; --resume continues an "
-        "interrupted run.",
+        "interrupted run. Every field of the dataset's configuration (symgrasp.config."
+        "SceneConfig, and its DatabaseConfig) is an option.",
     )
-    gen.add_argument(
-        "--objects", default="household-train", help=f"object set, one of {OBJECT_SETS}"
-    )
-    gen.add_argument("--gripper", default="robotiq-2f85", help=f"gripper, one of {GRIPPERS}")
-    gen.add_argument("--scenes", type=int, default=2000, help="number of scenes (default: 2000)")
     gen.add_argument("--out", required=True, help="dataset folder")
-    gen.add_argument("--workers", type=int, default=1, help="worker processes (default: 1)")
+    gen.add_argument("--scenes", type=int, default=2000, help="number of scenes (default: 2000)")
     gen.add_argument("--seed", type=int, default=0, help="dataset seed (default: 0)")
+    gen.add_argument("--workers", type=int, default=1, help="worker processes (default: 1)")
     gen.add_argument(
         "--resume", action="store_true", help="continue a run in --out, skipping written scenes"
     )
-    gen.add_argument(
-        "--pool-size",
-        type=int,
-        default=16,
-        help="objects in the pool, one database each (default: 16)",
-    )
-    gen.add_argument(
-        "--grasps", type=int, default=300, help="settled grasps per object database (default: 300)"
-    )
-    gen.add_argument(
-        "--directions",
-        type=int,
-        default=32,
-        help="disturbance directions K of the gravity-rejection score (default: 32)",
-    )
-    gen.add_argument("--k-max", type=int, default=8, help="rotation targets per voxel (default: 8)")
-
-    def run_generate(args: argparse.Namespace) -> None:
-        from symgrasp.data.generate import generate
-        from symgrasp.data.grasp_db import DatabaseConfig
-        from symgrasp.data.scenes import SceneConfig
-
-        cfg = SceneConfig(
-            object_set=args.objects,
-            gripper=args.gripper,
-            pool_size=args.pool_size,
-            k_max=args.k_max,
-            database=DatabaseConfig(
-                grasps=args.grasps,
-                max_candidates=max(2000, 4 * args.grasps),
-                directions=args.directions,
-            ),
-        )
-        manifest = generate(args.out, cfg, args.scenes, args.workers, args.seed, args.resume)
-        print(f"{manifest['num_scenes']} scenes in {args.out} (hash {manifest['dataset_hash']})")
-
-    gen.set_defaults(run=run_generate)
+    add_config_options(gen, SceneConfig)
+    gen.set_defaults(run=_run_data_generate)
 
     inspect = actions.add_parser(
         "inspect",
@@ -302,16 +381,7 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
         help="physics trials of labelled vs random grasps for the card; 0 skips them (default: 50)",
     )
     inspect.add_argument("--seed", type=int, default=0, help="seed of the trials (default: 0)")
-
-    def run_inspect(args: argparse.Namespace) -> None:
-        import json
-
-        from symgrasp.data.card import dataset_card
-
-        card = dataset_card(args.root, args.validate, args.seed)
-        print(json.dumps(card, indent=1))
-
-    inspect.set_defaults(run=run_inspect)
+    inspect.set_defaults(run=_run_data_inspect)
 
     show = actions.add_parser(
         "show",
@@ -321,13 +391,32 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
     show.add_argument("root", help="dataset folder")
     show.add_argument("--scene", type=int, default=0, help="scene id (default: 0)")
     show.add_argument("--out", default=None, help="picture path (default: ROOT/scene_<id>.png)")
+    show.set_defaults(run=_run_data_show)
 
-    def run_show(args: argparse.Namespace) -> None:
-        from symgrasp.data.card import show_scene
 
-        print(show_scene(args.root, args.scene, args.out))
+def _run_data_generate(args: argparse.Namespace) -> None:
+    from symgrasp.data.generate import generate
 
-    show.set_defaults(run=run_show)
+    config = config_from_args(SceneConfig, args)
+    manifest = generate(args.out, config, args.scenes, args.workers, args.seed, args.resume)
+    print(f"{manifest['num_scenes']} scenes in {args.out} (hash {manifest['dataset_hash']})")
+
+
+def _run_data_inspect(args: argparse.Namespace) -> None:
+    import json
+
+    from symgrasp.data.card import dataset_card
+
+    print(json.dumps(dataset_card(args.root, args.validate, args.seed), indent=1))
+
+
+def _run_data_show(args: argparse.Namespace) -> None:
+    from symgrasp.data.card import show_scene
+
+    print(show_scene(args.root, args.scene, args.out))
+
+
+# -- figures ------------------------------------------------------------------------------
 
 
 def _command(*words: object) -> str:
@@ -375,19 +464,7 @@ def _add_figures(subparsers: argparse._SubParsersAction) -> None:
     percentiles.add_argument(
         "--out", default="docs/figures", help="output folder (default: docs/figures)"
     )
-
-    def run_percentiles(args: argparse.Namespace) -> None:
-        from symgrasp.benchmark.figures import percentile_figure
-
-        command = _command(
-            "figures", "percentiles", "--samples", args.samples, "--repeats", args.repeats,
-            "--seed", args.seed, "--out", args.out,
-        )  # fmt: skip
-        paths = percentile_figure(args.out, args.samples, args.repeats, args.seed, command)
-        print(paths["md"].read_text(encoding="utf-8"), end="")
-        print(", ".join(str(p) for p in paths.values()))
-
-    percentiles.set_defaults(run=run_percentiles)
+    percentiles.set_defaults(run=_run_percentiles)
 
     continuity = actions.add_parser(
         "continuity",
@@ -407,20 +484,7 @@ def _add_figures(subparsers: argparse._SubParsersAction) -> None:
         "panels, e.g. --model bingham2d=A.pt --model rotmat6d=B.pt",
     )
     _add_slice_options(continuity)
-
-    def run_continuity(args: argparse.Namespace) -> None:
-        from symgrasp.benchmark.figures import continuity_figure, parse_model_specs
-
-        models = parse_model_specs(args.model)
-        words = [w for spec in args.model for w in ("--model", spec)]
-        command = _command(
-            "figures", "continuity", *words, "--height", _height_word(args.height),
-            "--validity", args.validity, "--out", args.out,
-        )  # fmt: skip
-        paths = continuity_figure(models, args.out, args.height, args.validity, command)
-        print(", ".join(str(p) for p in paths.values()))
-
-    continuity.set_defaults(run=run_continuity)
+    continuity.set_defaults(run=_run_continuity)
 
     distribution = actions.add_parser(
         "distribution",
@@ -439,21 +503,7 @@ def _add_figures(subparsers: argparse._SubParsersAction) -> None:
     )
     distribution.add_argument("--seed", type=int, default=0, help="sampling seed (default: 0)")
     _add_slice_options(distribution)
-
-    def run_distribution(args: argparse.Namespace) -> None:
-        from symgrasp.benchmark.figures import distribution_figure
-
-        command = _command(
-            "figures", "distribution", "--model", args.model, "--samples", args.samples,
-            "--seed", args.seed, "--height", _height_word(args.height),
-            "--validity", args.validity, "--out", args.out,
-        )  # fmt: skip
-        paths = distribution_figure(
-            args.model, args.out, args.samples, args.height, args.validity, args.seed, command
-        )
-        print(", ".join(str(p) for p in paths.values()))
-
-    distribution.set_defaults(run=run_distribution)
+    distribution.set_defaults(run=_run_distribution)
 
 
 def _height(text: str) -> float | None:
@@ -467,8 +517,6 @@ def _height_word(height: float | None) -> str:
 
 
 def _add_slice_options(parser: argparse.ArgumentParser) -> None:
-    from symgrasp.detect.detector import DEFAULT_VALIDITY
-
     """The options shared by the figures that cut one voxel layer out of a detector's output."""
     parser.add_argument(
         "--height",
@@ -489,74 +537,76 @@ def _add_slice_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_train(subparsers: argparse._SubParsersAction) -> None:
-    from symgrasp.rotation import NAMES
+def _run_percentiles(args: argparse.Namespace) -> None:
+    from symgrasp.benchmark.figures import percentile_figure
 
+    command = _command(
+        "figures", "percentiles", "--samples", args.samples, "--repeats", args.repeats,
+        "--seed", args.seed, "--out", args.out,
+    )  # fmt: skip
+    paths = percentile_figure(args.out, args.samples, args.repeats, args.seed, command)
+    print(paths["md"].read_text(encoding="utf-8"), end="")
+    print(", ".join(str(p) for p in paths.values()))
+
+
+def _run_continuity(args: argparse.Namespace) -> None:
+    from symgrasp.benchmark.figures import continuity_figure, parse_model_specs
+
+    models = parse_model_specs(args.model)
+    words = [w for spec in args.model for w in ("--model", spec)]
+    command = _command(
+        "figures", "continuity", *words, "--height", _height_word(args.height),
+        "--validity", args.validity, "--out", args.out,
+    )  # fmt: skip
+    paths = continuity_figure(models, args.out, args.height, args.validity, command)
+    print(", ".join(str(p) for p in paths.values()))
+
+
+def _run_distribution(args: argparse.Namespace) -> None:
+    from symgrasp.benchmark.figures import distribution_figure
+
+    command = _command(
+        "figures", "distribution", "--model", args.model, "--samples", args.samples,
+        "--seed", args.seed, "--height", _height_word(args.height),
+        "--validity", args.validity, "--out", args.out,
+    )  # fmt: skip
+    paths = distribution_figure(
+        args.model, args.out, args.samples, args.height, args.validity, args.seed, command
+    )
+    print(", ".join(str(p) for p in paths.values()))
+
+
+# -- train --------------------------------------------------------------------------------
+
+_TRAIN_PREFIXES = {"loss_weights": "weight_"}
+"""``--weight-validity`` etc. for the loss weights."""
+
+
+def _add_train(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "train",
         help="train a grasp detection network",
         description="Train the volumetric grasp detector (symgrasp.model) on a dataset written "
         "by symgrasp.data. Writes last.pt, best.pt, metrics.csv and learning_curve.png into "
-        "--out; validates on the held-out split after every epoch. Same seed, same result.",
+        "--out; validates on the held-out split after every epoch. Same seed, same result. "
+        "Every field of the run's configuration (symgrasp.config.TrainConfig) is an option.",
     )
-    parser.add_argument("--data", required=True, help="dataset folder (symgrasp.data)")
-    parser.add_argument(
-        "--rep",
-        default="bingham2d",
-        choices=NAMES,
-        help="rotation representation of the rotation head (default: bingham2d)",
-    )
-    parser.add_argument(
-        "--gripper",
-        default="robotiq-2f85",
-        help="gripper the dataset must have been made for (default: robotiq-2f85)",
-    )
-    parser.add_argument("--out", required=True, help="run folder, e.g. runs/NAME")
-    parser.add_argument("--epochs", type=int, default=10, help="epochs to train (default: 10)")
-    parser.add_argument("--batch-size", type=int, default=4, help="scenes per batch (default: 4)")
-    parser.add_argument("--lr", type=float, default=1e-3, help="Adam learning rate (default: 1e-3)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    parser.add_argument(
-        "--device",
-        default="auto",
-        help="auto (CUDA if available, else CPU), cpu, cuda or cuda:N (default: auto)",
-    )
-    parser.add_argument(
-        "--workers", type=int, default=0, help="data loading processes (default: 0, in-process)"
-    )
-    parser.add_argument(
-        "--no-augment", action="store_true", help="do not augment the training split"
-    )
-    parser.add_argument(
-        "--resume", action="store_true", help="continue the run in --out from its last.pt"
-    )
+    add_config_options(parser, TrainConfig, prefixes=_TRAIN_PREFIXES)
+    parser.set_defaults(run=_run_train)
 
-    def run(args: argparse.Namespace) -> None:
-        from symgrasp.model.train import TrainConfig, train
 
-        config = TrainConfig(
-            data=args.data,
-            out=args.out,
-            representation=args.rep,
-            gripper=args.gripper,
-            epochs=args.epochs,
-            batch_size=args.batch_size,
-            lr=args.lr,
-            seed=args.seed,
-            device=args.device,
-            workers=args.workers,
-            augment=not args.no_augment,
-            resume=args.resume,
-        )
-        history = train(config)
-        print(f"{len(history)} epochs; checkpoints and metrics in {args.out}")
+def _run_train(args: argparse.Namespace) -> None:
+    from symgrasp.model.train import train
 
-    parser.set_defaults(run=run)
+    config = config_from_args(TrainConfig, args, prefixes=_TRAIN_PREFIXES)
+    history = train(config)
+    print(f"{len(history)} epochs; checkpoints and metrics in {config.out}")
+
+
+# -- bench --------------------------------------------------------------------------------
 
 
 def _add_bench(subparsers: argparse._SubParsersAction) -> None:
-    from symgrasp.detect.detector import DEFAULT_VALIDITY
-
     parser = subparsers.add_parser(
         "bench",
         help="benchmarks of trained detectors",
@@ -578,25 +628,11 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
         "by 30..150 degrees: if a turn succeeds the failure was a wrong yaw, otherwise it is "
         "named by how it ended (collision, wrong approach = closed on nothing, slip).",
     )
-    declutter.add_argument(
-        "--model",
-        default="bingham2d-robotiq-2f85",
-        help="shipped model name or checkpoint path (default: bingham2d-robotiq-2f85)",
-    )
-    declutter.add_argument(
-        "--objects",
-        default="household-test",
-        help="object set: household-test, large-box, household-train, blocks "
-        "(default: household-test)",
-    )
-    declutter.add_argument(
-        "--num-objects", type=int, default=5, help="objects per round (default: 5)"
-    )
-    declutter.add_argument("--rounds", type=int, default=100, help="rounds (default: 100)")
-    declutter.add_argument("--seed", type=int, default=0, help="seed of round 0 (default: 0)")
+    declutter.add_argument("--out", required=True, help="output folder")
     declutter.add_argument(
         "--workers", type=int, default=1, help="rounds run in parallel processes (default: 1)"
     )
+    add_config_options(declutter, BenchmarkConfig, skip=("options",))
     _add_confidence_options(declutter)
     declutter.add_argument(
         "--validity",
@@ -604,62 +640,47 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
         default=None,
         help=f"validity threshold (default: {DEFAULT_VALIDITY}; docs/models.md has a sweep)",
     )
-    declutter.add_argument(
-        "--rep",
-        default=None,
-        help="refuse to run unless --model uses this rotation representation (a guard for "
-        "scripts: the checkpoint, not this option, decides the representation)",
+    _add_shared(
+        declutter,
+        "representation",
+        "refuse to run unless --model uses this rotation representation (a guard for scripts: "
+        "the checkpoint, not this option, decides the representation)",
     )
-    declutter.add_argument(
-        "--gripper",
-        default=None,
-        help="refuse to run unless --model was trained for this gripper (the model's gripper "
-        "is the one simulated)",
+    _add_shared(
+        declutter,
+        "gripper",
+        "refuse to run unless --model was trained for this gripper (the model's gripper is the "
+        "one simulated)",
     )
-    declutter.add_argument(
-        "--no-diagnose",
-        action="store_true",
-        help="skip the failure-mode replays (faster; outcomes only)",
-    )
-    declutter.add_argument(
-        "--pictures",
-        action="store_true",
-        help="draw every attempt: --out/pictures/seed_NNNN/attempt_NN.png (the depth "
-        "image's points, the best grasps coloured by score, the executed one thick)",
-    )
-    declutter.add_argument("--out", required=True, help="output folder")
+    declutter.set_defaults(run=_run_declutter)
 
-    def run(args: argparse.Namespace) -> None:
-        from symgrasp.benchmark.runner import BenchmarkConfig, markdown_table, run_benchmark
-        from symgrasp.detect import GraspDetector
 
-        if args.rep is not None or args.gripper is not None:
-            detector = GraspDetector.from_pretrained(args.model, device="cpu")
-            for option, wanted, actual in (
-                ("--rep", args.rep, detector.representation.name),
-                ("--gripper", args.gripper, detector.gripper),
-            ):
-                if wanted is not None and wanted != actual:
-                    raise SystemExit(
-                        f"error: {option} {wanted}, but --model {args.model} is {actual}"
-                    )
+def _run_declutter(args: argparse.Namespace) -> None:
+    from symgrasp.benchmark.runner import markdown_table, run_benchmark
+    from symgrasp.detect import GraspDetector
 
-        threshold = _confidence_threshold(args)
-        options = () if threshold is None else (("confidence_threshold", threshold),)
-        if args.validity is not None:
-            if not 0.0 <= args.validity <= 1.0:
-                raise SystemExit(f"error: --validity must be in [0, 1], got {args.validity}")
-            options += (("validity_threshold", args.validity),)
-        config = BenchmarkConfig(
-            args.model, args.objects, args.num_objects, args.rounds, args.seed, options,
-            diagnose=not args.no_diagnose, pictures=args.pictures,
-        )  # fmt: skip
-        summary = run_benchmark(config, args.out, args.workers)
-        print(markdown_table(summary, config), end="")
-        print(f"outcomes {summary['outcomes']}")
-        print(f"failure modes {summary['modes']}; results in {args.out}")
+    if args.validity is not None and not 0.0 <= args.validity <= 1.0:
+        raise SystemExit(f"error: --validity must be in [0, 1], got {args.validity}")
+    if args.representation is not None or args.gripper is not None:
+        detector = GraspDetector.from_pretrained(args.model, device="cpu")
+        for option, wanted, actual in (
+            ("--rep", args.representation, detector.representation.name),
+            ("--gripper", args.gripper, detector.gripper.name),
+        ):
+            if wanted is not None and wanted != actual:
+                raise SystemExit(f"error: {option} {wanted}, but --model {args.model} is {actual}")
+    threshold = _confidence_threshold(args)
+    options = () if threshold is None else (("confidence_threshold", threshold),)
+    if args.validity is not None:
+        options += (("validity_threshold", args.validity),)
+    config = dataclasses.replace(config_from_args(BenchmarkConfig, args), options=options)
+    summary = run_benchmark(config, args.out, args.workers)
+    print(markdown_table(summary, config), end="")
+    print(f"outcomes {summary['outcomes']}")
+    print(f"failure modes {summary['modes']}; results in {args.out}")
 
-    declutter.set_defaults(run=run)
+
+# -- the command --------------------------------------------------------------------------
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -9,7 +9,9 @@ import pytest
 import torch
 
 from symgrasp.cli import main
+from symgrasp.config import SceneConfig
 from symgrasp.data.dataset import GraspDataset, collate_scenes
+from symgrasp.data.generate import generate
 from symgrasp.workspace import VOXEL_SIZE
 
 TINY = ["--objects", "blocks", "--gripper", "franka", "--pool-size", "2", "--grasps", "40"]
@@ -95,11 +97,14 @@ def test_a_different_seed_gives_a_different_dataset(dataset, tmp_path):
     assert hashes[0] != hashes[1]
 
 
-def test_unknown_names_list_the_known_ones(tmp_path):
-    with pytest.raises(SystemExit, match="household-train"):
-        main(["data", "generate", "--objects", "kitchen", "--out", str(tmp_path)])
-    with pytest.raises(SystemExit, match="robotiq-2f85"):
-        main(["data", "generate", "--gripper", "shadow", "--out", str(tmp_path)])
+def test_unknown_names_list_the_known_ones(tmp_path, capsys):
+    for option, value, known in (("--objects", "kitchen", "household-train"),
+                                 ("--gripper", "shadow", "robotiq-2f85")):  # fmt: skip
+        with pytest.raises(SystemExit):
+            main(["data", "generate", option, value, "--out", str(tmp_path)])
+        assert known in capsys.readouterr().err
+    with pytest.raises(ValueError, match="robotiq-2f85"):  # the API checks them too
+        generate(tmp_path, SceneConfig(gripper="shadow"), scenes=1)
 
 
 def test_inspect_writes_the_card_and_show_a_picture(dataset, capsys):

@@ -17,7 +17,7 @@ import traceback
 from collections import Counter
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -26,34 +26,10 @@ from tqdm import tqdm
 
 from symgrasp.benchmark.declutter import Round, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES
+from symgrasp.config import BenchmarkConfig
 
 BOOTSTRAP = 2000
 """Bootstrap resamples of the rounds for the confidence intervals."""
-
-
-@dataclass(frozen=True)
-class BenchmarkConfig:
-    """What a declutter benchmark runs: ``model`` (shipped name or checkpoint path) on
-    ``rounds`` rounds of ``num_objects`` objects of the set ``objects``, seeds
-    ``seed … seed + rounds − 1``; ``options`` go to `GraspDetector.from_pretrained`;
-    ``diagnose`` names each failure's mode (`symgrasp.benchmark.failures`); ``pictures``
-    draws every attempt into ``pictures/seed_NNNN/`` of the output folder."""
-
-    model: str = "bingham2d-robotiq-2f85"
-    objects: str = "household-test"
-    num_objects: int = 5
-    rounds: int = 100
-    seed: int = 0
-    options: tuple[tuple[str, Any], ...] = ()
-    diagnose: bool = True
-    pictures: bool = False
-
-    def __post_init__(self) -> None:
-        if self.rounds < 1 or self.num_objects < 1 or self.seed < 0:
-            raise ValueError(
-                f"rounds and num_objects must be ≥ 1 and seed ≥ 0, got {self.rounds}, "
-                f"{self.num_objects}, {self.seed}"
-            )
 
 
 def round_record(record: Round) -> dict[str, Any]:

@@ -28,9 +28,10 @@ import numpy as np
 from tqdm import tqdm
 
 from symgrasp.atomic import write_atomic
+from symgrasp.config import DatabaseConfig, SceneConfig
 from symgrasp.data.dataset import load_scene, scene_path
-from symgrasp.data.grasp_db import DatabaseConfig, GraspDatabase, cached_database
-from symgrasp.data.scenes import SceneConfig, make_scene_record
+from symgrasp.data.grasp_db import GraspDatabase, cached_database
+from symgrasp.data.scenes import make_scene_record
 from symgrasp.names import OBJECT_SETS
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE

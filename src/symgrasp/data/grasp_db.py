@@ -17,7 +17,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,6 +24,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from symgrasp.atomic import write_atomic
+from symgrasp.config import DatabaseConfig
 from symgrasp.data.directions import fibonacci_directions
 from symgrasp.sim.execute import pull_out_force
 from symgrasp.sim.grippers import GripperSpec
@@ -36,48 +36,6 @@ GRAVITY = 9.81
 
 FLOAT_POSITION = (0.15, 0.15, 0.6)
 """Where the free-floating object waits during closure, far above the table [m]."""
-
-
-@dataclass(frozen=True)
-class DatabaseConfig:
-    """How a grasp database is built (defaults: the issue's ≥ 300 settled grasps).
-
-    Attributes:
-        grasps: settled, held grasps to collect per object and gripper.
-        max_candidates: most closures to try before giving up on reaching ``grasps``.
-        surface_points: surface samples the antipodal pairs are drawn from.
-        approach_cone: half-angle [rad] of the cone, about the inward normal of the nearest
-            side face, in which the approach ``e_x`` is drawn (see :func:`randomised_frames`).
-        tilt: largest random tilt [rad] of the closing axis away from the contact line.
-        offset: range [m] of the TCP offset along the approach from the contacts' midpoint;
-            positive pushes the palm towards the object (power grasps), negative pinches
-            with the fingertips.
-        directions: number ``K`` of disturbance directions of the rejection score.
-        score_clip: resisted force ``C``, in units of the object's weight, at which the score
-            saturates at 1 (:func:`rejection_score`).
-        ramp_time: seconds for the force ramp to reach ``score_clip`` · m · g.
-        slip: object displacement relative to the hand [m] that ends a ramp.
-    """
-
-    grasps: int = 300
-    max_candidates: int = 2000
-    surface_points: int = 1500
-    approach_cone: float = math.radians(30.0)
-    tilt: float = 0.2
-    offset: tuple[float, float] = (-0.01, 0.03)
-    directions: int = 32
-    score_clip: float = 200.0
-    ramp_time: float = 0.3
-    slip: float = 0.005
-
-    def __post_init__(self) -> None:
-        if self.grasps < 1 or self.max_candidates < self.grasps:
-            raise ValueError(
-                f"grasps must be ≥ 1 and max_candidates ≥ grasps, got {self.grasps}, "
-                f"{self.max_candidates}"
-            )
-        if self.directions < 4 or self.score_clip <= 0 or self.ramp_time <= 0:
-            raise ValueError("directions must be ≥ 4, score_clip and ramp_time positive")
 
 
 @dataclass(frozen=True)

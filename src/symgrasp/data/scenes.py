@@ -17,77 +17,21 @@ processes or by a cluster engine. Steps:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
+from symgrasp.config import SceneConfig
 from symgrasp.data.directions import interpolate
-from symgrasp.data.grasp_db import DatabaseConfig, GraspDatabase
+from symgrasp.data.grasp_db import GraspDatabase
 from symgrasp.data.labels import voxelise
-from symgrasp.names import SCENES
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, look_at
 from symgrasp.sim.collision import hand_collides
-from symgrasp.sim.grippers import GripperSpec, get_gripper
-from symgrasp.sim.objects import ObjectSpec, object_set, surface_samples
+from symgrasp.sim.objects import ObjectSpec, surface_samples
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import packed_scene, pile_scene
 from symgrasp.workspace import RESOLUTION, WORKSPACE_SIZE
 
 DEPTH_UNIT = 1e-4
 """Depth images are stored as uint16 in units of 0.1 mm (up to 6.5 m)."""
-
-
-@dataclass(frozen=True)
-class SceneConfig:
-    """What a dataset is made of (everything that changes its content).
-
-    Attributes:
-        object_set: named set of :func:`symgrasp.sim.objects.object_set`.
-        gripper: gripper name.
-        pool_size: objects in the pool the scenes draw from (one database each).
-        pool_seed: seed of the pool's object parameters.
-        kinds: scene kinds drawn uniformly.
-        mean_objects: N = Poisson(mean_objects) + 1 objects per scene (VGN).
-        max_objects: N is capped here.
-        k_max: rotation targets per voxel.
-        camera_distance: range [m] of the camera's distance to the workspace centre.
-        camera_polar: range [rad] of the camera's angle from the vertical.
-        surface_spacing: spacing [m] of the surface samples of the collision check.
-        clearance: gap [m] the open hand must keep from objects and table (negative: allowed
-            penetration).
-        database: how the per-object grasp databases are built.
-    """
-
-    object_set: str = "household-train"
-    gripper: str = "robotiq-2f85"
-    pool_size: int = 16
-    pool_seed: int = 0
-    kinds: tuple[str, ...] = SCENES
-    mean_objects: float = 4.0
-    max_objects: int = 10
-    k_max: int = 8
-    camera_distance: tuple[float, float] = (0.45, 0.7)
-    camera_polar: tuple[float, float] = (0.1, np.pi / 3)
-    surface_spacing: float = 0.003
-    clearance: float = 0.001
-    database: DatabaseConfig = field(default_factory=DatabaseConfig)
-
-    def __post_init__(self) -> None:
-        unknown = set(self.kinds) - set(SCENES)
-        if not self.kinds or unknown:
-            raise ValueError(f"kinds must be a non-empty subset of {SCENES}, got {self.kinds}")
-        if self.pool_size < 1 or self.mean_objects < 0 or self.max_objects < 1:
-            raise ValueError("pool_size and max_objects must be ≥ 1, mean_objects ≥ 0")
-
-    @property
-    def hand(self) -> GripperSpec:
-        """The spec of the gripper named ``gripper`` (a config holds names: it is saved in the
-        dataset's manifest)."""
-        return get_gripper(self.gripper)
-
-    def pool(self) -> list[ObjectSpec]:
-        """The objects scenes are drawn from (names ``<family>_<index>``)."""
-        return object_set(self.object_set, self.pool_size, seed=self.pool_seed)
 
 
 def scene_rng(seed: int, scene_id: int) -> np.random.Generator:

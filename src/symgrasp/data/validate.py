@@ -15,8 +15,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 from tqdm import tqdm
 
+from symgrasp.config import SceneConfig
 from symgrasp.data.dataset import load_scene, scene_path
-from symgrasp.data.scenes import SceneConfig
 from symgrasp.sim import World, execute_grasp
 from symgrasp.sim.objects import surface_samples
 

@@ -21,6 +21,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
+from symgrasp.config import DEFAULT_VALIDITY
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.device import resolve_device
@@ -31,11 +32,6 @@ from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 Tensor = torch.Tensor
-
-DEFAULT_VALIDITY = 0.08
-"""Default validity threshold, chosen by declutter rounds on training objects (docs/detect.md):
-the validity head is calibrated to the rare valid voxels (≈ 0.1 % of the grid), so its
-probabilities are low on unfamiliar piles, and 0.5 left most rounds without a grasp."""
 
 
 class GraspDetector:

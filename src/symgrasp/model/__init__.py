@@ -11,16 +11,16 @@
 See ``docs/model.md``.
 """
 
+from symgrasp.config import LossWeights, NetworkConfig, TrainConfig
 from symgrasp.model.checkpoint import load_checkpoint, load_model, save_checkpoint
-from symgrasp.model.loss import LossWeights, grasp_losses
+from symgrasp.model.loss import grasp_losses
 from symgrasp.model.network import (
     GraspNet,
     GraspOutput,
-    NetworkConfig,
     count_flops,
     count_parameters,
 )
-from symgrasp.model.train import TrainConfig, train
+from symgrasp.model.train import train
 
 __all__ = [
     "GraspNet",

@@ -15,7 +15,8 @@ from typing import Any
 import torch
 
 from symgrasp.atomic import write_atomic
-from symgrasp.model.network import GraspNet, NetworkConfig
+from symgrasp.config import NetworkConfig
+from symgrasp.model.network import GraspNet
 
 CHECKPOINT_FORMAT = 1
 

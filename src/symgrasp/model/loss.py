@@ -20,24 +20,14 @@ weighted sum of the three; the default weights are all 1 (``docs/model.md`` says
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import torch
 import torch.nn.functional as F
 
+from symgrasp.config import LossWeights
 from symgrasp.model.network import GraspOutput
 from symgrasp.rotation import Representation
 
 Tensor = torch.Tensor
-
-
-@dataclass(frozen=True)
-class LossWeights:
-    """Weights of the three terms in the total loss."""
-
-    validity: float = 1.0
-    score: float = 1.0
-    rotation: float = 1.0
 
 
 def at_voxels(volume: Tensor, voxel_index: Tensor) -> Tensor:

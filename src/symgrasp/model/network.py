@@ -25,7 +25,6 @@ axis of ``bingham2d`` stayed at ≈ 20° median error after 300 steps, with it �
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import torch
@@ -34,6 +33,7 @@ from torch import nn
 from torch.utils.flop_counter import FlopCounterMode
 
 from symgrasp import rotation
+from symgrasp.config import NetworkConfig
 from symgrasp.workspace import RESOLUTION
 
 Tensor = torch.Tensor
@@ -43,27 +43,6 @@ VALID_PRIOR = 0.01
 
 BINGHAM_BOUND = 20.0
 """Bingham parameter channels pass through ``BINGHAM_BOUND · tanh(a / BINGHAM_BOUND)``."""
-
-
-@dataclass(frozen=True)
-class NetworkConfig:
-    """What fixes the network's shape.
-
-    ``widths``: channels at 40³, 20³, 10³ and 5³; ``features``: channels of the feature
-    volume the heads read (16 in the paper).
-    """
-
-    representation: str = "bingham2d"
-    widths: tuple[int, int, int, int] = (8, 16, 32, 64)
-    features: int = 16
-
-    def __post_init__(self) -> None:
-        rotation.get(self.representation)  # raises ValueError listing the known names
-        if len(self.widths) != 4 or any(int(w) < 1 for w in self.widths):
-            raise ValueError(f"widths must be 4 positive channel counts, got {self.widths}")
-        if self.features < 1:
-            raise ValueError(f"features must be positive, got {self.features}")
-        object.__setattr__(self, "widths", tuple(int(w) for w in self.widths))
 
 
 class GraspOutput(NamedTuple):

@@ -22,7 +22,7 @@ import csv
 import math
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -32,56 +32,15 @@ from tqdm import tqdm
 
 import symgrasp
 from symgrasp.atomic import write_atomic
+from symgrasp.config import LossWeights, TrainConfig
 from symgrasp.device import resolve_device
 from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
-from symgrasp.model.loss import LossWeights, grasp_losses
+from symgrasp.model.loss import grasp_losses
 from symgrasp.model.metrics import MetricAccumulator
-from symgrasp.model.network import GraspNet, NetworkConfig
+from symgrasp.model.network import GraspNet
 
 Tensor = torch.Tensor
 Collate = Callable[[list[dict[str, Tensor]]], dict[str, Tensor]]
-
-
-@dataclass
-class TrainConfig:
-    """Everything a training run depends on (stored in every checkpoint)."""
-
-    data: str
-    """Dataset folder (`symgrasp.data.dataset.GraspDataset`)."""
-    out: str
-    """Run folder for checkpoints, metrics.csv and learning_curve.png."""
-    representation: str = "bingham2d"
-    gripper: str = "robotiq-2f85"
-    """The gripper the dataset must have been produced for."""
-    epochs: int = 10
-    batch_size: int = 4
-    lr: float = 1e-3
-    seed: int = 0
-    device: str = "auto"
-    """"auto" (CUDA if available, else CPU), "cpu", "cuda" or "cuda:N"."""
-    workers: int = 0
-    augment: bool = True
-    """Let the dataset augment the training split."""
-    resume: bool = False
-    widths: tuple[int, int, int, int] = (8, 16, 32, 64)
-    features: int = 16
-    loss_weights: LossWeights = field(default_factory=LossWeights)
-
-    def __post_init__(self) -> None:
-        for name in ("epochs", "batch_size"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be ≥ 1, got {getattr(self, name)}")
-        if not self.lr > 0:
-            raise ValueError(f"lr must be positive, got {self.lr}")
-        if self.workers < 0:
-            raise ValueError(f"workers must be ≥ 0, got {self.workers}")
-        if isinstance(self.loss_weights, dict):
-            self.loss_weights = LossWeights(**self.loss_weights)
-        self.widths = tuple(self.widths)
-
-    @property
-    def network(self) -> NetworkConfig:
-        return NetworkConfig(self.representation, self.widths, self.features)
 
 
 def open_dataset(config: TrainConfig) -> tuple[Dataset, Dataset, Collate]:

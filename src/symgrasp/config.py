@@ -1,0 +1,259 @@
+"""The configurations of symgrasp's jobs: plain dataclasses, one per job, each field documented.
+
+A configuration holds names and numbers only, so that it can be saved beside what it made
+(a dataset's manifest, a checkpoint, a benchmark's results) and compared with the next run's.
+This module imports no heavy package: the command line builds its options from these fields
+(`symgrasp.cli`) and answers ``--help`` without loading torch or MuJoCo. The packages use the
+configurations where the work is done (`symgrasp.data`, `symgrasp.model`, `symgrasp.benchmark`).
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import inspect
+import itertools
+import math
+import textwrap
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from symgrasp.names import REPRESENTATIONS, SCENES
+
+if TYPE_CHECKING:
+    from symgrasp.sim.grippers import GripperSpec
+    from symgrasp.sim.objects import ObjectSpec
+
+
+@functools.cache
+def field_docs(cls: type) -> dict[str, str]:
+    """The documentation of each field of the dataclass ``cls``: the string below it in the
+    class body, on one line."""
+    body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body
+    return {
+        node.target.id: " ".join(doc.value.value.split())
+        for node, doc in itertools.pairwise(body)
+        if isinstance(node, ast.AnnAssign)
+        and isinstance(node.target, ast.Name)
+        and isinstance(doc, ast.Expr)
+        and isinstance(doc.value, ast.Constant)
+        and isinstance(doc.value.value, str)
+    }
+
+
+DEFAULT_VALIDITY = 0.08
+"""The detector's validity threshold, chosen by declutter rounds on training objects
+(docs/detect.md): the validity head is calibrated to the rare valid voxels (≈ 0.1 % of the
+grid), so its probabilities are low on unfamiliar piles, and 0.5 left most rounds without a
+grasp."""
+
+
+@dataclass(frozen=True)
+class DatabaseConfig:
+    """How a per-object grasp database is built (`symgrasp.data.grasp_db`)."""
+
+    grasps: int = 300
+    """Settled, held grasps to collect per object and gripper."""
+    max_candidates: int | None = None
+    """Most closures to try before giving up on reaching ``grasps``; default max(2000,
+    4 · grasps), room for hard objects where most closures hold nothing."""
+    surface_points: int = 1500
+    """Surface samples the antipodal pairs are drawn from."""
+    approach_cone: float = math.radians(30.0)
+    """Half-angle [rad] of the cone about the inward normal of the nearest side face in which
+    the approach e_x is drawn."""
+    tilt: float = 0.2
+    """Largest random tilt [rad] of the closing axis away from the contact line."""
+    offset: tuple[float, float] = (-0.01, 0.03)
+    """Range [m] of the TCP offset along the approach from the contacts' midpoint: positive
+    pushes the palm towards the object (power grasps), negative pinches with the tips."""
+    directions: int = 32
+    """Number K of disturbance directions of the gravity-rejection score."""
+    score_clip: float = 200.0
+    """Resisted force C, in units of the object's weight, at which the score saturates."""
+    ramp_time: float = 0.3
+    """Seconds for a force ramp to reach score_clip · m · g."""
+    slip: float = 0.005
+    """Object displacement relative to the hand [m] that ends a ramp."""
+
+    def __post_init__(self) -> None:
+        if self.max_candidates is None:
+            object.__setattr__(self, "max_candidates", max(2000, 4 * self.grasps))
+        if self.grasps < 1 or self.max_candidates < self.grasps:
+            raise ValueError(
+                f"grasps must be ≥ 1 and max_candidates ≥ grasps, got {self.grasps}, "
+                f"{self.max_candidates}"
+            )
+        if self.directions < 4 or self.score_clip <= 0 or self.ramp_time <= 0:
+            raise ValueError("directions must be ≥ 4, score_clip and ramp_time positive")
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """What a dataset is made of: everything that changes its content (`symgrasp.data`)."""
+
+    object_set: str = "household-train"
+    """Named object set the pool is drawn from."""
+    gripper: str = "robotiq-2f85"
+    """The gripper whose grasps are labelled."""
+    pool_size: int = 16
+    """Objects in the pool the scenes draw from (one grasp database each)."""
+    pool_seed: int = 0
+    """Seed of the pool's object parameters."""
+    kinds: tuple[str, ...] = SCENES
+    """Scene kinds, drawn uniformly."""
+    mean_objects: float = 4.0
+    """N = Poisson(mean_objects) + 1 objects per scene (VGN)."""
+    max_objects: int = 10
+    """N is capped here."""
+    k_max: int = 8
+    """Rotation targets kept per voxel."""
+    camera_distance: tuple[float, float] = (0.45, 0.7)
+    """Range [m] of the camera's distance to the workspace centre."""
+    camera_polar: tuple[float, float] = (0.1, math.pi / 3)
+    """Range [rad] of the camera's angle from the vertical."""
+    surface_spacing: float = 0.003
+    """Spacing [m] of the surface samples of the swept-hand collision check."""
+    clearance: float = 0.001
+    """Gap [m] the open hand must keep from objects and table (negative: allowed
+    penetration)."""
+    database: DatabaseConfig = field(default_factory=DatabaseConfig)
+    """How the per-object grasp databases are built."""
+
+    def __post_init__(self) -> None:
+        unknown = set(self.kinds) - set(SCENES)
+        if not self.kinds or unknown:
+            raise ValueError(f"kinds must be a non-empty subset of {SCENES}, got {self.kinds}")
+        if self.pool_size < 1 or self.mean_objects < 0 or self.max_objects < 1:
+            raise ValueError("pool_size and max_objects must be ≥ 1, mean_objects ≥ 0")
+
+    @property
+    def hand(self) -> GripperSpec:
+        """The spec of the gripper named ``gripper``."""
+        from symgrasp.sim.grippers import get_gripper
+
+        return get_gripper(self.gripper)
+
+    def pool(self) -> list[ObjectSpec]:
+        """The objects scenes are drawn from (names ``<family>_<index>``)."""
+        from symgrasp.sim.objects import object_set
+
+        return object_set(self.object_set, self.pool_size, seed=self.pool_seed)
+
+
+@dataclass(frozen=True)
+class NetworkConfig:
+    """What fixes the network's shape (`symgrasp.model.network.GraspNet`)."""
+
+    representation: str = "bingham2d"
+    """Rotation representation of the rotation head."""
+    widths: tuple[int, int, int, int] = (8, 16, 32, 64)
+    """Channels at 40³, 20³, 10³ and 5³."""
+    features: int = 16
+    """Channels of the feature volume the heads read (16 in the paper)."""
+
+    def __post_init__(self) -> None:
+        if self.representation not in REPRESENTATIONS:
+            raise ValueError(
+                f"unknown rotation representation {self.representation!r}; "
+                f"known: {', '.join(REPRESENTATIONS)}"
+            )
+        if len(self.widths) != 4 or any(int(w) < 1 for w in self.widths):
+            raise ValueError(f"widths must be 4 positive channel counts, got {self.widths}")
+        if self.features < 1:
+            raise ValueError(f"features must be positive, got {self.features}")
+        object.__setattr__(self, "widths", tuple(int(w) for w in self.widths))
+
+
+@dataclass(frozen=True)
+class LossWeights:
+    """Weights of the three terms in the total loss (`symgrasp.model.loss`)."""
+
+    validity: float = 1.0
+    """Weight of the validity loss."""
+    score: float = 1.0
+    """Weight of the score loss."""
+    rotation: float = 1.0
+    """Weight of the rotation loss."""
+
+
+@dataclass
+class TrainConfig:
+    """Everything a training run depends on (stored in every checkpoint)."""
+
+    data: str
+    """Dataset folder (`symgrasp.data.dataset.GraspDataset`)."""
+    out: str
+    """Run folder for checkpoints, metrics.csv and learning_curve.png."""
+    representation: str = "bingham2d"
+    """Rotation representation of the rotation head."""
+    gripper: str = "robotiq-2f85"
+    """The gripper the dataset must have been produced for."""
+    epochs: int = 10
+    """Epochs to train."""
+    batch_size: int = 4
+    """Scenes per batch."""
+    lr: float = 1e-3
+    """Adam learning rate."""
+    seed: int = 0
+    """Seed of the initial weights, the batches and the augmentation."""
+    device: str = "auto"
+    """"auto" (CUDA if available, else CPU), "cpu", "cuda" or "cuda:N"."""
+    workers: int = 0
+    """Data loading processes (0: in the training process)."""
+    augment: bool = True
+    """Let the dataset augment the training split."""
+    resume: bool = False
+    """Continue the run in ``out`` from its last.pt."""
+    widths: tuple[int, int, int, int] = (8, 16, 32, 64)
+    """Network channels at 40³, 20³, 10³ and 5³."""
+    features: int = 16
+    """Channels of the feature volume the heads read."""
+    loss_weights: LossWeights = field(default_factory=LossWeights)
+    """Weights of the loss terms."""
+
+    def __post_init__(self) -> None:
+        for name in ("epochs", "batch_size"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be ≥ 1, got {getattr(self, name)}")
+        if not self.lr > 0:
+            raise ValueError(f"lr must be positive, got {self.lr}")
+        if self.workers < 0:
+            raise ValueError(f"workers must be ≥ 0, got {self.workers}")
+        if isinstance(self.loss_weights, dict):
+            self.loss_weights = LossWeights(**self.loss_weights)
+        self.widths = tuple(self.widths)
+
+    @property
+    def network(self) -> NetworkConfig:
+        return NetworkConfig(self.representation, self.widths, self.features)
+
+
+@dataclass(frozen=True)
+class BenchmarkConfig:
+    """What a declutter benchmark runs (`symgrasp.benchmark.runner`): seeds ``seed … seed +
+    rounds − 1``."""
+
+    model: str = "bingham2d-robotiq-2f85"
+    """Shipped model name or checkpoint path."""
+    objects: str = "household-test"
+    """Object set the rounds draw from."""
+    num_objects: int = 5
+    """Objects per round."""
+    rounds: int = 100
+    """Rounds to play."""
+    seed: int = 0
+    """Seed of round 0; round r uses seed + r."""
+    options: tuple[tuple[str, Any], ...] = ()
+    """Keyword arguments of `GraspDetector.from_pretrained`, as (name, value) pairs."""
+    diagnose: bool = True
+    """Replay each failed grasp turned about its approach axis to name its failure mode."""
+    pictures: bool = False
+    """Draw every attempt into pictures/seed_NNNN/ of the output folder."""
+
+    def __post_init__(self) -> None:
+        if self.rounds < 1 or self.num_objects < 1 or self.seed < 0:
+            raise ValueError(
+                f"rounds and num_objects must be ≥ 1 and seed ≥ 0, got {self.rounds}, "
+                f"{self.num_objects}, {self.seed}"
+            )
