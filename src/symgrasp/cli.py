@@ -379,7 +379,7 @@ def _add_figures(subparsers: argparse._SubParsersAction) -> None:
     )
 
     def run_percentiles(args: argparse.Namespace) -> None:
-        from symgrasp.benchmark.figures import percentile_figure
+        from symgrasp.analysis import percentile_figure
 
         command = _command(
             "figures", "percentiles", "--samples", args.samples, "--repeats", args.repeats,
@@ -411,7 +411,7 @@ def _add_figures(subparsers: argparse._SubParsersAction) -> None:
     _add_slice_options(continuity)
 
     def run_continuity(args: argparse.Namespace) -> None:
-        from symgrasp.benchmark.figures import continuity_figure, parse_model_specs
+        from symgrasp.analysis import continuity_figure, parse_model_specs
 
         models = parse_model_specs(args.model)
         words = [w for spec in args.model for w in ("--model", spec)]
@@ -443,7 +443,7 @@ def _add_figures(subparsers: argparse._SubParsersAction) -> None:
     _add_slice_options(distribution)
 
     def run_distribution(args: argparse.Namespace) -> None:
-        from symgrasp.benchmark.figures import distribution_figure
+        from symgrasp.analysis import distribution_figure
 
         command = _command(
             "figures", "distribution", "--model", args.model, "--samples", args.samples,

@@ -14,26 +14,26 @@ Each writes a PNG and a JSON with the numbers and the command that made them, at
 helpers that the continuity and distribution figures share.
 """
 
-from symgrasp.benchmark.figures.continuity import (
+from symgrasp.analysis.continuity import (
     closing_axes,
     continuity_figure,
     continuity_statistics,
     plot_continuity,
     reduce_or_none,
 )
-from symgrasp.benchmark.figures.distribution import (
+from symgrasp.analysis.distribution import (
     SampledAxes,
     distribution_figure,
     object_statistics,
     plot_distribution,
     sample_axes,
 )
-from symgrasp.benchmark.figures.files import (
+from symgrasp.analysis.files import (
     save_figure,
     write_json,
     write_text,
 )
-from symgrasp.benchmark.figures.percentiles import (
+from symgrasp.analysis.percentiles import (
     DOT_SAMPLES,
     PAPER_EXAMPLE,
     PERCENTILE,
@@ -46,7 +46,7 @@ from symgrasp.benchmark.figures.percentiles import (
     percentile_rows,
     plot_percentile_bands,
 )
-from symgrasp.benchmark.figures.scenes import (
+from symgrasp.analysis.scenes import (
     ARROW_LENGTH,
     FLAT_CYLINDER,
     LONG_BOX,

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import torch
 
-from symgrasp.benchmark import figures
-from symgrasp.benchmark.figures import (
+from symgrasp import analysis
+from symgrasp.analysis import (
     FLAT_CYLINDER,
     LONG_BOX,
     VOXEL,
@@ -62,7 +62,7 @@ def test_percentiles_command_writes_table_json_and_picture(tmp_path, capsys):
         f"symgrasp figures percentiles --samples 20000 --repeats 3 --seed 5 --out {tmp_path}"
     )
     rows = record["rows"]
-    assert len(rows) == 2 * len(figures.SHAPES)
+    assert len(rows) == 2 * len(analysis.SHAPES)
     assert {(tuple(r["lam"]), r["axis"]) for r in rows} >= {((-50.0, -10.0, 0.0), 0)}
     assert set(rows[0]) == {
         "lam", "axis", "approx_deg", "mc_mean_deg", "mc_std_deg", "relative_difference"

@@ -19,9 +19,9 @@ import torch
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from symgrasp.benchmark.figures.continuity import reduce_or_none
-from symgrasp.benchmark.figures.files import save_figure, write_json
-from symgrasp.benchmark.figures.scenes import (
+from symgrasp.analysis.continuity import reduce_or_none
+from symgrasp.analysis.files import save_figure, write_json
+from symgrasp.analysis.scenes import (
     ARROW_LENGTH,
     FLAT_CYLINDER,
     LONG_BOX,

@@ -24,7 +24,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from tqdm import tqdm
 
-from symgrasp.benchmark.figures.files import save_figure, write_json, write_text
+from symgrasp.analysis.files import save_figure, write_json, write_text
 from symgrasp.bingham import Bingham
 
 PERCENTILE = 0.99

@@ -17,8 +17,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from symgrasp.benchmark.figures.files import save_figure, write_json
-from symgrasp.benchmark.figures.scenes import (
+from symgrasp.analysis.files import save_figure, write_json
+from symgrasp.analysis.scenes import (
     ARROW_LENGTH,
     LONG_BOX,
     SLICE_HEIGHT,
