@@ -1,13 +1,12 @@
 """The paper's three analysis figures (Ko et al. 2024, Sec. 4.1, Sec. 4.2 and Appx. A).
 
 - `percentile_figure`: the band angles θᵢ^(99%) of 2D Bingham distributions, approximated by
-  Eq. eq:approx_percentile and measured by Monte Carlo (Appx. A, Figs. fig:sampled_2d_bingham
-  and fig:projected_bingham_plot_for_percentile);
+  Eq. 12 and measured by Monte Carlo (Appx. A, Figs. 7 and 8);
 - `continuity_figure`: the score field and the closing axes e_z of several detectors in one
   horizontal voxel layer over a long box (Sec. "Analysis of Rotation Continuity",
-  Fig. fig:bingham_horizontal);
+  Fig. 3);
 - `distribution_figure`: closing axes sampled from a Bingham detector over the box and a flat
-  cylinder (Sec. "Analysis of Rotation Distribution", Fig. fig:bingham_sampling).
+  cylinder (Sec. "Analysis of Rotation Distribution", Fig. 4).
 
 Each writes a PNG and a JSON with the numbers and the command that made them, atomically
 (`files`). One module per figure; `scenes` holds the analysis scenes and the voxel-layer

@@ -1,4 +1,4 @@
-"""Rotation continuity (Sec. "Analysis of Rotation Continuity", Fig. fig:bingham_horizontal):
+"""Rotation continuity (Sec. "Analysis of Rotation Continuity", Fig. 3):
 the score field and the closing axes e_z of several detectors in one horizontal voxel layer
 over a long box.
 """
@@ -83,7 +83,7 @@ def reduce_or_none(reduce: Callable[[np.ndarray], Any], values: np.ndarray) -> f
 def plot_continuity(
     fields: dict[str, FieldSlice], validity: float, objects: Sequence[Placed]
 ) -> Figure:
-    """Fig. fig:bingham_horizontal: one panel per model, the score of the valid voxels and
+    """Fig. 3: one panel per model, the score of the valid voxels and
     their e_z projected to x–y, both ±e_z for ``bingham2d``."""
     lo, hi = view_limits(objects)
     height = 6 * (hi[1] - lo[1]) / (hi[0] - lo[0]) + 2

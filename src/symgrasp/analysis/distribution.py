@@ -1,6 +1,5 @@
-"""Rotation distribution (Sec. "Analysis of Rotation Distribution", Fig.
-fig:bingham_sampling): closing axes sampled from a Bingham detector over the box and a flat
-cylinder.
+"""Rotation distribution (Sec. "Analysis of Rotation Distribution", Fig. 4): closing axes
+sampled from a Bingham detector over the box and a flat cylinder.
 """
 
 from __future__ import annotations
@@ -101,7 +100,7 @@ def object_statistics(axes: SampledAxes, objects: Sequence[Placed]) -> dict[str,
 def plot_distribution(
     field: FieldSlice, valid: np.ndarray, axes: SampledAxes, objects: Sequence[Placed]
 ) -> Figure:
-    """Fig. fig:bingham_sampling: the score of the valid voxels in grey and every sampled e_z
+    """Fig. 4: the score of the valid voxels in grey and every sampled e_z
     as a segment through its voxel centre, projected to x–y, coloured by confidence."""
     figure, ax = plt.subplots(figsize=(7.5, 6))
     draw_field(ax, field, valid, objects, "Greys")
