@@ -4,7 +4,7 @@
         [--rounds 100] [--workers 2] [--collate-only]
 
 Runs `symgrasp bench declutter` (`symgrasp.benchmark.runner.run_benchmark`, failure modes
-on) for every representation × gripper × object set of issue 8, plus ``bingham2d`` without
+on) for every representation × gripper × object set, plus ``bingham2d`` without
 its confidence threshold. ``bingham2d`` is the shipped model of each gripper; the baselines
 are the checkpoints ``--runs/REP-<robotiq|franka>/best.pt`` that ``symgrasp train --rep REP``
 wrote (commands in docs/results.md). A cell whose run is missing or unfinished is listed as –;
@@ -232,7 +232,7 @@ def main() -> None:
     print(table)
     write_result(
         args.result,
-        "declutter comparison (issue 8): SR / CR per representation, gripper, objects",
+        "declutter comparison: SR / CR per representation, gripper, objects",
         "PYTHONPATH=src python benchmarks/declutter_table.py",
         rows,
         table,

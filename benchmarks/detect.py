@@ -5,7 +5,7 @@
 Renders one 640×480 depth image of a 5-object household-test pile (seed 0) from the default
 camera, then times ``GraspDetector.detect`` on it ``--repeats`` times after a warm-up, per
 stage (TSDF fusion, network, decoding) as the detector reports them, plus the whole call.
-Target (issue 7): ≤ 50 ms per image on the 2-core CPU. The decoding stage depends on how many
+Target: ≤ 50 ms per image on the 2-core CPU. The decoding stage depends on how many
 voxels pass the thresholds, so the shipped model is timed, not a random network.
 """
 

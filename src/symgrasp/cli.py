@@ -538,7 +538,7 @@ def _add_slice_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _run_percentiles(args: argparse.Namespace) -> None:
-    from symgrasp.benchmark.figures import percentile_figure
+    from symgrasp.analysis import percentile_figure
 
     command = _command(
         "figures", "percentiles", "--samples", args.samples, "--repeats", args.repeats,
@@ -550,7 +550,7 @@ def _run_percentiles(args: argparse.Namespace) -> None:
 
 
 def _run_continuity(args: argparse.Namespace) -> None:
-    from symgrasp.benchmark.figures import continuity_figure, parse_model_specs
+    from symgrasp.analysis import continuity_figure, parse_model_specs
 
     models = parse_model_specs(args.model)
     words = [w for spec in args.model for w in ("--model", spec)]
@@ -563,7 +563,7 @@ def _run_continuity(args: argparse.Namespace) -> None:
 
 
 def _run_distribution(args: argparse.Namespace) -> None:
-    from symgrasp.benchmark.figures import distribution_figure
+    from symgrasp.analysis import distribution_figure
 
     command = _command(
         "figures", "distribution", "--model", args.model, "--samples", args.samples,

@@ -1,4 +1,4 @@
-"""The declutter benchmark (VGN's and the paper's protocol) and the paper's analyses."""
+"""The declutter benchmark (VGN's and the paper's protocol)."""
 
 from symgrasp.benchmark.declutter import NONE_FOUND, Attempt, Round, run_round
 

@@ -1,4 +1,4 @@
-"""Why a declutter grasp failed: wrong yaw, wrong approach, collision, slip (issue 8's modes).
+"""Why a declutter grasp failed: wrong yaw, wrong approach, collision, slip.
 
 The simulator says *how* a trial ended (`symgrasp.sim.execute.Outcome`); a representation is
 judged by *why*. The question the paper asks of a rotation is whether the closing axis about

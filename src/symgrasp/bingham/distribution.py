@@ -92,7 +92,7 @@ class _LogNormalizerOfMatrix(torch.autograd.Function):
 
 
 def nll(A: Tensor, v: Tensor, method: str = "auto", validate_args: bool = False) -> Tensor:
-    """Bingham negative log-likelihood −vᵀAv + log C(λ(A))  (Ko et al. 2024, Eq. eq:defBNLL).
+    """Bingham negative log-likelihood −vᵀAv + log C(λ(A))  (Ko et al. 2024, Eq. 13).
 
     The gradient is d nll/dA = E[vvᵀ] − vvᵀ (exponential-family identity), computed from one
     eigendecomposition; it stays finite at degenerate spectra (A = 0, λ₁ = λ₂), where a backward
@@ -160,7 +160,7 @@ class Bingham:
 
     @property
     def mode(self) -> Tensor:
-        """``[..., d]``: the eigenvector of the largest eigenvalue (Eq. eq:modequaternion).
+        """``[..., d]``: the eigenvector of the largest eigenvalue (Eq. 6).
 
         −mode is a mode too; the sign returned makes the largest-magnitude component positive.
         """
@@ -212,7 +212,7 @@ class Bingham:
         return v, drawn.reshape(self.batch_shape)
 
     def percentile_angle(self, p: float, axis: int) -> Tensor:
-        """Approximate θᵢ^(p) (Ko et al. 2024, Appx. A, Eq. eq:approx_percentile).
+        """Approximate θᵢ^(p) (Ko et al. 2024, Appx. A, Eq. 12).
 
         The angle θ for which the band {v : |⟨v, dᵢ⟩| ≤ sin(θ/2)} around the great circle
         orthogonal to eigenvector dᵢ holds probability p: θᵢ^(p) ≈ 2 erf⁻¹(p)/√(λ_max − λᵢ).

@@ -25,12 +25,12 @@ Methods:
     exp, erf and sqrt are evaluated per node, which is what makes it fast.
 
 ``"paper"`` (S² and S³)
-    The contour sum of Sato, Ikeda & Nishiwaki (2023) used by the paper (Appx. B, Eq. eq:def_C):
+    The contour sum of Sato, Ikeda & Nishiwaki (2023) used by the paper (Appx. B, Eq. 14):
 
         C = π^{d/2−1} e^c h Σ_{n=−N−1}^{N} w(|nh|) F(nh) e^{inh},  F(t) = Π_k (−λ_k + it + c)^{−1/2},
 
     with w(x) = ½ erfc(x/p₁ − p₂) and c, h, p₁, p₂ from N = 200, N_min = 15, r = 2.5, ω_d = 0.5,
-    d = c/2 (Eqs. eq:vars, eq:weightfunc). The gradient is the same sum with F replaced by
+    d = c/2 (Eqs. 16 and 17). The gradient is the same sum with F replaced by
     ∂F/∂λ_k = F / (2(−λ_k + it + c)). Accurate to about 1e-7 relative: the faithful reference.
 
 ``"bessel"`` (S³, the default there)

@@ -7,7 +7,7 @@ The element order is the upper triangle read row by row. For d = 3:
                            [a₂, a₄, a₅]]
 
 and for d = 4, a = (A₁₁, A₁₂, A₁₃, A₁₄, A₂₂, A₂₃, A₂₄, A₃₃, A₃₄, A₄₄). This is ``triu`` of
-Eq. (eq:our_repr) in Ko et al. (2024).
+Eq. 7 in Ko et al. (2024).
 """
 
 from __future__ import annotations

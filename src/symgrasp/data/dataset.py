@@ -1,6 +1,6 @@
 """The torch ``Dataset`` of labelled scenes, its augmentation and its collate function.
 
-Item ``i`` is a dict of tensors (the contract with the model, issue 6):
+Item ``i`` is a dict of tensors (the contract with the model):
 
 - ``tsdf`` float32 [1, 40, 40, 40]; ``valid``, ``score`` float32 [40, 40, 40];
 - ``voxel_index`` int64 [M, 3] of the M valid voxels; ``rotations`` float32

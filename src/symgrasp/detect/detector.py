@@ -2,7 +2,7 @@
 
 The pipeline of the paper's detector (Sec. 3.3 and 4.3): fuse the depth images into the 40³
 TSDF of the workspace, run the network once, keep voxels whose validity passes a threshold,
-decode a rotation per voxel (for ``bingham2d``: e_z the mode of B(A), Eq. eq:modequaternion,
+decode a rotation per voxel (for ``bingham2d``: e_z the mode of B(A), Eq. 6,
 then Gram–Schmidt keeping e_x), drop grasps whose Bingham confidence (λ₃ − λ₂) + (λ₃ − λ₁)
 is below the threshold (15 in the paper), suppress non-maxima of the score, and sort by the
 gravity-rejection score. With ``samples_per_voxel`` the closing axis is instead drawn from

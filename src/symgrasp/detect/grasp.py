@@ -47,7 +47,7 @@ class Grasp:
     def approach_trajectory(
         self, pregrasp_distance: float = PREGRASP_DISTANCE, lift_height: float = LIFT_HEIGHT
     ) -> np.ndarray:
-        """The paper's motion (Sec. sec:real_robot), as ``T_world_tcp`` waypoints (3, 4, 4): the
+        """The paper's motion (Sec. 4.4), as ``T_world_tcp`` waypoints (3, 4, 4): the
         pre-grasp ``pregrasp_distance`` back along e_x, the grasp, and the lift
         ``lift_height`` up along world +z. Close the gripper between the 2nd and 3rd."""
         if pregrasp_distance < 0 or lift_height < 0:

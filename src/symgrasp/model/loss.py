@@ -1,13 +1,12 @@
 """The training loss: validity BCE + score L2 + the representation's rotation loss.
 
-Following the paper (Appx. C, sec:training_details), with a batch from
-`symgrasp.data.dataset.collate_scenes`:
+Following the paper (Appx. C), with a batch from `symgrasp.data.dataset.collate_scenes`:
 
 - **validity**: binary cross-entropy of the validity logit against ``valid``, summed over every
   voxel of the batch and divided by the number of valid voxels;
 - **score**: squared error of the gravity-rejection score at the valid voxels, mean over them
   (elsewhere the label is 0 by convention, not a measurement; the validity head covers it);
-- **rotation**: ``representation.loss(pred, rotations, rotation_mask)`` (Eq. eq:loss for
+- **rotation**: ``representation.loss(pred, rotations, rotation_mask)`` (Eq. 8 for
   ``bingham2d``) at the valid voxels, every target of a voxel, mean over the voxels.
 
 All three terms are thus "per valid voxel". Valid voxels are rare (≈ 0.2–2 % of the grid): the

@@ -1,6 +1,6 @@
 """The volumetric grasp detector: a 3D encoder–decoder over the TSDF and three per-voxel heads.
 
-The layout follows the paper's detector (Ko et al. 2024, Sec. 3.3, Fig. fig:net_bingham; after
+The layout follows the paper's detector (Ko et al. 2024, Sec. 3.3, Fig. 2; after
 the gravity-aware VGN of Ko et al. 2023): the 40³ TSDF goes through a fully-convolutional
 encoder–decoder to a 40³ × 16 feature volume, read by three 1×1×1 convolutional heads:
 

@@ -49,7 +49,7 @@ def open_dataset(config: TrainConfig) -> tuple[Dataset, Dataset, Collate]:
         from symgrasp.data.dataset import GraspDataset, collate_scenes
     except ImportError as error:
         raise RuntimeError(
-            "symgrasp.data (issue 5) is needed to read a dataset folder; it is not installed"
+            "symgrasp.data is needed to read a dataset folder; it is not installed"
         ) from error
 
     train_set = GraspDataset(config.data, split="train", augment=config.augment, seed=config.seed)

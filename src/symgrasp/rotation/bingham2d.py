@@ -1,14 +1,14 @@
 """``bingham2d``: the planar-symmetric representation of Ko et al. (2024), Sec. 3.2.
 
-Nine channels [a ∈ R⁶, x ∈ R³] (Eq. eq:our_repr): A = triu(a) ∈ Sym₃ parametrises a 2D Bingham
+Nine channels [a ∈ R⁶, x ∈ R³] (Eq. 7): A = triu(a) ∈ Sym₃ parametrises a 2D Bingham
 distribution B(A) over the closing axis e_z, and x is the approach axis e_x. B(A)(v) = B(A)(−v),
 so one parameter set stands for a grasp and its 180°-flipped twin (e_z → −e_z, e_x unchanged),
-and the loss (Eq. eq:loss) is exactly invariant to the flip:
+and the loss (Eq. 8) is exactly invariant to the flip:
 
     L = (1 − cos(x, e_x)) + L_BNLL(A, e_z),    L_BNLL = −e_zᵀ A e_z + log C(λ(A))
 
-(Eq. eq:defBNLL), the two terms added without scaling as in the paper. Decoding takes e_z as
-the mode of B(A), the eigenvector of the largest eigenvalue (Eq. eq:modequaternion), or a
+(Eq. 13), the two terms added without scaling as in the paper. Decoding takes e_z as
+the mode of B(A), the eigenvector of the largest eigenvalue (Eq. 6), or a
 sample of B(A); Gram–Schmidt then keeps e_x (Sec. 3.3). The confidence is
 (λ₃ − λ₂) + (λ₃ − λ₁); the paper discards grasps below `PAPER_CONFIDENCE_THRESHOLD` (Sec. 4.3).
 """

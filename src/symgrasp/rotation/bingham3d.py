@@ -4,12 +4,12 @@ Ten channels, A = triu(a) ∈ Sym₄ (row by row, `symgrasp.bingham.triu_to_sym`
 the scalar-last order (x, y, z, w) of `symgrasp.rotation.geometry`. B(A)(q) = B(A)(−q), so the
 sign ambiguity of quaternions is built in, but the gripper flip is not: R·flip has quaternion
 q ⊗ i, orthogonal to q on S³. Each ground truth therefore contributes both twins, and the loss
-is the mean Bingham NLL (Eq. eq:defBNLL on S³) over both twins of every valid target.
+is the mean Bingham NLL (Eq. 13 on S³) over both twins of every valid target.
 
 The maximum-likelihood fit to a pair {q, q ⊗ i} puts the two largest eigenvalues of A equal on
 span{q, q ⊗ i}: the great circle of all rotations about the approach axis. The mode is then
 arbitrary within it, which is why this faithful baseline is weak at the closing axis (Ko et al.
-2024, Table 1). Decoding takes the mode (Eq. eq:modequaternion) with the confidence
+2024, Table 1). Decoding takes the mode (Eq. 6) with the confidence
 Σᵢ (λ₄ − λᵢ).
 """
 

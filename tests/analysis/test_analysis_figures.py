@@ -6,11 +6,10 @@ import numpy as np
 import pytest
 import torch
 
-from symgrasp.benchmark import figures
-from symgrasp.benchmark.figures import (
+from symgrasp import analysis
+from symgrasp.analysis import (
     FLAT_CYLINDER,
     LONG_BOX,
-    VOXEL,
     SampledAxes,
     choose_layer,
     continuity_statistics,
@@ -23,6 +22,7 @@ from symgrasp.cli import build_parser, main
 from symgrasp.model.checkpoint import save_checkpoint
 from symgrasp.model.network import GraspNet, NetworkConfig
 from symgrasp.perception import TSDFVolume
+from symgrasp.workspace import VOXEL_SIZE
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +62,7 @@ def test_percentiles_command_writes_table_json_and_picture(tmp_path, capsys):
         f"symgrasp figures percentiles --samples 20000 --repeats 3 --seed 5 --out {tmp_path}"
     )
     rows = record["rows"]
-    assert len(rows) == 2 * len(figures.SHAPES)
+    assert len(rows) == 2 * len(analysis.SHAPES)
     assert {(tuple(r["lam"]), r["axis"]) for r in rows} >= {((-50.0, -10.0, 0.0), 0)}
     assert set(rows[0]) == {
         "lam", "axis", "approx_deg", "mc_mean_deg", "mc_std_deg", "relative_difference"
@@ -80,9 +80,9 @@ def test_scene_puts_the_box_top_at_11_cm_over_its_footprint():
     points = volume.point_cloud().numpy()
     raised = points[points[:, 2] > 0.06]  # above the table top (z = 0.05 m)
     assert len(raised) > 100
-    assert np.all(LONG_BOX.footprint_distance(raised[:, :2]) < 1.5 * VOXEL)
+    assert np.all(LONG_BOX.footprint_distance(raised[:, :2]) < 1.5 * VOXEL_SIZE)
     over_centre = raised[np.abs(raised[:, :2] - 0.15).max(1) < 0.02]
-    assert over_centre[:, 2].max() == pytest.approx(0.11, abs=VOXEL)
+    assert over_centre[:, 2].max() == pytest.approx(0.11, abs=VOXEL_SIZE)
     assert slice_layer(0.057) == 7
 
 

@@ -1,8 +1,7 @@
-"""The band angles θᵢ^(99%) of 2D Bingham distributions (Ko et al. 2024, Appx. A): Eq.
-eq:approx_percentile against Monte Carlo, Figs. fig:sampled_2d_bingham and
-fig:projected_bingham_plot_for_percentile.
+"""The band angles θᵢ^(99%) of 2D Bingham distributions (Ko et al. 2024, Appx. A): Eq. 12
+against Monte Carlo, Figs. 7 and 8.
 
-Eigenvalues are ascending, λ₁ ≤ λ₂ ≤ λ₃ = 0 (Eq. eq:sortedlambda), and ``axis`` is 0-based as
+Eigenvalues are ascending, λ₁ ≤ λ₂ ≤ λ₃ = 0 (Eq. 5), and ``axis`` is 0-based as
 in `Bingham.percentile_angle` (axis 0 ↔ λ₁ ↔ the paper's θ₁).
 """
 
@@ -24,7 +23,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from tqdm import tqdm
 
-from symgrasp.benchmark.figures.files import save_figure, write_json, write_text
+from symgrasp.analysis.files import save_figure, write_json, write_text
 from symgrasp.bingham import Bingham
 
 PERCENTILE = 0.99
@@ -44,7 +43,7 @@ SHAPES: tuple[Shape, ...] = (
 """λ = (λ₁, λ₂, 0) of the percentile table: round, flat and girdle-like, loose to tight."""
 
 PAPER_EXAMPLE: Shape = (-50.0, -10.0, 0.0)
-"""λ of Fig. fig:projected_bingham_plot_for_percentile, drawn by `percentile_figure`."""
+"""λ of Fig. 8, drawn by `percentile_figure`."""
 
 DOT_SAMPLES = 3000
 """Bingham samples drawn in the sphere plot of `percentile_figure`."""
@@ -58,7 +57,7 @@ class PercentileRow:
     axis: int
     """0-based: the band is orthogonal to the eigenvector of λ[axis]."""
     approx_deg: float
-    """2 erf⁻¹(p)/√(λ₃ − λᵢ) (Eq. eq:approx_percentile)."""
+    """2 erf⁻¹(p)/√(λ₃ − λᵢ) (Eq. 12)."""
     mc_mean_deg: float
     """Mean of the Monte-Carlo estimates (`Bingham.percentile_angle_mc`)."""
     mc_std_deg: float
@@ -70,7 +69,7 @@ class PercentileRow:
 def percentile_row(
     lam: Shape, axis: int, samples: int, repeats: int, seed: int, p: float = PERCENTILE
 ) -> PercentileRow:
-    """θ_{axis+1}^(p) of B(diag(λ)) in float64 by Eq. eq:approx_percentile and by ``repeats``
+    """θ_{axis+1}^(p) of B(diag(λ)) in float64 by Eq. 12 and by ``repeats``
     Monte-Carlo estimates of ``samples`` exact draws each, the r-th seeded ``seed + r``."""
     if samples < 1 or repeats < 1:
         raise ValueError(f"--samples and --repeats must be ≥ 1, got {samples} and {repeats}")
@@ -114,7 +113,7 @@ def percentile_markdown(rows: Iterable[PercentileRow]) -> str:
 
 
 def plot_percentile_bands(rows: Sequence[PercentileRow], seed: int) -> Figure:
-    """Fig. fig:projected_bingham_plot_for_percentile: `DOT_SAMPLES` samples of
+    """Fig. 8: `DOT_SAMPLES` samples of
     B(diag(`PAPER_EXAMPLE`)) on the sphere with the planes bounding A₁(θ₁^(99%)) (red) and
     A₂(θ₂^(99%)) (green) at the Monte-Carlo means, and the projections onto (d₁, d₃) and
     (d₂, d₃) with those planes as solid lines and the approximation as dashed lines."""

@@ -1,39 +1,38 @@
 """The paper's three analysis figures (Ko et al. 2024, Sec. 4.1, Sec. 4.2 and Appx. A).
 
 - `percentile_figure`: the band angles θᵢ^(99%) of 2D Bingham distributions, approximated by
-  Eq. eq:approx_percentile and measured by Monte Carlo (Appx. A, Figs. fig:sampled_2d_bingham
-  and fig:projected_bingham_plot_for_percentile);
+  Eq. 12 and measured by Monte Carlo (Appx. A, Figs. 7 and 8);
 - `continuity_figure`: the score field and the closing axes e_z of several detectors in one
   horizontal voxel layer over a long box (Sec. "Analysis of Rotation Continuity",
-  Fig. fig:bingham_horizontal);
+  Fig. 3);
 - `distribution_figure`: closing axes sampled from a Bingham detector over the box and a flat
-  cylinder (Sec. "Analysis of Rotation Distribution", Fig. fig:bingham_sampling).
+  cylinder (Sec. "Analysis of Rotation Distribution", Fig. 4).
 
 Each writes a PNG and a JSON with the numbers and the command that made them, atomically
 (`files`). One module per figure; `scenes` holds the analysis scenes and the voxel-layer
 helpers that the continuity and distribution figures share.
 """
 
-from symgrasp.benchmark.figures.continuity import (
+from symgrasp.analysis.continuity import (
     closing_axes,
     continuity_figure,
     continuity_statistics,
     plot_continuity,
     reduce_or_none,
 )
-from symgrasp.benchmark.figures.distribution import (
+from symgrasp.analysis.distribution import (
     SampledAxes,
     distribution_figure,
     object_statistics,
     plot_distribution,
     sample_axes,
 )
-from symgrasp.benchmark.figures.files import (
+from symgrasp.analysis.files import (
     save_figure,
     write_json,
     write_text,
 )
-from symgrasp.benchmark.figures.percentiles import (
+from symgrasp.analysis.percentiles import (
     DOT_SAMPLES,
     PAPER_EXAMPLE,
     PERCENTILE,
@@ -46,13 +45,12 @@ from symgrasp.benchmark.figures.percentiles import (
     percentile_rows,
     plot_percentile_bands,
 )
-from symgrasp.benchmark.figures.scenes import (
+from symgrasp.analysis.scenes import (
     ARROW_LENGTH,
     FLAT_CYLINDER,
     LONG_BOX,
     SLICE_HEIGHT,
     VIEW_MARGIN,
-    VOXEL,
     DepthView,
     FieldSlice,
     Placed,
@@ -79,7 +77,6 @@ __all__ = [
     "SHAPES",
     "SLICE_HEIGHT",
     "VIEW_MARGIN",
-    "VOXEL",
     "DepthView",
     "FieldSlice",
     "PercentileRow",

@@ -23,17 +23,16 @@ from symgrasp.perception import CameraIntrinsic, default_extrinsic
 from symgrasp.rotation import Representation
 from symgrasp.sim import ObjectSpec, Part, World
 from symgrasp.sim.render import make_renderer
-from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, WORKSPACE_SIZE
+from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, VOXEL_SIZE, WORKSPACE_SIZE
 
 SLICE_HEIGHT = 0.057
 """World height [m] of the paper's cross-sections (z = 57 mm, 7 mm above the table). Where a
 model's valid grasp centres lie higher (they depend on where the gripper's TCP is), pass
 ``height=None`` for the layer with the most valid voxels (`busiest_layer`)."""
 
-VOXEL = WORKSPACE_SIZE / RESOLUTION
 """Edge of a voxel [m]."""
 
-ARROW_LENGTH = 1.6 * VOXEL
+ARROW_LENGTH = 1.6 * VOXEL_SIZE
 """Drawn length [m] of a horizontal unit e_z; a sampled e_z's segment in the distribution plot
 is as long."""
 
@@ -113,7 +112,7 @@ def render_depth(objects: Sequence[Placed]) -> DepthView:
 
 def slice_layer(height: float) -> int:
     """The voxel layer k holding world height ``height`` [m]: ⌊height / voxel⌋ (7 at 57 mm)."""
-    k = math.floor(height / VOXEL + 1e-9)
+    k = math.floor(height / VOXEL_SIZE + 1e-9)
     if not 0 <= k < RESOLUTION:
         raise ValueError(f"--height must lie in [0, {WORKSPACE_SIZE}) m, got {height}")
     return k
@@ -135,7 +134,7 @@ def choose_layer(
 
 def voxel_centres_xy() -> np.ndarray:
     """x, y [m] of the voxel centres of one layer, ``[40, 40, 2]`` indexed [i, j]."""
-    axis = (np.arange(RESOLUTION) + 0.5) * VOXEL
+    axis = (np.arange(RESOLUTION) + 0.5) * VOXEL_SIZE
     return np.stack(np.meshgrid(axis, axis, indexing="ij"), axis=-1)
 
 

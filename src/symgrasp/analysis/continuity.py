@@ -1,4 +1,4 @@
-"""Rotation continuity (Sec. "Analysis of Rotation Continuity", Fig. fig:bingham_horizontal):
+"""Rotation continuity (Sec. "Analysis of Rotation Continuity", Fig. 3):
 the score field and the closing axes e_z of several detectors in one horizontal voxel layer
 over a long box.
 """
@@ -17,12 +17,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from symgrasp.benchmark.figures.files import save_figure, write_json
-from symgrasp.benchmark.figures.scenes import (
+from symgrasp.analysis.files import save_figure, write_json
+from symgrasp.analysis.scenes import (
     ARROW_LENGTH,
     LONG_BOX,
     SLICE_HEIGHT,
-    VOXEL,
     FieldSlice,
     Placed,
     check_validity,
@@ -34,8 +33,9 @@ from symgrasp.benchmark.figures.scenes import (
     view_limits,
     voxel_centres_xy,
 )
+from symgrasp.config import DEFAULT_VALIDITY
 from symgrasp.detect import GraspDetector
-from symgrasp.detect.detector import DEFAULT_VALIDITY
+from symgrasp.workspace import VOXEL_SIZE
 
 
 def closing_axes(field: FieldSlice) -> np.ndarray:
@@ -83,7 +83,7 @@ def reduce_or_none(reduce: Callable[[np.ndarray], Any], values: np.ndarray) -> f
 def plot_continuity(
     fields: dict[str, FieldSlice], validity: float, objects: Sequence[Placed]
 ) -> Figure:
-    """Fig. fig:bingham_horizontal: one panel per model, the score of the valid voxels and
+    """Fig. 3: one panel per model, the score of the valid voxels and
     their e_z projected to x–y, both ±e_z for ``bingham2d``."""
     lo, hi = view_limits(objects)
     height = 6 * (hi[1] - lo[1]) / (hi[0] - lo[0]) + 2
@@ -105,7 +105,9 @@ def plot_continuity(
                 scale=1 / ARROW_LENGTH,
                 width=0.004,
             )
-        ax.set_title(f"{label}: e_z at z = {(field.layer + 0.5) * VOXEL * 1e3:.1f} mm", fontsize=10)
+        ax.set_title(
+            f"{label}: e_z at z = {(field.layer + 0.5) * VOXEL_SIZE * 1e3:.1f} mm", fontsize=10
+        )
     figure.tight_layout()
     return figure
 
@@ -137,7 +139,7 @@ def continuity_figure(
         "command": command,
         "height": height,
         "layer": layer,
-        "layer_centre_m": (layer + 0.5) * VOXEL,
+        "layer_centre_m": (layer + 0.5) * VOXEL_SIZE,
         "validity_threshold": validity,
         "statistic": inspect.cleandoc(continuity_statistics.__doc__ or ""),
         "models": {

@@ -1,6 +1,5 @@
-"""Rotation distribution (Sec. "Analysis of Rotation Distribution", Fig.
-fig:bingham_sampling): closing axes sampled from a Bingham detector over the box and a flat
-cylinder.
+"""Rotation distribution (Sec. "Analysis of Rotation Distribution", Fig. 4): closing axes
+sampled from a Bingham detector over the box and a flat cylinder.
 """
 
 from __future__ import annotations
@@ -19,14 +18,13 @@ import torch
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from symgrasp.benchmark.figures.continuity import reduce_or_none
-from symgrasp.benchmark.figures.files import save_figure, write_json
-from symgrasp.benchmark.figures.scenes import (
+from symgrasp.analysis.continuity import reduce_or_none
+from symgrasp.analysis.files import save_figure, write_json
+from symgrasp.analysis.scenes import (
     ARROW_LENGTH,
     FLAT_CYLINDER,
     LONG_BOX,
     SLICE_HEIGHT,
-    VOXEL,
     FieldSlice,
     Placed,
     check_validity,
@@ -37,8 +35,9 @@ from symgrasp.benchmark.figures.scenes import (
     render_depth,
     voxel_centres_xy,
 )
+from symgrasp.config import DEFAULT_VALIDITY
 from symgrasp.detect import GraspDetector
-from symgrasp.detect.detector import DEFAULT_VALIDITY
+from symgrasp.workspace import VOXEL_SIZE
 
 
 @dataclass(frozen=True)
@@ -89,7 +88,7 @@ def object_statistics(axes: SampledAxes, objects: Sequence[Placed]) -> dict[str,
     spread = axes.spread_deg()
     stats = {}
     for index, o in enumerate(objects):
-        mine = (nearest == index) & (distance[:, index] <= VOXEL)
+        mine = (nearest == index) & (distance[:, index] <= VOXEL_SIZE)
         stats[o.name] = {
             "voxels": int(mine.sum()),
             "mean_confidence": reduce_or_none(np.mean, axes.confidence[mine]),
@@ -101,7 +100,7 @@ def object_statistics(axes: SampledAxes, objects: Sequence[Placed]) -> dict[str,
 def plot_distribution(
     field: FieldSlice, valid: np.ndarray, axes: SampledAxes, objects: Sequence[Placed]
 ) -> Figure:
-    """Fig. fig:bingham_sampling: the score of the valid voxels in grey and every sampled e_z
+    """Fig. 4: the score of the valid voxels in grey and every sampled e_z
     as a segment through its voxel centre, projected to x–y, coloured by confidence."""
     figure, ax = plt.subplots(figsize=(7.5, 6))
     draw_field(ax, field, valid, objects, "Greys")
@@ -113,7 +112,7 @@ def plot_distribution(
     ax.add_collection(lines)
     figure.colorbar(lines, ax=ax, label="confidence (λ₃−λ₂)+(λ₃−λ₁)", shrink=0.8)
     n = axes.samples.shape[1]
-    z_mm = (field.layer + 0.5) * VOXEL * 1e3
+    z_mm = (field.layer + 0.5) * VOXEL_SIZE * 1e3
     ax.set_title(f"{field.representation.name}: {n} samples of e_z per voxel at z = {z_mm:.1f} mm")
     figure.tight_layout()
     return figure
@@ -148,7 +147,7 @@ def distribution_figure(
         "representation": field.representation.name,
         "height": height,
         "layer": layer,
-        "layer_centre_m": (layer + 0.5) * VOXEL,
+        "layer_centre_m": (layer + 0.5) * VOXEL_SIZE,
         "validity_threshold": validity,
         "samples": samples,
         "seed": seed,
