@@ -12,18 +12,22 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import shlex
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, NoReturn
 
 from symgrasp.config import (
     DEFAULT_VALIDITY,
+    MAX_OBJECTS,
+    SEED_MAX,
     BenchmarkConfig,
     SceneConfig,
     TrainConfig,
     field_docs,
 )
 from symgrasp.names import GRIPPERS, OBJECT_SETS, REPRESENTATIONS, SCENES
+from symgrasp.workspace import WORKSPACE_SIZE
 
 # -- options shared between commands ------------------------------------------------------
 
@@ -47,7 +51,7 @@ def _add_confidence_options(parser: argparse.ArgumentParser) -> None:
     group = parser.add_mutually_exclusive_group()
     group.add_argument(
         "--confidence",
-        type=float,
+        type=_number(0.0, 1e6),
         default=None,
         help="Bingham confidence threshold (default: 15 for bingham2d, none otherwise)",
     )
@@ -61,6 +65,41 @@ def _add_confidence_options(parser: argparse.ArgumentParser) -> None:
 def _confidence_threshold(args: argparse.Namespace) -> float | None:
     """``GraspDetector``'s ``confidence_threshold`` from ``--confidence``/``--no-confidence``."""
     return 0.0 if args.no_confidence else args.confidence
+
+
+def _integer(lo: int, hi: int) -> Callable[[str], int]:
+    """An argparse type: an integer in [lo, hi]."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"must be an integer in [{lo}, {hi}], got {text!r}")
+        return value
+
+    return parse
+
+
+def _number(lo: float, hi: float) -> Callable[[str], float]:
+    """An argparse type: a finite number in [lo, hi]."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not lo <= value <= hi:  # NaN fails too
+            raise argparse.ArgumentTypeError(f"must be a number in [{lo:g}, {hi:g}], got {text!r}")
+        return value
+
+    return parse
+
+
+SEED = _integer(0, SEED_MAX)
+WORKERS = _integer(1, 256)
+PROBABILITY = _number(0.0, 1.0)
 
 
 # -- options from a configuration's fields ------------------------------------------------
@@ -167,7 +206,7 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
     parser.add_argument(
-        "--seed", type=int, default=0, help="seed of the objects and the pile (default: 0)"
+        "--seed", type=SEED, default=0, help="seed of the objects and the pile (default: 0)"
     )
     _add_shared(
         parser,
@@ -177,7 +216,10 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
     )
     _add_shared(parser, "objects", "object set (default: household-test)", "household-test")
     parser.add_argument(
-        "--num-objects", type=int, default=5, help="objects dropped on the table (default: 5)"
+        "--num-objects",
+        type=_integer(1, MAX_OBJECTS),
+        default=5,
+        help="objects dropped on the table (default: 5)",
     )
     parser.add_argument(
         "--model", default=None, help="a checkpoint path instead of the shipped model"
@@ -224,11 +266,14 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--out", required=True, help="output folder")
     parser.add_argument(
-        "--png-scale", type=float, default=0.001, help="metres per PNG unit (default: 0.001)"
+        "--png-scale",
+        type=_number(1e-9, 1e3),
+        default=0.001,
+        help="metres per PNG unit (default: 0.001)",
     )
     parser.add_argument(
         "--workspace-origin",
-        type=float,
+        type=_number(-1e3, 1e3),
         nargs=3,
         default=(0.0, 0.0, 0.0),
         metavar=("X", "Y", "Z"),
@@ -236,15 +281,17 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--validity",
-        type=float,
+        type=PROBABILITY,
         default=DEFAULT_VALIDITY,
         help=f"validity threshold (default: {DEFAULT_VALIDITY}, docs/detect.md)",
     )
     _add_confidence_options(parser)
-    parser.add_argument("--top-k", type=int, default=None, help="keep the best K grasps")
+    parser.add_argument(
+        "--top-k", type=_integer(1, 10**6), default=None, help="keep the best K grasps"
+    )
     parser.add_argument(
         "--samples-per-voxel",
-        type=int,
+        type=_integer(0, 1000),
         default=0,
         help="draw N closing axes per voxel from the Bingham output (default: 0, the mode)",
     )
@@ -273,7 +320,8 @@ def _run_detect(args: argparse.Namespace) -> None:
     grasps = detector.detect_tsdf(volume.grid())
     points = depth_to_points(depth, intrinsic, extrinsic)
     paths = write_detection(args.out, detector, volume, grasps, points)
-    print(f"{len(grasps)} grasps; " + ", ".join(str(p) for p in paths.values()))
+    found = f"{len(grasps)} grasps" if grasps else "no grasp found (the scene is drawn)"
+    print(f"{found}; " + ", ".join(str(p) for p in paths.values()))
 
 
 def _add_export(subparsers: argparse._SubParsersAction) -> None:
@@ -317,8 +365,10 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
         show, "objects", "object set to draw from (default: household-train)",
         "household-train",
     )  # fmt: skip
-    show.add_argument("--n", type=int, default=5, help="number of objects (default: 5)")
-    show.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    show.add_argument(
+        "--n", type=_integer(1, MAX_OBJECTS), default=5, help="number of objects (default: 5)"
+    )
+    show.add_argument("--seed", type=SEED, default=0, help="random seed (default: 0)")
     show.add_argument("--out", default="out/sim", help="output folder (default: out/sim)")
     show.set_defaults(run=_run_sim_show)
 
@@ -358,9 +408,11 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
         "SceneConfig, and its DatabaseConfig) is an option.",
     )
     gen.add_argument("--out", required=True, help="dataset folder")
-    gen.add_argument("--scenes", type=int, default=2000, help="number of scenes (default: 2000)")
-    gen.add_argument("--seed", type=int, default=0, help="dataset seed (default: 0)")
-    gen.add_argument("--workers", type=int, default=1, help="worker processes (default: 1)")
+    gen.add_argument(
+        "--scenes", type=_integer(1, 10**7), default=2000, help="number of scenes (default: 2000)"
+    )
+    gen.add_argument("--seed", type=SEED, default=0, help="dataset seed (default: 0)")
+    gen.add_argument("--workers", type=WORKERS, default=1, help="worker processes (default: 1)")
     gen.add_argument(
         "--resume", action="store_true", help="continue a run in --out, skipping written scenes"
     )
@@ -376,11 +428,11 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
     inspect.add_argument("root", help="dataset folder")
     inspect.add_argument(
         "--validate",
-        type=int,
+        type=_integer(0, 100_000),
         default=50,
         help="physics trials of labelled vs random grasps for the card; 0 skips them (default: 50)",
     )
-    inspect.add_argument("--seed", type=int, default=0, help="seed of the trials (default: 0)")
+    inspect.add_argument("--seed", type=SEED, default=0, help="seed of the trials (default: 0)")
     inspect.set_defaults(run=_run_data_inspect)
 
     show = actions.add_parser(
@@ -389,7 +441,7 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
         description="Draw a scene's TSDF surface, its labelled grasps and its depth image.",
     )
     show.add_argument("root", help="dataset folder")
-    show.add_argument("--scene", type=int, default=0, help="scene id (default: 0)")
+    show.add_argument("--scene", type=_integer(0, 10**7), default=0, help="scene id (default: 0)")
     show.add_argument("--out", default=None, help="picture path (default: ROOT/scene_<id>.png)")
     show.set_defaults(run=_run_data_show)
 
@@ -448,16 +500,19 @@ def _add_figures(subparsers: argparse._SubParsersAction) -> None:
     )
     percentiles.add_argument(
         "--samples",
-        type=int,
+        type=_integer(1, 10**7),
         default=1_000_000,
         help="Bingham draws per Monte-Carlo estimate (default: 1000000)",
     )
     percentiles.add_argument(
-        "--repeats", type=int, default=100, help="Monte-Carlo estimates per row (default: 100)"
+        "--repeats",
+        type=_integer(1, 10_000),
+        default=100,
+        help="Monte-Carlo estimates per row (default: 100)",
     )
     percentiles.add_argument(
         "--seed",
-        type=int,
+        type=SEED,
         default=0,
         help="seed of the first estimate; +r for the r-th (default: 0)",
     )
@@ -499,16 +554,16 @@ def _add_figures(subparsers: argparse._SubParsersAction) -> None:
         "--model", required=True, help="checkpoint path or shipped model name (a Bingham model)"
     )
     distribution.add_argument(
-        "--samples", type=int, default=30, help="e_z drawn per voxel (default: 30)"
+        "--samples", type=_integer(1, 1000), default=30, help="e_z drawn per voxel (default: 30)"
     )
-    distribution.add_argument("--seed", type=int, default=0, help="sampling seed (default: 0)")
+    distribution.add_argument("--seed", type=SEED, default=0, help="sampling seed (default: 0)")
     _add_slice_options(distribution)
     distribution.set_defaults(run=_run_distribution)
 
 
 def _height(text: str) -> float | None:
-    """``--height``: metres, or None for 'auto'."""
-    return None if text == "auto" else float(text)
+    """``--height``: metres inside the workspace, or None for 'auto'."""
+    return None if text == "auto" else _number(0.0, WORKSPACE_SIZE)(text)
 
 
 def _height_word(height: float | None) -> str:
@@ -527,7 +582,7 @@ def _add_slice_options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--validity",
-        type=float,
+        type=PROBABILITY,
         default=DEFAULT_VALIDITY,
         help="voxels whose validity probability is below this are neither drawn nor counted "
         f"(default: {DEFAULT_VALIDITY}, the detector's)",
@@ -630,13 +685,13 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
     )
     declutter.add_argument("--out", required=True, help="output folder")
     declutter.add_argument(
-        "--workers", type=int, default=1, help="rounds run in parallel processes (default: 1)"
+        "--workers", type=WORKERS, default=1, help="rounds run in parallel processes (default: 1)"
     )
     add_config_options(declutter, BenchmarkConfig, skip=("options",))
     _add_confidence_options(declutter)
     declutter.add_argument(
         "--validity",
-        type=float,
+        type=PROBABILITY,
         default=None,
         help=f"validity threshold (default: {DEFAULT_VALIDITY}; docs/models.md has a sweep)",
     )
@@ -659,8 +714,6 @@ def _run_declutter(args: argparse.Namespace) -> None:
     from symgrasp.benchmark.runner import markdown_table, run_benchmark
     from symgrasp.detect import GraspDetector
 
-    if args.validity is not None and not 0.0 <= args.validity <= 1.0:
-        raise SystemExit(f"error: --validity must be in [0, 1], got {args.validity}")
     if args.representation is not None or args.gripper is not None:
         detector = GraspDetector.from_pretrained(args.model, device="cpu")
         for option, wanted, actual in (
@@ -683,8 +736,15 @@ def _run_declutter(args: argparse.Namespace) -> None:
 # -- the command --------------------------------------------------------------------------
 
 
+class _Parser(argparse.ArgumentParser):
+    """Argument errors in one line: the command, the option, what was expected."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="symgrasp",
         description="Learning 6-DoF grasp detection for parallel grippers with a "
         "planar-symmetric 2D-Bingham SO(3) representation.",
@@ -709,3 +769,6 @@ def main(argv: Sequence[str] | None = None) -> None:
         args.run(args)
     except ValueError as error:  # bad input: the message names the argument, no traceback needed
         raise SystemExit(f"error: {error}") from error
+    except OSError as error:  # a path that cannot be read or written: name it
+        where = f"{error.filename}: " if error.filename else ""
+        raise SystemExit(f"error: {where}{error.strerror or error}") from error

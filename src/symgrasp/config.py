@@ -14,6 +14,7 @@ import functools
 import inspect
 import itertools
 import math
+import numbers
 import textwrap
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -39,6 +40,34 @@ def field_docs(cls: type) -> dict[str, str]:
         and isinstance(doc.value, ast.Constant)
         and isinstance(doc.value.value, str)
     }
+
+
+SEED_MAX = 2**32 - 1
+"""Seeds are integers in [0, SEED_MAX] (what numpy and torch both accept)."""
+
+MAX_OBJECTS = 20
+"""Most objects a benchmark round drops into the 30 cm workspace (VGN drops 5)."""
+
+
+def check_range(name: str, value: Any, lo: float, hi: float, integer: bool = True) -> None:
+    """Raise ValueError naming ``name`` unless ``value`` is a finite number (an integer where
+    ``integer``) in [lo, hi]: arguments are checked before any work starts, with bounds where
+    memory or time would otherwise explode."""
+    kind = numbers.Integral if integer else numbers.Real
+    if not (isinstance(value, kind) and not isinstance(value, bool) and lo <= value <= hi):
+        what = "an integer" if integer else "a number"  # NaN fails the comparison too
+        raise ValueError(f"{name} must be {what} in [{_number(lo)}, {_number(hi)}], got {value!r}")
+
+
+def _number(x: float) -> str:
+    return str(x) if isinstance(x, int) else f"{x:g}"
+
+
+def _check_interval(name: str, value: tuple[float, float], lo: float, hi: float) -> None:
+    if len(value) != 2:
+        raise ValueError(f"{name} must be two numbers (low, high), got {value!r}")
+    check_range(f"{name}[0]", value[0], lo, hi, integer=False)
+    check_range(f"{name}[1]", value[1], value[0], hi, integer=False)
 
 
 DEFAULT_VALIDITY = 0.08
@@ -77,15 +106,18 @@ class DatabaseConfig:
     """Object displacement relative to the hand [m] that ends a ramp."""
 
     def __post_init__(self) -> None:
+        check_range("grasps", self.grasps, 1, 100_000)
         if self.max_candidates is None:
             object.__setattr__(self, "max_candidates", max(2000, 4 * self.grasps))
-        if self.grasps < 1 or self.max_candidates < self.grasps:
-            raise ValueError(
-                f"grasps must be ≥ 1 and max_candidates ≥ grasps, got {self.grasps}, "
-                f"{self.max_candidates}"
-            )
-        if self.directions < 4 or self.score_clip <= 0 or self.ramp_time <= 0:
-            raise ValueError("directions must be ≥ 4, score_clip and ramp_time positive")
+        check_range("max_candidates", self.max_candidates, self.grasps, 10**7)
+        check_range("surface_points", self.surface_points, 10, 10**6)
+        check_range("approach_cone", self.approach_cone, 0, math.pi / 2, integer=False)
+        check_range("tilt", self.tilt, 0, math.pi / 2, integer=False)
+        _check_interval("offset", self.offset, -0.1, 0.1)
+        check_range("directions", self.directions, 4, 1024)
+        check_range("score_clip", self.score_clip, 1e-3, 1e6, integer=False)
+        check_range("ramp_time", self.ramp_time, 1e-3, 60, integer=False)
+        check_range("slip", self.slip, 1e-4, 0.1, integer=False)
 
 
 @dataclass(frozen=True)
@@ -124,8 +156,15 @@ class SceneConfig:
         unknown = set(self.kinds) - set(SCENES)
         if not self.kinds or unknown:
             raise ValueError(f"kinds must be a non-empty subset of {SCENES}, got {self.kinds}")
-        if self.pool_size < 1 or self.mean_objects < 0 or self.max_objects < 1:
-            raise ValueError("pool_size and max_objects must be ≥ 1, mean_objects ≥ 0")
+        check_range("pool_size", self.pool_size, 1, 100_000)
+        check_range("pool_seed", self.pool_seed, 0, SEED_MAX)
+        check_range("mean_objects", self.mean_objects, 0, 30, integer=False)
+        check_range("max_objects", self.max_objects, 1, 30)
+        check_range("k_max", self.k_max, 1, 64)
+        _check_interval("camera_distance", self.camera_distance, 0.1, 5.0)
+        _check_interval("camera_polar", self.camera_polar, 0.0, math.pi / 2)
+        check_range("surface_spacing", self.surface_spacing, 5e-4, 0.05, integer=False)
+        check_range("clearance", self.clearance, -0.01, 0.05, integer=False)
 
     @property
     def hand(self) -> GripperSpec:
@@ -158,11 +197,12 @@ class NetworkConfig:
                 f"unknown rotation representation {self.representation!r}; "
                 f"known: {', '.join(REPRESENTATIONS)}"
             )
-        if len(self.widths) != 4 or any(int(w) < 1 for w in self.widths):
-            raise ValueError(f"widths must be 4 positive channel counts, got {self.widths}")
-        if self.features < 1:
-            raise ValueError(f"features must be positive, got {self.features}")
-        object.__setattr__(self, "widths", tuple(int(w) for w in self.widths))
+        if len(self.widths) != 4:
+            raise ValueError(f"widths must be 4 channel counts, got {self.widths}")
+        for width in self.widths:
+            check_range("widths", width, 1, 1024)
+        check_range("features", self.features, 1, 1024)
+        object.__setattr__(self, "widths", tuple(self.widths))
 
 
 @dataclass(frozen=True)
@@ -175,6 +215,10 @@ class LossWeights:
     """Weight of the score loss."""
     rotation: float = 1.0
     """Weight of the rotation loss."""
+
+    def __post_init__(self) -> None:
+        for name in ("validity", "score", "rotation"):
+            check_range(f"weight of the {name} loss", getattr(self, name), 0, 1e6, integer=False)
 
 
 @dataclass
@@ -213,16 +257,17 @@ class TrainConfig:
     """Weights of the loss terms."""
 
     def __post_init__(self) -> None:
-        for name in ("epochs", "batch_size"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be ≥ 1, got {getattr(self, name)}")
-        if not self.lr > 0:
-            raise ValueError(f"lr must be positive, got {self.lr}")
-        if self.workers < 0:
-            raise ValueError(f"workers must be ≥ 0, got {self.workers}")
+        if not self.data or not self.out:
+            raise ValueError(f"data and out must be folder paths, got {self.data!r}, {self.out!r}")
+        check_range("epochs", self.epochs, 1, 100_000)
+        check_range("batch_size", self.batch_size, 1, 4096)
+        check_range("lr", self.lr, 1e-12, 10.0, integer=False)
+        check_range("seed", self.seed, 0, SEED_MAX)
+        check_range("workers", self.workers, 0, 64)
         if isinstance(self.loss_weights, dict):
             self.loss_weights = LossWeights(**self.loss_weights)
         self.widths = tuple(self.widths)
+        NetworkConfig(self.representation, self.widths, self.features)  # checks them
 
     @property
     def network(self) -> NetworkConfig:
@@ -252,8 +297,6 @@ class BenchmarkConfig:
     """Draw every attempt into pictures/seed_NNNN/ of the output folder."""
 
     def __post_init__(self) -> None:
-        if self.rounds < 1 or self.num_objects < 1 or self.seed < 0:
-            raise ValueError(
-                f"rounds and num_objects must be ≥ 1 and seed ≥ 0, got {self.rounds}, "
-                f"{self.num_objects}, {self.seed}"
-            )
+        check_range("num_objects", self.num_objects, 1, MAX_OBJECTS)
+        check_range("rounds", self.rounds, 1, 100_000)
+        check_range("seed", self.seed, 0, SEED_MAX - self.rounds)

@@ -117,7 +117,6 @@ def show_scene(root: str | Path, scene_id: int, out: str | Path | None = None) -
     ax2.set_title("depth [m]")
     ax2.axis("off")
     fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=100)
+    write_atomic(out, lambda file: fig.savefig(file, format="png", dpi=100))
     plt.close(fig)
     return out

@@ -157,7 +157,17 @@ class GraspDataset(Dataset):
         manifest = self.root / "manifest.json"
         if not manifest.exists():
             raise ValueError(f"root must be a dataset folder with manifest.json, got {root}")
-        self.manifest: dict = json.loads(manifest.read_text())
+        try:
+            self.manifest: dict = json.loads(manifest.read_text())
+        except json.JSONDecodeError as err:
+            raise ValueError(f"{manifest} is not a dataset manifest: {err}") from None
+        on_disk = len(list((self.root / "scenes").glob("scene_*.npz")))
+        if on_disk > len(self.manifest["scene_ids"]):
+            raise ValueError(
+                f"{root} is an unfinished dataset: {on_disk} scene files on disk, "
+                f"{len(self.manifest['scene_ids'])} in its manifest; finish it with "
+                "`symgrasp data generate ... --resume` (same options)"
+            )
         self.gripper: str = self.manifest["gripper"]
         self.object_set: str = self.manifest["object_set"]
         self.k_max: int = int(self.manifest["k_max"])

@@ -28,7 +28,7 @@ import numpy as np
 from tqdm import tqdm
 
 from symgrasp.atomic import write_atomic
-from symgrasp.config import DatabaseConfig, SceneConfig
+from symgrasp.config import SEED_MAX, DatabaseConfig, SceneConfig, check_range
 from symgrasp.data.dataset import load_scene, scene_path
 from symgrasp.data.grasp_db import GraspDatabase, cached_database
 from symgrasp.data.scenes import make_scene_record
@@ -127,6 +127,18 @@ def _run(
     bar.close()
 
 
+MAX_SCENES = 10_000_000
+"""Most scenes one dataset holds (≈ 10 GB of scene files at the default size)."""
+
+
+def _of_a_dataset(name: str) -> bool:
+    """Whether a dataset folder's entry may be called ``name`` (what generate, the card and
+    `symgrasp data show` write there)."""
+    return name in ("manifest.json", "db", "scenes", "card.json", "card.png") or (
+        name.startswith("scene_") and name.endswith(".png")
+    )
+
+
 def check_names(object_set: str, gripper: str) -> None:
     """Raise ValueError listing the known names if either is unknown."""
     if object_set not in OBJECT_SETS:
@@ -148,10 +160,21 @@ def generate(
     a dataset of another configuration or seed.
     """
     check_names(cfg.object_set, cfg.gripper)
-    if scenes < 1 or workers < 1:
-        raise ValueError(f"scenes and workers must be ≥ 1, got {scenes}, {workers}")
+    check_range("scenes", scenes, 1, MAX_SCENES)
+    check_range("workers", workers, 1, 256)
+    check_range("seed", seed, 0, SEED_MAX)
+    if not str(out).strip():
+        raise ValueError("out must name a dataset folder, got an empty path")
     root = Path(out)
+    if root.exists() and not root.is_dir():
+        raise ValueError(f"out {root} is a file, not a folder")
     manifest_path = root / "manifest.json"
+    foreign = sorted(p.name for p in root.glob("*") if not _of_a_dataset(p.name))
+    if foreign and not manifest_path.exists():
+        raise ValueError(
+            f"out {root} holds files that are not a symgrasp dataset ({', '.join(foreign[:3])}"
+            f"{', …' if len(foreign) > 3 else ''}); choose an empty or new folder"
+        )
     if manifest_path.exists():
         old = json.loads(manifest_path.read_text())
         if not resume:

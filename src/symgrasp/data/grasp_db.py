@@ -17,6 +17,8 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import warnings
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -273,7 +275,10 @@ def cached_database(
     key = database_key(obj, gripper, cfg, seed)
     path = Path(cache_dir) / f"{obj.name}_{gripper.name}_{key}.npz"
     if path.exists():
-        return GraspDatabase.load(path)
+        try:
+            return GraspDatabase.load(path)
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
+            warnings.warn(f"recomputing the corrupted grasp database {path} ({err})", stacklevel=2)
     db = build_database(obj, gripper, cfg, seed)
     db.save(path)
     return db

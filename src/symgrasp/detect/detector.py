@@ -21,7 +21,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from symgrasp.config import DEFAULT_VALIDITY
+from symgrasp.config import DEFAULT_VALIDITY, SEED_MAX, check_range
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.device import resolve_device
@@ -32,6 +32,13 @@ from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 Tensor = torch.Tensor
+
+
+MAX_SAMPLES_PER_VOXEL = 1000
+"""Most closing axes drawn per voxel (each is one grasp)."""
+
+MAX_MEDIAN_DEPTH = 10.0
+"""[m] a depth image whose median is farther than this is taken for one in other units."""
 
 
 class GraspDetector:
@@ -76,8 +83,7 @@ class GraspDetector:
         info: dict[str, Any] | None = None,
     ) -> None:
         self.representation = model.representation
-        if not 0.0 <= validity_threshold <= 1.0:
-            raise ValueError(f"validity_threshold must be in [0, 1], got {validity_threshold}")
+        check_range("validity_threshold", validity_threshold, 0.0, 1.0, integer=False)
         if confidence_threshold is None:
             confidence_threshold = self.representation.default_confidence
         elif not (
@@ -93,10 +99,15 @@ class GraspDetector:
                 f"confidence_threshold needs a representation with a confidence; this model is "
                 f"{self.representation.name!r} (pass None or 0)"
             )
-        if nms_radius < 0 or (top_k is not None and top_k < 1) or samples_per_voxel < 0:
+        check_range("nms_radius", nms_radius, 0, RESOLUTION)
+        if top_k is not None:
+            check_range("top_k", top_k, 1, RESOLUTION**3 * MAX_SAMPLES_PER_VOXEL)
+        check_range("samples_per_voxel", samples_per_voxel, 0, MAX_SAMPLES_PER_VOXEL)
+        check_range("seed", seed, 0, SEED_MAX)
+        origin = np.asarray(workspace_origin, dtype=float)
+        if origin.shape != (3,) or not np.isfinite(origin).all():
             raise ValueError(
-                "nms_radius and samples_per_voxel must be ≥ 0 and top_k ≥ 1 or None, "
-                f"got {nms_radius}, {samples_per_voxel}, {top_k}"
+                f"workspace_origin must be 3 finite numbers [m], got {workspace_origin}"
             )
         if samples_per_voxel and not self.representation.has_distribution:
             raise ValueError(
@@ -112,7 +123,7 @@ class GraspDetector:
         self.top_k = top_k
         self.bounds = None if bounds is None else _check_bounds(bounds)
         self.samples_per_voxel = int(samples_per_voxel)
-        self.origin = np.asarray(workspace_origin, dtype=float).reshape(3)
+        self.origin = origin
         self.voxel_size = VOXEL_SIZE
         self.seed = seed
         self.info = info or {}
@@ -161,10 +172,7 @@ class GraspDetector:
         cameras ``intrinsic`` (a `CameraIntrinsic` or a 3×3 matrix) at ``extrinsic``
         ``T_world_camera`` (4, 4) or (V, 4, 4). NaN, inf and non-positive pixels count as
         missing."""
-        depth = np.asarray(torch.as_tensor(depth).cpu(), dtype=np.float32)
-        if depth.ndim not in (2, 3) or min(depth.shape) == 0:
-            raise ValueError(f"depth must be (H, W) or (V, H, W), got shape {depth.shape}")
-        depth = np.where(np.isfinite(depth) & (depth > 0), depth, 0.0)
+        depth = _depth_in_metres(depth)
         views = depth.reshape(-1, *depth.shape[-2:])
         intrinsic = _as_intrinsic(intrinsic, views.shape[1:])
         T = _check_extrinsic(extrinsic, len(views))
@@ -287,6 +295,31 @@ class GraspDetector:
                 pose[:3, :3], pose[:3, 3] = R, centres[m]
                 grasps.append(Grasp(pose, score[m], validity[m], conf[m], voxels[m]))
         return grasps
+
+
+def _depth_in_metres(depth: np.ndarray | Tensor) -> np.ndarray:
+    """``depth`` as float32 (H, W) or (V, H, W) [m] with 0 where nothing was seen; refuses
+    what is likely not metres (an integer image, a median over 10 m: millimetres or raw
+    sensor units would otherwise silently give no grasp)."""
+    raw = depth.cpu().numpy() if isinstance(depth, Tensor) else np.asarray(depth)
+    if raw.ndim == 3 and raw.shape[-1] == 1:  # (H, W, 1): one image with a channel axis
+        raw = raw[..., 0]
+    if raw.ndim not in (2, 3) or min(raw.shape) == 0:
+        raise ValueError(f"depth must be (H, W), (H, W, 1) or (V, H, W), got shape {raw.shape}")
+    if not np.issubdtype(raw.dtype, np.floating):
+        raise ValueError(
+            f"depth must be floating point metres, got {raw.dtype} (a raw sensor image? "
+            "multiply it by its scale, e.g. 0.001 for millimetres)"
+        )
+    depth = raw.astype(np.float32)
+    seen = np.isfinite(depth) & (depth > 0)
+    if seen.any() and np.median(depth[seen]) > MAX_MEDIAN_DEPTH:
+        raise ValueError(
+            f"depth must be in metres; its median over the seen pixels is "
+            f"{np.median(depth[seen]):.1f}, over {MAX_MEDIAN_DEPTH:g} m (millimetres? multiply "
+            "by 0.001)"
+        )
+    return np.where(seen, depth, 0.0)
 
 
 def _ms_since(start: float, device: torch.device) -> float:

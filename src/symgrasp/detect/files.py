@@ -37,14 +37,21 @@ def load_depth(path: str | Path, png_scale: float = 0.001) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"depth: no file at {path}")
-    if path.suffix == ".npy":
-        depth = np.load(path)
-    elif path.suffix == ".png":
-        depth = np.asarray(Image.open(path)).astype(np.float64) * png_scale
-    else:
+    if path.suffix not in (".npy", ".png"):
         raise ValueError(f"depth must be a .npy or .png file, got {path}")
+    try:
+        if path.suffix == ".npy":
+            depth = np.asarray(np.load(path), dtype=np.float64)
+        else:
+            depth = np.asarray(Image.open(path)).astype(np.float64) * png_scale
+    except (OSError, ValueError, EOFError, TypeError) as err:
+        raise ValueError(f"depth: cannot read an image from {path} ({err})") from None
+    if depth.ndim == 3 and depth.shape[-1] == 1:
+        depth = depth[..., 0]
     if depth.ndim != 2:
-        raise ValueError(f"depth must be one (H, W) image, got shape {depth.shape} from {path}")
+        raise ValueError(
+            f"depth must be one (H, W) or (H, W, 1) image, got shape {depth.shape} from {path}"
+        )
     return depth.astype(np.float32)
 
 
@@ -59,22 +66,37 @@ def _load_json(path: str | Path, what: str) -> Any:
 def load_intrinsic(path: str | Path, shape: tuple[int, int]) -> CameraIntrinsic:
     """The camera intrinsic of images of ``shape`` (H, W) from a JSON file."""
     data = _load_json(path, "intrinsic")
-    if isinstance(data, dict) and "fx" in data:
-        return CameraIntrinsic(
-            int(data.get("width", shape[1])),
-            int(data.get("height", shape[0])),
-            *(float(data[k]) for k in ("fx", "fy", "cx", "cy")),
-        )
-    K = np.asarray(data["K"] if isinstance(data, dict) else data, dtype=float)
-    if K.shape != (3, 3):
-        raise ValueError(f"intrinsic in {path} must be a 3×3 matrix, got shape {K.shape}")
-    return CameraIntrinsic(shape[1], shape[0], K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+    try:
+        if isinstance(data, dict) and "K" not in data:
+            return CameraIntrinsic(
+                int(data.get("width", shape[1])),
+                int(data.get("height", shape[0])),
+                *(float(data[k]) for k in ("fx", "fy", "cx", "cy")),
+            )
+        K = np.asarray(data["K"] if isinstance(data, dict) else data, dtype=float)
+        if K.shape != (3, 3):
+            raise ValueError(f"a 3×3 matrix is needed, got shape {K.shape}")
+        return CameraIntrinsic(shape[1], shape[0], K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+    except (KeyError, TypeError, ValueError) as err:
+        raise ValueError(
+            f'intrinsic {path}: expected {{"fx", "fy", "cx", "cy"[, "width", "height"]}} or a '
+            f'3×3 matrix (bare or under "K"); {type(err).__name__}: {err}'
+        ) from None
 
 
 def load_extrinsic(path: str | Path) -> np.ndarray:
     """``T_world_camera`` (4, 4) from a JSON file (checked for rigidity by the detector)."""
     data = _load_json(path, "extrinsic")
-    return np.asarray(data["T_world_camera"] if isinstance(data, dict) else data, dtype=float)
+    try:
+        T = np.asarray(data["T_world_camera"] if isinstance(data, dict) else data, dtype=float)
+    except (KeyError, TypeError, ValueError) as err:
+        raise ValueError(
+            f'extrinsic {path}: expected a 4×4 matrix (bare or under "T_world_camera"); '
+            f"{type(err).__name__}: {err}"
+        ) from None
+    if T.shape != (4, 4):
+        raise ValueError(f"extrinsic {path}: expected a 4×4 matrix, got shape {T.shape}")
+    return T
 
 
 def grasp_record(grasp: Grasp) -> dict[str, Any]:
@@ -115,7 +137,9 @@ def write_detection(
     poses = np.array([g.pose for g in shown]).reshape(-1, 4, 4)
     scores = np.array([g.score for g in shown])
     title = f"{len(grasps)} grasps ({detector.representation.name}, {detector.gripper.name})"
-    save_grasps_png(paths["png"], points, poses, scores, detector.gripper, title=title, highlight=0)
+    best = 0 if grasps else None
+    png = paths["png"]
+    save_grasps_png(png, points, poses, scores, detector.gripper, title=title, highlight=best)
     save_grasps_html(
         paths["html"],
         points,

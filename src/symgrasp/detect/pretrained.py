@@ -38,6 +38,8 @@ def resolve_model(name_or_path: str | Path) -> Path:
 
 def export_model(checkpoint: str | Path, out: str | Path) -> Path:
     """Write ``checkpoint`` without its optimizer state to ``out`` (what gets shipped)."""
+    if Path(out).is_dir():
+        raise ValueError(f"out {out} is a folder; give the .pt file to write")
     state = load_checkpoint(checkpoint)
     state.pop("optimizer", None)
     state.pop("format", None)

@@ -46,7 +46,7 @@ Collate = Callable[[list[dict[str, Tensor]]], dict[str, Tensor]]
 def open_dataset(config: TrainConfig) -> tuple[Dataset, Dataset, Collate]:
     """The train and val splits of ``config.data`` and their collate function."""
     try:
-        from symgrasp.data.dataset import GraspDataset, collate_scenes
+        from symgrasp.data.dataset import VAL_EVERY, GraspDataset, collate_scenes
     except ImportError as error:
         raise RuntimeError(
             "symgrasp.data is needed to read a dataset folder; it is not installed"
@@ -54,6 +54,12 @@ def open_dataset(config: TrainConfig) -> tuple[Dataset, Dataset, Collate]:
 
     train_set = GraspDataset(config.data, split="train", augment=config.augment, seed=config.seed)
     val_set = GraspDataset(config.data, split="val", augment=False, seed=config.seed)
+    if not len(train_set) or not len(val_set):
+        raise ValueError(
+            f"dataset {config.data} has {len(train_set)} training and {len(val_set)} validation "
+            f"scenes; both are needed (every {VAL_EVERY}th scene id is held out for validation, "
+            f"so generate at least {VAL_EVERY} scenes)"
+        )
     return train_set, val_set, collate_scenes
 
 
@@ -125,6 +131,7 @@ def train(
         bar.set_description(f"epoch {epoch + 1}/{config.epochs}")
         train_losses = _train_epoch(model, optimizer, train_loader, config, device, bar)
         val_losses, metrics = evaluate(model, val_loader, config.loss_weights, device)
+        _check_finite(torch.tensor(val_losses["total"]), "validation loss", config)
         row = {
             "epoch": epoch + 1,
             **{f"train_{k}": v for k, v in train_losses.items()},
@@ -159,6 +166,17 @@ def train(
         )
     bar.close()
     return history
+
+
+def _check_finite(loss: Tensor, what: str, config: TrainConfig) -> None:
+    """Stop a diverged run before a non-finite loss reaches the weights or a checkpoint."""
+    if not torch.isfinite(loss):
+        kept = Path(config.out) / "last.pt"
+        raise ValueError(
+            f"training diverged: the {what} is {loss.item()} (lr {config.lr}; try a smaller "
+            "--lr); "
+            + (f"{kept} holds the last finite epoch" if kept.exists() else "no epoch finished")
+        )
 
 
 def _check_resume(state: dict[str, Any], train_set: Any, config: TrainConfig) -> None:
@@ -206,6 +224,7 @@ def _train_epoch(
         with _autocast(device):
             output = model(batch["tsdf"])
         losses = grasp_losses(output, batch, model.representation, config.loss_weights)
+        _check_finite(losses["total"], f"training loss at step {step}", config)
         optimizer.zero_grad(set_to_none=True)
         losses["total"].backward()
         optimizer.step()

@@ -32,8 +32,10 @@ class CameraIntrinsic:
     def __post_init__(self) -> None:
         if self.width <= 0 or self.height <= 0:
             raise ValueError(f"width and height must be positive, got {self.width}×{self.height}")
-        if self.fx <= 0 or self.fy <= 0:
-            raise ValueError(f"fx and fy must be positive, got {self.fx}, {self.fy}")
+        if not (self.fx > 0 and self.fy > 0 and np.isfinite([self.fx, self.fy]).all()):
+            raise ValueError(f"fx and fy must be positive and finite, got {self.fx}, {self.fy}")
+        if not np.isfinite([self.cx, self.cy]).all():
+            raise ValueError(f"cx and cy must be finite, got {self.cx}, {self.cy}")
 
     @property
     def K(self) -> np.ndarray:

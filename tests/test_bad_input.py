@@ -1,0 +1,204 @@
+"""Bad input, table-driven: every case ends with a non-zero exit and one line that names the
+argument or file (command line), or a ValueError/TypeError with a message (API); never a
+traceback, a hang or a silently wrong run. Arguments are checked before any work starts, so
+each case takes well under a second."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from symgrasp.cli import main
+from symgrasp.detect.pretrained import shipped_path
+
+SHIPPED = "bingham2d-robotiq-2f85"
+
+
+@pytest.fixture
+def files(tmp_path):
+    """Valid and broken input files in ``tmp_path``, by name."""
+    depth = np.full((48, 64), 0.6, dtype=np.float32)
+    np.save(tmp_path / "depth.npy", depth)
+    np.save(tmp_path / "depth_mm.npy", depth * 1000)
+    (tmp_path / "intrinsic.json").write_text(json.dumps({"fx": 50, "fy": 50, "cx": 32, "cy": 24}))
+    (tmp_path / "no_fx.json").write_text(json.dumps({"fy": 50, "cx": 32, "cy": 24}))
+    (tmp_path / "extrinsic.json").write_text(json.dumps(np.eye(4).tolist()))
+    (tmp_path / "garbage.pt").write_bytes(b"not a checkpoint at all")
+    whole = shipped_path(SHIPPED).read_bytes()
+    (tmp_path / "truncated.pt").write_bytes(whole[: len(whole) // 2])
+    (tmp_path / "garbage.npy").write_bytes(b"\x93NUMPY garbage")
+    (tmp_path / "a_file").write_text("x")
+    (tmp_path / "unrelated").mkdir()
+    (tmp_path / "unrelated" / "notes.txt").write_text("mine")
+    (tmp_path / "folder").mkdir()
+    unfinished = tmp_path / "unfinished"
+    (unfinished / "scenes").mkdir(parents=True)
+    manifest = {"gripper": "franka", "object_set": "blocks", "k_max": 8, "scene_ids": []}
+    (unfinished / "manifest.json").write_text(json.dumps(manifest))
+    (unfinished / "scenes" / "scene_000000.npz").write_bytes(b"")
+    return tmp_path
+
+
+def _detect(d, *extra, depth="depth.npy", intrinsic="intrinsic.json", model=SHIPPED):
+    return ["detect", "--depth", str(d / depth), "--intrinsic", str(d / intrinsic),
+            "--extrinsic", str(d / "extrinsic.json"), "--model", str(model),
+            "--out", str(d / "out"), *extra]  # fmt: skip
+
+
+CLI = {
+    # argument ranges and names, refused by the parser
+    "bench --workers 0": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--workers", "0"], "--workers"),
+    "bench --num-objects 1000": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--num-objects", "1000"], "num_objects"),
+    "bench --objects bogus": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--objects", "bogus"], "--objects"),
+    "bench --confidence nan": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--confidence", "nan"], "--confidence"),
+    "bench --validity 2": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--validity", "2"], "--validity"),
+    "bench --seed 2**70": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--seed", str(2**70)], "seed"),
+    "bench --rounds 0": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--rounds", "0"], "rounds"),
+    "data generate --k-max 0": (lambda d: ["data", "generate", "--out", str(d / "g"), "--k-max", "0"], "k_max"),
+    "data generate --seed -1": (lambda d: ["data", "generate", "--out", str(d / "g"), "--seed", "-1"], "--seed"),
+    "data generate --scenes 10**12": (lambda d: ["data", "generate", "--out", str(d / "g"), "--scenes", str(10**12)], "--scenes"),
+    "data generate --grasps 0": (lambda d: ["data", "generate", "--out", str(d / "g"), "--grasps", "0"], "grasps"),
+    "data generate --kinds heap": (lambda d: ["data", "generate", "--out", str(d / "g"), "--kinds", "heap"], "--kinds"),
+    "data generate --camera-distance 0.7 0.4": (lambda d: ["data", "generate", "--out", str(d / "g"), "--camera-distance", "0.7", "0.4"], "camera_distance"),
+    "train --lr inf": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--lr", "inf"], "lr"),
+    "train --epochs 0": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--epochs", "0"], "epochs"),
+    "train --widths 0 1 2 3": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--widths", "0", "1", "2", "3"], "widths"),
+    "detect --samples-per-voxel 10**6": (lambda d: _detect(d, "--samples-per-voxel", str(10**6)), "--samples-per-voxel"),
+    "detect --top-k 0": (lambda d: _detect(d, "--top-k", "0"), "--top-k"),
+    "detect --workspace-origin nan": (lambda d: _detect(d, "--workspace-origin", "nan", "0", "0"), "--workspace-origin"),
+    "figures percentiles --samples 10**12": (lambda d: ["figures", "percentiles", "--samples", str(10**12), "--out", str(d)], "--samples"),
+    "figures distribution --height nan": (lambda d: ["figures", "distribution", "--model", SHIPPED, "--height", "nan", "--out", str(d)], "--height"),
+    "sim show --n 1000": (lambda d: ["sim", "show", "--n", "1000", "--out", str(d)], "--n"),
+    "demo --num-objects 1000": (lambda d: ["demo", "--num-objects", "1000", "--out", str(d)], "--num-objects"),
+    "an unknown command": (lambda d: ["declutter"], "declutter"),
+    # files: named in the message
+    "data generate --out ''": (lambda d: ["data", "generate", "--out", ""], "out"),
+    "data generate --out a file": (lambda d: ["data", "generate", "--out", str(d / "a_file")], "a_file"),
+    "data generate --out unrelated files": (lambda d: ["data", "generate", "--out", str(d / "unrelated")], "not a symgrasp dataset"),
+    "data inspect unfinished": (lambda d: ["data", "inspect", str(d / "unfinished")], "unfinished"),
+    "data inspect not a dataset": (lambda d: ["data", "inspect", str(d / "folder")], "manifest"),
+    "detect intrinsic without fx": (lambda d: _detect(d, intrinsic="no_fx.json"), "no_fx.json"),
+    "detect missing depth": (lambda d: _detect(d, depth="nothing.npy"), "nothing.npy"),
+    "detect garbage depth": (lambda d: _detect(d, depth="garbage.npy"), "garbage.npy"),
+    "detect depth in millimetres": (lambda d: _detect(d, depth="depth_mm.npy"), "metres"),
+    "detect garbage checkpoint": (lambda d: _detect(d, model=d / "garbage.pt"), "garbage.pt"),
+    "detect truncated checkpoint": (lambda d: _detect(d, model=d / "truncated.pt"), "truncated.pt"),
+    "detect unknown model": (lambda d: _detect(d, model="bingham9d-hand"), "bingham9d-hand"),
+    "detect --out under a file": (lambda d: [*_detect(d)[:-1], str(d / "a_file" / "out")], "a_file"),
+    "export into a folder": (lambda d: ["export", str(shipped_path(SHIPPED)), str(d / "folder")], "folder"),
+    "export a garbage checkpoint": (lambda d: ["export", str(d / "garbage.pt"), str(d / "x.pt")], "garbage.pt"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", CLI)
+def test_command_line(case, files, capsys):
+    argv, named = CLI[case]
+    with pytest.raises(SystemExit) as exit_:
+        main(argv(files))
+    code = exit_.value.code
+    captured = capsys.readouterr()
+    message = code if isinstance(code, str) else captured.err.strip()
+    assert code not in (0, None), message
+    assert "Traceback" not in captured.err + captured.out
+    assert len(message.splitlines()) == 1, message
+    assert named in message
+    assert "error" in message
+    assert not list(files.rglob("*.tmp")), "a temporary file was left behind"
+
+
+def test_detect_with_no_grasp_is_an_answer(files, capsys):
+    """An empty table (a flat depth image) is a valid scene: exit 0, zero grasps, pictures."""
+    main(_detect(files, "--validity", "1.0"))
+    assert "no grasp found" in capsys.readouterr().out
+    assert json.loads((files / "out" / "grasps.json").read_text())["grasps"] == []
+    assert (files / "out" / "grasps.png").stat().st_size > 0
+
+
+def test_data_show_writes_the_path_it_prints(tmp_path, capsys):
+    from symgrasp.model.synthetic import SyntheticGraspDataset  # noqa: F401  (torch present)
+
+    dataset = tmp_path / "d"
+    main(["data", "generate", "--objects", "blocks", "--gripper", "franka", "--pool-size", "1",
+          "--grasps", "5", "--directions", "4", "--scenes", "1", "--out", str(dataset)])  # fmt: skip
+    capsys.readouterr()
+    main(["data", "show", str(dataset), "--out", str(tmp_path / "picture")])
+    printed = capsys.readouterr().out.strip()
+    assert printed == str(tmp_path / "picture") and (tmp_path / "picture").stat().st_size > 0
+
+
+# -- the Python API ------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def detector():
+    from symgrasp.detect import GraspDetector
+
+    return GraspDetector.from_pretrained(SHIPPED, device="cpu")
+
+
+def _construct(**options):
+    from symgrasp.detect import GraspDetector
+
+    return GraspDetector.from_pretrained(SHIPPED, device="cpu", **options)
+
+
+API = {
+    "confidence_threshold=nan": (lambda d: _construct(confidence_threshold=float("nan")), "confidence_threshold"),
+    "top_k=2.5": (lambda d: _construct(top_k=2.5), "top_k"),
+    "nms_radius=1.5": (lambda d: _construct(nms_radius=1.5), "nms_radius"),
+    "samples_per_voxel=2.5": (lambda d: _construct(samples_per_voxel=2.5), "samples_per_voxel"),
+    "samples_per_voxel=10**6": (lambda d: _construct(samples_per_voxel=10**6), "samples_per_voxel"),
+    "validity_threshold=nan": (lambda d: _construct(validity_threshold=float("nan")), "validity_threshold"),
+    "workspace_origin nan": (lambda d: _construct(workspace_origin=(float("nan"), 0, 0)), "workspace_origin"),
+    "gripper=bogus": (lambda d: _construct(gripper="bogus"), "bogus"),
+    "depth in millimetres": (lambda d: d.detect(np.full((48, 64), 600.0), np.diag([50.0, 50, 1]), np.eye(4)), "metres"),
+    "raw uint16 depth": (lambda d: d.detect(np.full((48, 64), 600, np.uint16), np.diag([50.0, 50, 1]), np.eye(4)), "uint16"),
+    "NaN intrinsics": (lambda d: d.detect(np.full((48, 64), 0.6), np.diag([np.nan, 50, 1]), np.eye(4)), "fx"),
+    "depth (H, W, 2)": (lambda d: d.detect(np.full((48, 64, 2), 0.6), np.diag([50.0, 50, 1]), np.eye(4)), "depth"),
+    "extrinsic not rigid": (lambda d: d.detect(np.full((48, 64), 0.6), np.diag([50.0, 50, 1]), 2 * np.eye(4)), "extrinsic"),
+    "unknown object set": (lambda d: __import__("symgrasp.sim", fromlist=["x"]).object_set("kitchen", 3), "household-train"),
+    "unknown gripper": (lambda d: __import__("symgrasp.sim", fromlist=["x"]).get_gripper("shadow"), "robotiq-2f85"),
+    "unknown representation": (lambda d: __import__("symgrasp.rotation", fromlist=["x"]).get("rotmat9d"), "bingham2d"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", API)
+def test_api(case, detector):
+    call, named = API[case]
+    with pytest.raises((ValueError, TypeError), match=named):
+        call(detector)
+
+
+def test_a_depth_image_with_a_channel_axis_is_one_image(detector):
+    K, T = np.diag([50.0, 50, 1]), np.eye(4)
+    depth = np.full((48, 64), 0.6, dtype=np.float32)
+    flat = detector.fuse(depth, K, T).grid()
+    channel = detector.fuse(depth[..., None], K, T).grid()
+    assert np.array_equal(flat.cpu().numpy(), channel.cpu().numpy())
+
+
+def test_a_corrupted_grasp_database_cache_is_recomputed(tmp_path):
+    from symgrasp.config import DatabaseConfig
+    from symgrasp.data.grasp_db import cached_database, database_key
+    from symgrasp.sim import FRANKA, object_set
+
+    obj = object_set("blocks", 1)[0]
+    cfg = DatabaseConfig(grasps=3, max_candidates=10, directions=4)
+    good = cached_database(obj, FRANKA, tmp_path, cfg)
+    path = tmp_path / f"{obj.name}_{FRANKA.name}_{database_key(obj, FRANKA, cfg, 0)}.npz"
+    path.write_bytes(b"PK\x03\x04 truncated")
+    with pytest.warns(UserWarning, match="recomputing the corrupted grasp database"):
+        again = cached_database(obj, FRANKA, tmp_path, cfg)
+    np.testing.assert_array_equal(again.T_object_tcp, good.T_object_tcp)
+    shutil.rmtree(tmp_path)
+
+
+def test_training_needs_a_validation_split(tmp_path, capsys):
+    dataset = tmp_path / "d"
+    main(["data", "generate", "--objects", "blocks", "--gripper", "franka", "--pool-size", "1",
+          "--grasps", "5", "--directions", "4", "--scenes", "2", "--out", str(dataset)])  # fmt: skip
+    with pytest.raises(SystemExit, match="0 validation scenes"):
+        main(["train", "--data", str(dataset), "--gripper", "franka", "--out", str(tmp_path / "r")])
