@@ -132,11 +132,11 @@ def main() -> None:
             results[name]["target_ms"] = target
             results[name]["meets_target"] = results[name]["median_ms"] <= target
 
+    command = [Path(sys.executable).name, *sys.argv]
+    if "PYTHONPATH" in os.environ:
+        command.insert(0, f"PYTHONPATH={os.environ['PYTHONPATH']}")
     report = {
-        "command": " ".join(
-            [f"PYTHONPATH={os.environ['PYTHONPATH']}"] * ("PYTHONPATH" in os.environ)
-            + [Path(sys.executable).name, *sys.argv]
-        ),
+        "command": " ".join(command),
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "machine": machine,
         "results": results,
