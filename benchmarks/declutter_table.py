@@ -106,12 +106,13 @@ def markdown(rows: list[dict[str, Any]]) -> str:
                  "|---|---|" + "---|" * (len(MODES) + 1)]  # fmt: skip
         for row in rows:
             if row["key"][0] == gripper and row["summary"] and row["summary"]["modes"]:
-                counts = [str(row["summary"]["modes"].get(mode, 0)) for mode in MODES]
-                share = row["summary"]["modes"].get("wrong_yaw", 0) / row["summary"]["executed"]
+                modes, executed = row["summary"]["modes"], row["summary"]["executed"]
+                counts = [str(modes.get(mode, 0)) for mode in MODES]
+                share = f"{modes.get('wrong_yaw', 0) / executed:.0%}" if executed else "–"
                 text.append(
                     f"| {label(*row['key'][1:])} | {row['objects']} | "
                     + " | ".join(counts)
-                    + f" | {share:.0%} |"
+                    + f" | {share} |"
                 )
         text += ["", *family_table(rows, gripper), ""]
     return "\n".join(text)
