@@ -1,11 +1,13 @@
 """Wall-clock cost of the simulation world's real code paths → benchmarks/results/sim.json.
 
     PYTHONPATH=src python benchmarks/sim.py [--repeats 20] [--out benchmarks/results/sim.json]
+        [--quick [DIR]]
 
 Times one grasp trial per gripper (a top grasp on a settled box, object removal included),
 a 5-object pile (generation, settling with the walls, their removal, settling again), one
 640×480 depth render (OpenGL where it works, and the ray-cast fallback) and one TSDF fusion
 of that image into the 40³ grid. Reports medians over ``--repeats`` runs after one warm-up.
+``--quick`` times every case twice after its warm-up.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import cpu_model
+from common import cpu_model, parse_args
 
 from symgrasp.perception import (
     CameraIntrinsic,
@@ -81,7 +83,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=20, help="timed runs per case")
     parser.add_argument("--out", default="benchmarks/results/sim.json", help="JSON output path")
-    args = parser.parse_args()
+    args = parse_args(parser, outputs=("out",), quick={"repeats": 2})
     machine = _machine()  # before the load we create ourselves
 
     results: dict[str, object] = {}
