@@ -7,6 +7,7 @@ All methods run in one process on the same random eigenvalues: B = 100 000 float
 sets with log-uniform concentrations in [1e-3, 1e6] (one eigenvalue 0), timed for the value and
 its gradient (forward + backward), median of repeats. Accuracy is the maximum relative error of C
 against mpmath (`symgrasp.bingham.reference`) on a log-spaced grid over [−1e6, 0]^{d−1}.
+``--quick`` runs everything once on a small batch and a coarse grid.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import cpu_model
+from common import cpu_model, parse_args
 from tqdm import tqdm
 
 from symgrasp.bingham import Bingham, eigh3, log_normalizer, nll, triu_to_sym
@@ -174,7 +175,9 @@ def main() -> None:
     parser.add_argument(
         "--out", type=Path, default=RESULTS, help=f"JSON output (default {RESULTS})"
     )
-    args = parser.parse_args()
+    args = parse_args(
+        parser, outputs=("out",), quick={"batch": 1000, "repeats": 1, "grid": 2, "grid_s3": 2}
+    )
 
     result: dict = {
         "command": " ".join([Path(sys.executable).name, *sys.argv]),
@@ -223,7 +226,7 @@ def main() -> None:
                     ("bessel I0e", bessel_candidate),
                 ]
             }
-    result["loss"] = loss_and_eigen_timings(65_536, args.seed, args.repeats)
+    result["loss"] = loss_and_eigen_timings(min(args.batch, 65_536), args.seed, args.repeats)
     result["sampler"] = {
         "S2": sampler_throughput(args.batch, 3, 10, args.seed, args.repeats),
         "S3": sampler_throughput(args.batch, 4, 10, args.seed, args.repeats),

@@ -1,17 +1,21 @@
 """Cost and quality of dataset generation → benchmarks/results/data.json.
 
     PYTHONPATH=src python benchmarks/data.py [--pool 4] [--scenes 100] [--workers 2] \
-        [--validate 100] [--out benchmarks/results/data.json]
+        [--validate 100] [--out benchmarks/results/data.json] [--quick [DIR]]
 
 Measures, on a few objects and at most a few hundred scenes (the 2 000-scene target is
 extrapolated from them, as stated in the JSON):
 
-- seconds per object database (default configuration: 300 settled grasps, 32 directions),
-  per gripper, each built alone in this process;
+- seconds per object database (``--grasps`` settled grasps scored in ``--directions``
+  directions, by default the default configuration's 300 and 32), per gripper, each built
+  alone in this process;
 - seconds per labelled scene with ``--workers`` processes (databases cached), wall and per
   worker; labelled voxels per scene; grasp survival after the collision check;
 - the physics validation: success rate of labelled grasps against random grasps
   (:func:`symgrasp.data.validate.validate_labels`).
+
+``--quick`` builds small databases (three Robotiq, one Franka) and labels four scenes in this
+process.
 """
 
 from __future__ import annotations
@@ -29,8 +33,9 @@ from importlib.metadata import version
 from pathlib import Path
 
 import torch
+from common import parse_args
 
-from symgrasp.config import SceneConfig
+from symgrasp.config import DatabaseConfig, SceneConfig
 from symgrasp.data.card import dataset_card
 from symgrasp.data.generate import generate
 from symgrasp.data.grasp_db import cached_database
@@ -62,15 +67,19 @@ def main() -> None:
     parser.add_argument("--scenes", type=int, default=100, help="scenes to generate")
     parser.add_argument("--workers", type=int, default=2, help="worker processes")
     parser.add_argument("--validate", type=int, default=100, help="physics trials")
+    parser.add_argument("--grasps", type=int, default=300, help="settled grasps per database")
+    parser.add_argument("--directions", type=int, default=32, help="disturbance directions")
     parser.add_argument("--out", default="benchmarks/results/data.json", help="result file")
-    args = parser.parse_args()
+    quick = {"pool": 3, "scenes": 4, "workers": 1, "validate": 4, "grasps": 10, "directions": 4}
+    args = parse_args(parser, outputs=("out",), quick=quick)
     torch.set_num_threads(1)
     load = os.getloadavg()
     tmp = Path(tempfile.mkdtemp(prefix="symgrasp_data_bench_"))
     result: dict = {
         "command": "PYTHONPATH=src python benchmarks/data.py "
         f"--pool {args.pool} --franka {args.franka} --scenes {args.scenes} "
-        f"--workers {args.workers} --validate {args.validate}",
+        f"--workers {args.workers} --validate {args.validate} --grasps {args.grasps} "
+        f"--directions {args.directions}",
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "machine": {
             "platform": platform.platform(),
@@ -83,8 +92,9 @@ def main() -> None:
         },
     }
     try:
-        robotiq = SceneConfig(gripper="robotiq-2f85", pool_size=args.pool)
-        franka = SceneConfig(gripper="franka", pool_size=args.pool)
+        database = DatabaseConfig(grasps=args.grasps, directions=args.directions)
+        robotiq = SceneConfig(gripper="robotiq-2f85", pool_size=args.pool, database=database)
+        franka = SceneConfig(gripper="franka", pool_size=args.pool, database=database)
         result["database"] = {
             "robotiq-2f85": _databases(robotiq, tmp / "robotiq", args.pool),
             "franka": _databases(franka, tmp / "franka", args.franka),

@@ -1,7 +1,7 @@
 """The paper's Table 1 on symgrasp's simulator → benchmarks/results/declutter.{json,md}.
 
     PYTHONPATH=src python benchmarks/declutter_table.py [--runs runs] [--out out/bench]
-        [--rounds 100] [--workers 2] [--collate-only]
+        [--rounds 100] [--num-objects 5] [--workers 2] [--collate-only] [--quick [DIR]]
 
 Runs `symgrasp bench declutter` (`symgrasp.benchmark.runner.run_benchmark`, failure modes
 on) for every representation × gripper × object set, plus ``bingham2d`` without
@@ -12,18 +12,21 @@ a cell whose ``--out`` folder already holds the same configuration's diagnosed r
 read, not rerun, so the script resumes after an interruption and fills cells as runs finish.
 Household cells are also broken down by the family of the object each grasp was aimed at.
 The collated table (with the paper's numbers beside ours) goes to ``--result`` and into
-``--docs`` (between its markers), a bar chart to ``--figure``.
+``--docs`` (between its markers), a bar chart to ``--figure``. ``--quick`` plays the shipped
+models' cells only, one round of one object each, lists the baselines as –, and updates a copy
+of the page.
 """
 
 from __future__ import annotations
 
 import argparse
 import itertools
+import shutil
 from pathlib import Path
 from typing import Any
 
 import torch
-from common import write_result
+from common import parse_args, write_result
 
 from symgrasp.benchmark.failures import MODES
 from symgrasp.benchmark.runner import (
@@ -106,12 +109,13 @@ def markdown(rows: list[dict[str, Any]]) -> str:
                  "|---|---|" + "---|" * (len(MODES) + 1)]  # fmt: skip
         for row in rows:
             if row["key"][0] == gripper and row["summary"] and row["summary"]["modes"]:
-                counts = [str(row["summary"]["modes"].get(mode, 0)) for mode in MODES]
-                share = row["summary"]["modes"].get("wrong_yaw", 0) / row["summary"]["executed"]
+                modes, executed = row["summary"]["modes"], row["summary"]["executed"]
+                counts = [str(modes.get(mode, 0)) for mode in MODES]
+                share = f"{modes.get('wrong_yaw', 0) / executed:.0%}" if executed else "–"
                 text.append(
                     f"| {label(*row['key'][1:])} | {row['objects']} | "
                     + " | ".join(counts)
-                    + f" | {share:.0%} |"
+                    + f" | {share} |"
                 )
         text += ["", *family_table(rows, gripper), ""]
     return "\n".join(text)
@@ -140,7 +144,7 @@ def family_table(rows: list[dict[str, Any]], gripper: str) -> list[str]:
     return text
 
 
-def figure(rows: list[dict[str, Any]], path: str | Path) -> None:
+def figure(rows: list[dict[str, Any]], path: str | Path, rounds: int, num_objects: int) -> None:
     """Bars of SR and CR with their 95 % intervals per representation, one panel per gripper
     and object set; the paper's values as black ticks."""
     import matplotlib
@@ -174,7 +178,9 @@ def figure(rows: list[dict[str, Any]], path: str | Path) -> None:
     axes[1, 0].set_ylabel("%")
     axes[0, 0].plot([], [], color="k", lw=2, label="the paper (its simulator)")
     fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="lower center", ncol=3, fontsize=9)
-    fig.suptitle("Simulated decluttering, 100 rounds of 5 objects, 95 % intervals")
+    fig.suptitle(
+        f"Simulated decluttering, {rounds} rounds of {num_objects} objects, 95 % intervals"
+    )
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -197,6 +203,7 @@ def main() -> None:
     parser.add_argument("--runs", default="runs", help="folder of the baselines' training runs")
     parser.add_argument("--out", default="out/bench", help="folder of the per-cell benchmark runs")
     parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
+    parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
     parser.add_argument("--workers", type=int, default=2, help="round processes (default: 2)")
     parser.add_argument(
         "--collate-only", action="store_true", help="tabulate the cells already run; run none"
@@ -210,19 +217,27 @@ def main() -> None:
         default="docs/results.md",
         help="page whose tables (between the declutter-table markers) are replaced",
     )
-    args = parser.parse_args()
+    args = parse_args(
+        parser,
+        outputs=("out", "result", "figure", "docs"),
+        quick={"rounds": 1, "num_objects": 1, "workers": 1},
+        also=", the shipped models only",
+    )
+    if args.quick:  # the page's copy, so that its markers are still checked
+        shutil.copyfile(parser.get_default("docs"), args.docs)
 
     rows = []
     for gripper, short in GRIPPERS.items():
         for rep, threshold in ROWS:
-            model = model_for(gripper, rep, Path(args.runs))
+            shipped_only = args.quick and rep != "bingham2d"
+            model = None if shipped_only else model_for(gripper, rep, Path(args.runs))
             for objects in OBJECTS:
                 key = [gripper, rep, threshold]
                 if model is None:
                     rows.append({"key": key, "objects": objects, "model": model, "summary": None})
                     continue
                 options = () if threshold else (("confidence_threshold", 0.0),)
-                config = BenchmarkConfig(model, objects, 5, args.rounds, 0, options)
+                config = BenchmarkConfig(model, objects, args.num_objects, args.rounds, 0, options)
                 folder = Path(args.out) / short / (rep + ("" if threshold else "-noconf")) / objects
                 print(f"{gripper} {rep}{'' if threshold else ' (no threshold)'} on {objects}")
                 summary = cell(config, folder, args.workers, args.collate_only)
@@ -237,9 +252,10 @@ def main() -> None:
         rows,
         table,
         rounds=args.rounds,
+        num_objects=args.num_objects,
         seed=0,
     )
-    figure(rows, args.figure)
+    figure(rows, args.figure, args.rounds, args.num_objects)
     update_page(Path(args.docs), table)
 
 

@@ -1,12 +1,14 @@
 """Latency of grasp detection, depth image to ranked grasps → benchmarks/results/detect.json.
 
     PYTHONPATH=src python benchmarks/detect.py [--model bingham2d-robotiq-2f85] [--repeats 30]
+        [--quick [DIR]]
 
 Renders one 640×480 depth image of a 5-object household-test pile (seed 0) from the default
 camera, then times ``GraspDetector.detect`` on it ``--repeats`` times after a warm-up, per
 stage (TSDF fusion, network, decoding) as the detector reports them, plus the whole call.
 Target: ≤ 50 ms per image on the 2-core CPU. The decoding stage depends on how many
 voxels pass the thresholds, so the shipped model is timed, not a random network.
+``--quick`` times two calls.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 import torch
-from common import cpu_model
+from common import cpu_model, parse_args
 
 from symgrasp.detect import GraspDetector
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
@@ -37,7 +39,7 @@ def main() -> None:
     parser.add_argument("--model", default="bingham2d-robotiq-2f85", help="model name or path")
     parser.add_argument("--repeats", type=int, default=30, help="timed calls (default: 30)")
     parser.add_argument("--out", default="benchmarks/results/detect.json", help="result file")
-    args = parser.parse_args()
+    args = parse_args(parser, outputs=("out",), quick={"repeats": 2})
 
     load_before = os.getloadavg()
     detector = GraspDetector.from_pretrained(args.model, device="cpu")

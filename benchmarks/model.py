@@ -1,12 +1,14 @@
 """Cost of the grasp detection network per representation, and the reference run's metrics.
 
     python benchmarks/model.py [--threads 2] [--repeats 5] [--batch 4] [--run runs/NAME]
+        [--quick [DIR]]
 
 For every rotation representation: trainable parameters, forward FLOPs per 40³ volume
 (`symgrasp.model.count_flops`), forward latency at batch 1 on the CPU (eval mode, no grad) and
 training throughput on the CPU (scenes per second of forward + loss + backward + Adam step on
 a batch of synthetic scenes, `symgrasp.model.synthetic`). With ``--run``, the last epoch of that
 training run's ``metrics.csv`` and its command are added. Writes ``benchmarks/results/model.json``.
+``--quick`` times each call once on one scene, with one thread.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import sys
 from pathlib import Path
 
 import torch
-from common import best_seconds, cpu_model
+from common import best_seconds, cpu_model, parse_args
 
 from symgrasp import rotation
 from symgrasp.model import GraspNet, NetworkConfig, count_flops, count_parameters, grasp_losses
@@ -81,7 +83,7 @@ def main() -> None:
     )
     parser.add_argument("--run", type=Path, help="a finished training run folder to tabulate")
     parser.add_argument("--output", type=Path, default=RESULTS, help="where to write the JSON")
-    args = parser.parse_args()
+    args = parse_args(parser, outputs=("output",), quick={"threads": 1, "repeats": 1, "batch": 1})
 
     torch.set_num_threads(args.threads)
     dataset = SyntheticGraspDataset(args.batch, seed=0)

@@ -1,12 +1,12 @@
 """Throughput of the rotation representations: loss + backward and decode, on CPU.
 
-    python benchmarks/rotation.py [--batch 65536] [--threads 1] [--repeats 7]
+    python benchmarks/rotation.py [--batch 65536] [--threads 1] [--repeats 7] [--quick [DIR]]
 
 For every representation and K ∈ {1, 8} ground-truth rotations per element, times
 ``loss(pred, R_gt, mask).sum().backward()`` on a batch of B float32 elements, and ``decode``
 on the same batch; reports elements per second (best of the repeats) and writes
 ``benchmarks/results/rotation.json``. Target: ``bingham2d`` loss + backward at most 3× the
-cost of ``rotmat6d`` at B = 65 536.
+cost of ``rotmat6d`` at B = 65 536. ``--quick`` times each call once on a small batch.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 import torch
-from common import best_seconds, cpu_model
+from common import best_seconds, cpu_model, parse_args
 
 from symgrasp import rotation
 from symgrasp.bingham import eigh3, log_normalizer, triu_to_sym
@@ -84,7 +84,7 @@ def main() -> None:
     parser.add_argument("--threads", type=int, nargs="+", default=[1])
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--output", type=Path, default=RESULTS)
-    args = parser.parse_args()
+    args = parse_args(parser, outputs=("output",), quick={"batch": 1024, "repeats": 1})
 
     runs = []
     for threads in args.threads:

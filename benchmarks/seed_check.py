@@ -1,6 +1,6 @@
 """Training-seed variation of the Robotiq comparison → benchmarks/results/seed_check.json.
 
-    PYTHONPATH=src python benchmarks/seed_check.py [--workers 2]
+    PYTHONPATH=src python benchmarks/seed_check.py [--workers 2] [--quick [DIR]]
 
 The comparison (`declutter_table.py`) trains every detector once (``--seed 0``). This script
 benchmarks the second runs of the Robotiq ``bingham2d`` and ``rotmat6d``, trained with
@@ -11,7 +11,9 @@ benchmarks the second runs of the Robotiq ``bingham2d`` and ``rotmat6d``, traine
 on the same 100 rounds as the table (cells in ``out/bench/seed1/robotiq/REP/OBJECTS``, read
 back when present), and compares ``bingham2d`` with ``rotmat6d`` within each training seed on
 the same rounds (`validity_sweep.paired_change`). The seed-0 cells are the table's
-(``out/bench/robotiq/REP/OBJECTS``; run ``declutter_table.py`` first).
+(``out/bench/robotiq/REP/OBJECTS``; run ``declutter_table.py`` first). ``--quick`` needs no
+training run: the shipped Robotiq model stands in for every run, and it plays the seed-0 cells
+too, one round of one object per cell.
 """
 
 from __future__ import annotations
@@ -20,12 +22,13 @@ import argparse
 import json
 from pathlib import Path
 
-from common import write_result
+from common import parse_args, write_result
 from validity_sweep import paired_change
 
 from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
 
 REPS = ("bingham2d", "rotmat6d")
+SHIPPED = "bingham2d-robotiq-2f85"
 OBJECTS = ("household-test", "large-box")
 
 
@@ -33,19 +36,30 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", default="runs", help="folder of the training runs")
     parser.add_argument("--out", default="out/bench", help="folder of the benchmark cells")
+    parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
+    parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
     parser.add_argument("--workers", type=int, default=2, help="round processes (default: 2)")
     parser.add_argument("--result", default="benchmarks/results/seed_check", help="stem")
-    args = parser.parse_args()
+    args = parse_args(
+        parser,
+        outputs=("out", "result"),
+        quick={"rounds": 1, "num_objects": 1, "workers": 1},
+        also=f", {SHIPPED} for every training run",
+    )
 
     rounds = {}
     for rep in REPS:
         for objects in OBJECTS:
+            run = str(Path(args.runs) / f"{rep}-robotiq-seed1" / "best.pt")
+            config = BenchmarkConfig(
+                SHIPPED if args.quick else run, objects, args.num_objects, args.rounds, 0
+            )
             seed0 = Path(args.out) / "robotiq" / rep / objects / "rounds.jsonl"
+            if args.quick:  # the seed-0 cell that declutter_table.py would have played
+                run_or_reuse(config, seed0.parent, args.workers)
             if not seed0.exists():
                 raise SystemExit(f"error: {seed0} is missing; run declutter_table.py first")
             rounds[rep, 0, objects] = [json.loads(x) for x in seed0.read_text().splitlines()]
-            model = str(Path(args.runs) / f"{rep}-robotiq-seed1" / "best.pt")
-            config = BenchmarkConfig(model, objects, 5, 100, 0)
             folder = Path(args.out) / "seed1" / "robotiq" / rep / objects
             rounds[rep, 1, objects] = run_or_reuse(config, folder, args.workers)
 

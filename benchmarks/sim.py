@@ -1,11 +1,13 @@
 """Wall-clock cost of the simulation world's real code paths → benchmarks/results/sim.json.
 
     PYTHONPATH=src python benchmarks/sim.py [--repeats 20] [--out benchmarks/results/sim.json]
+        [--quick [DIR]]
 
 Times one grasp trial per gripper (a top grasp on a settled box, object removal included),
 a 5-object pile (generation, settling with the walls, their removal, settling again), one
 640×480 depth render (OpenGL where it works, and the ray-cast fallback) and one TSDF fusion
 of that image into the 40³ grid. Reports medians over ``--repeats`` runs after one warm-up.
+``--quick`` times every case twice after its warm-up.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import cpu_model
+from common import cpu_model, parse_args
 
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, default_extrinsic
 from symgrasp.sim import World, execute_grasp, get_gripper, make_scene
@@ -75,7 +77,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=20, help="timed runs per case")
     parser.add_argument("--out", default="benchmarks/results/sim.json", help="JSON output path")
-    args = parser.parse_args()
+    args = parse_args(parser, outputs=("out",), quick={"repeats": 2})
     machine = _machine()  # before the load we create ourselves
 
     results: dict[str, object] = {}
@@ -126,11 +128,11 @@ def main() -> None:
             results[name]["target_ms"] = target
             results[name]["meets_target"] = results[name]["median_ms"] <= target
 
+    command = [Path(sys.executable).name, *sys.argv]
+    if "PYTHONPATH" in os.environ:
+        command.insert(0, f"PYTHONPATH={os.environ['PYTHONPATH']}")
     report = {
-        "command": " ".join(
-            [f"PYTHONPATH={os.environ['PYTHONPATH']}"] * ("PYTHONPATH" in os.environ)
-            + [Path(sys.executable).name, *sys.argv]
-        ),
+        "command": " ".join(command),
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "machine": machine,
         "results": results,

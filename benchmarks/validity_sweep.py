@@ -1,6 +1,7 @@
 """Declutter results per validity threshold → benchmarks/results/validity_sweep.{json,md}.
 
-    PYTHONPATH=src python benchmarks/validity_sweep.py [--rounds 100] [--workers 2]
+    PYTHONPATH=src python benchmarks/validity_sweep.py [--rounds 100] [--num-objects 5]
+        [--workers 2] [--quick [DIR]]
 
 The detector keeps voxels whose validity is at least a threshold (`DEFAULT_VALIDITY`). This
 script plays 100 declutter rounds (`symgrasp bench declutter --validity V`) of each shipped
@@ -10,7 +11,8 @@ the test sets, as a sensitivity analysis of the published table (not to choose b
 threshold is compared with the default on the same rounds (same seeds, so the same piles at
 the start): the change of CR and SR with a paired bootstrap 95 % interval over rounds. A cell
 whose folder already holds the same configuration's results is read, not rerun
-(`runner.run_or_reuse`).
+(`runner.run_or_reuse`). ``--quick`` plays one round of one object per cell, on the training
+objects only.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import write_result
+from common import parse_args, write_result
 
 from symgrasp.benchmark.runner import (
     BOOTSTRAP,
@@ -87,19 +89,26 @@ def markdown(rows: list[dict]) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
+    parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
     parser.add_argument("--workers", type=int, default=2, help="round processes (default: 2)")
     parser.add_argument("--out", default="out/validity_sweep", help="per-cell benchmark folders")
     parser.add_argument("--result", default="benchmarks/results/validity_sweep", help="stem")
-    args = parser.parse_args()
+    args = parse_args(
+        parser,
+        outputs=("out", "result"),
+        quick={"rounds": 1, "num_objects": 1, "workers": 1},
+        also=f", on {SETS[0][0]} only",
+    )
 
     rows = []
     for model in MODELS:
-        for objects, seed, purpose in SETS:
+        for objects, seed, purpose in SETS[:1] if args.quick else SETS:
             played = {}
             for validity in THRESHOLDS:
                 print(f"{model} on {objects}, validity ≥ {validity}")
+                options = (("validity_threshold", validity),)
                 config = BenchmarkConfig(
-                    model, objects, 5, args.rounds, seed, (("validity_threshold", validity),)
+                    model, objects, args.num_objects, args.rounds, seed, options
                 )
                 folder = Path(args.out) / model / objects / str(validity)
                 played[validity] = run_or_reuse(config, folder, args.workers)
@@ -117,6 +126,7 @@ def main() -> None:
         rows,
         table,
         rounds=args.rounds,
+        num_objects=args.num_objects,
         default_validity=DEFAULT_VALIDITY,
     )
 

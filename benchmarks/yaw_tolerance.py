@@ -1,6 +1,6 @@
 """How many yaws a good grasp tolerates → benchmarks/results/yaw_tolerance.{json,md}.
 
-    PYTHONPATH=src python benchmarks/yaw_tolerance.py [--rounds 200]
+    PYTHONPATH=src python benchmarks/yaw_tolerance.py [--rounds 200] [--quick [DIR]]
 
 A regressor trained towards both rotations of a symmetric grasp outputs an averaged yaw; what
 that costs depends on how many yaws would have worked. For the first grasp of each declutter
@@ -9,7 +9,7 @@ gripper, the first candidate whose approach is free), this replays the trial fro
 state turned about its approach axis by 0°, 30°, …, 150° (`failures.turned_about_approach`)
 and reports, of the grasps that succeed unturned, the share of the five turns that also
 succeed: the yaw tolerance, with a 95 % bootstrap interval over grasps. Per object family
-too (`failures.aimed_object`).
+too (`failures.aimed_object`). ``--quick`` plays one round per cell.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from collections import defaultdict
 from typing import Any
 
 import numpy as np
-from common import write_result
+from common import parse_args, write_result
 from tqdm import tqdm
 
 from symgrasp.benchmark.declutter import first_free
@@ -79,7 +79,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=200, help="rounds (seeds 0…) per cell")
     parser.add_argument("--result", default="benchmarks/results/yaw_tolerance", help="stem")
-    args = parser.parse_args()
+    args = parse_args(parser, outputs=("result",), quick={"rounds": 1})
 
     cells = []
     for gripper in GRIPPERS:
