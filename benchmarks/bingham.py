@@ -52,7 +52,7 @@ def random_eigenvalues(batch: int, d: int, seed: int) -> torch.Tensor:
 
 
 def bessel_candidate(lam: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """The S² alternative the foundation issue suggested, measured to justify the choice:
+    """The S² alternative first suggested (the I₀ᵉ integral), measured to justify the choice:
     C = 4π ∫₀¹ e^{λ₁u²} I₀ᵉ(−λ₂(1−u²)/2) du with the same node count and Gaussian window as
     ``"quadrature"``; moments from the I₁ᵉ derivative. Same inputs and outputs as the kernel."""
     a = lam[..., 0].abs().unsqueeze(-1)
@@ -207,7 +207,7 @@ def main() -> None:
         )
         if (
             d == 3
-        ):  # the erf quadrature against the I₀ᵉ integral the issue suggested, kernel to kernel
+        ):  # the erf quadrature against the I₀ᵉ integral first suggested, kernel to kernel
             shifted = lam.sort(-1).values
             shifted = shifted - shifted[..., -1:]
             rows = torch.tensor(grid, dtype=torch.float64).sort(-1).values
