@@ -88,6 +88,8 @@ CLI = {
     "detect truncated checkpoint": (lambda d: _detect(d, model=d / "truncated.pt"), "truncated.pt"),
     "detect unknown model": (lambda d: _detect(d, model="bingham9d-hand"), "bingham9d-hand"),
     "detect --out under a file": (lambda d: [*_detect(d)[:-1], str(d / "a_file" / "out")], "a_file"),
+    "detect --out is a file": (lambda d: [*_detect(d)[:-1], str(d / "a_file")], "a_file"),
+    "sim show --out is a file": (lambda d: ["sim", "show", "--n", "1", "--out", str(d / "a_file")], "a_file"),
     "export into a folder": (lambda d: ["export", str(shipped_path(SHIPPED)), str(d / "folder")], "folder"),
     "export a garbage checkpoint": (lambda d: ["export", str(d / "garbage.pt"), str(d / "x.pt")], "garbage.pt"),
 }  # fmt: skip
