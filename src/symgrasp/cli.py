@@ -677,13 +677,21 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
         "objects as a pile; before every attempt one depth image is fused, and the detector's "
         "best grasp whose approach misses the observed scene is executed; a round ends when "
         "the table is clear, no grasp is found or two attempts in a row fail. Round r uses seed "
-        "--seed + r. Writes rounds.jsonl, results.json (SR, CR with bootstrap 95%% intervals "
-        "over rounds, outcomes, failure modes, planning time) and results.md into --out. Each "
-        "failed grasp is replayed from the state it started in, turned about its approach axis "
-        "by 30..150 degrees: if a turn succeeds the failure was a wrong yaw, otherwise it is "
-        "named by how it ended (collision, wrong approach = closed on nothing, slip).",
+        "--seed + r. Writes config.json, rounds.jsonl (each round as it finishes, so "
+        "--resume can finish an interrupted run), then results.json (SR, CR with bootstrap "
+        "95%% intervals over rounds, outcomes, failure modes, planning time) and results.md "
+        "into --out. Each failed grasp is replayed from the state it started in, turned about "
+        "its approach axis by 30..150 degrees: if a turn succeeds the failure was a wrong yaw, "
+        "otherwise it is named by how it ended (collision, wrong approach = closed on nothing, "
+        "slip).",
     )
     declutter.add_argument("--out", required=True, help="output folder")
+    declutter.add_argument(
+        "--resume",
+        action="store_true",
+        help="finish the run in --out: play only the rounds missing from its rounds.jsonl "
+        "(refused if --out holds a run of another configuration)",
+    )
     declutter.add_argument(
         "--workers", type=WORKERS, default=1, help="rounds run in parallel processes (default: 1)"
     )
@@ -711,9 +719,15 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run_declutter(args: argparse.Namespace) -> None:
-    from symgrasp.benchmark.runner import markdown_table, run_benchmark
+    from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark
     from symgrasp.detect import GraspDetector
 
+    threshold = _confidence_threshold(args)
+    options = () if threshold is None else (("confidence_threshold", threshold),)
+    if args.validity is not None:
+        options += (("validity_threshold", args.validity),)
+    config = dataclasses.replace(config_from_args(BenchmarkConfig, args), options=options)
+    check_out(config, args.out, args.resume)  # before the model loads
     if args.representation is not None or args.gripper is not None:
         detector = GraspDetector.from_pretrained(args.model, device="cpu")
         for option, wanted, actual in (
@@ -722,12 +736,7 @@ def _run_declutter(args: argparse.Namespace) -> None:
         ):
             if wanted is not None and wanted != actual:
                 raise SystemExit(f"error: {option} {wanted}, but --model {args.model} is {actual}")
-    threshold = _confidence_threshold(args)
-    options = () if threshold is None else (("confidence_threshold", threshold),)
-    if args.validity is not None:
-        options += (("validity_threshold", args.validity),)
-    config = dataclasses.replace(config_from_args(BenchmarkConfig, args), options=options)
-    summary = run_benchmark(config, args.out, args.workers)
+    summary = run_benchmark(config, args.out, args.workers, args.resume)
     print(markdown_table(summary, config), end="")
     print(f"outcomes {summary['outcomes']}")
     print(f"failure modes {summary['modes']}; results in {args.out}")

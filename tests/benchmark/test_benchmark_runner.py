@@ -141,7 +141,7 @@ def test_cli_thresholds_reach_the_detector(tmp_path):
     assert detector.validity_threshold == 0.3 and detector.confidence_threshold == 0.0
 
 
-def test_a_finished_benchmark_is_reused_and_another_configuration_is_run(monkeypatch, tmp_path):
+def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(monkeypatch, tmp_path):
     class Detector:
         gripper = "franka"
 
@@ -163,5 +163,7 @@ def test_a_finished_benchmark_is_reused_and_another_configuration_is_run(monkeyp
     assert runner.run_or_reuse(config, tmp_path) == first and played == [5, 6]  # read back
     other = BenchmarkConfig(rounds=2, seed=5, objects="large-box")
     assert runner.saved_rounds(other, tmp_path) is None
-    runner.run_or_reuse(other, tmp_path)
+    with pytest.raises(ValueError, match="another configuration"):
+        runner.run_or_reuse(other, tmp_path)
+    runner.run_or_reuse(other, tmp_path / "other")
     assert played == [5, 6, 5, 6]

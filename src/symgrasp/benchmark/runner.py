@@ -6,6 +6,16 @@ A round that raises is recorded as an error with its seed and the message; the b
 on. Ratios pool all rounds, as the paper and VGN do (SR = successes / executed grasps,
 CR = successes / objects presented); their 95 % intervals come from a bootstrap over rounds
 (rounds are the independent units; attempts within a round are not).
+
+Layout of a benchmark folder (`run_benchmark`)::
+
+    config.json     the configuration, written (atomically) before any round runs
+    rounds.jsonl    one line per round, appended as each finishes; in seed order at the end
+    results.json    configuration and summary, derived from rounds.jsonl at the end
+    results.md      the summary as a Markdown table row
+
+A killed run loses only the rounds in flight; ``resume=True`` (``--resume``) plays the rounds
+missing from ``rounds.jsonl`` and refuses a folder of another configuration.
 """
 
 from __future__ import annotations
@@ -15,15 +25,16 @@ import multiprocessing
 import os
 import traceback
 from collections import Counter
-from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 import numpy as np
 from tqdm import tqdm
 
+from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.declutter import Round, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES
 from symgrasp.config import BenchmarkConfig
@@ -90,12 +101,21 @@ def _round_task(seed: int) -> dict[str, Any]:
                 "traceback": traceback.format_exc()}  # fmt: skip
 
 
+def round_seeds(config: BenchmarkConfig) -> list[int]:
+    """The seeds of ``config``'s rounds, in order: ``seed … seed + rounds − 1``."""
+    return [config.seed + r for r in range(config.rounds)]
+
+
 def run_rounds(
-    config: BenchmarkConfig, workers: int = 1, out: str | Path = "."
+    config: BenchmarkConfig,
+    workers: int = 1,
+    out: str | Path = ".",
+    seeds: Iterable[int] | None = None,
 ) -> Iterator[dict[str, Any]]:
-    """The round records of ``config``, in seed order, with a progress bar (pictures, if
-    asked for, go under ``out``)."""
-    seeds = [config.seed + r for r in range(config.rounds)]
+    """The round records of ``seeds`` (default: all of ``config``'s) as they finish, with a
+    progress bar: in seed order with one worker, in any order with more (pictures, if asked
+    for, go under ``out``)."""
+    seeds = round_seeds(config) if seeds is None else list(seeds)
     bar = tqdm(total=len(seeds), desc="declutter rounds", unit="round")
     if workers <= 1:
         _init_worker(config, max(1, min(2, os.cpu_count() or 1)), Path(out))
@@ -107,9 +127,9 @@ def run_rounds(
         spawn = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(workers, spawn, initializer=_init_worker,
                                  initargs=(config, 1, Path(out))) as pool:  # fmt: skip
-            for result in pool.map(_round_task, seeds, chunksize=1):
+            for future in as_completed([pool.submit(_round_task, seed) for seed in seeds]):
                 bar.update()
-                yield result
+                yield future.result()
     bar.close()
 
 
@@ -188,40 +208,139 @@ def markdown_table(summary: dict[str, Any], config: BenchmarkConfig) -> str:
     )
 
 
-def run_benchmark(config: BenchmarkConfig, out: str | Path, workers: int = 1) -> dict[str, Any]:
-    """Run ``config``, write ``rounds.jsonl``, ``results.json`` and ``results.md`` into
-    ``out``, and return the summary."""
+# --- the output folder: configuration record, streamed rounds, derived results ------------
+
+
+def _plain(config: BenchmarkConfig) -> dict[str, Any]:
+    """``config`` as the JSON data recorded in a folder (tuples read back as lists)."""
+    return json.loads(json.dumps(asdict(config)))
+
+
+def recorded_config(out: str | Path) -> dict[str, Any] | None:
+    """The configuration recorded in ``out``: its ``config.json``, or, in a folder finished
+    before ``config.json`` was written, its ``results.json``'s; None when it has neither."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    rounds = []
-    with open(out / "rounds.jsonl", "w") as lines:
-        for record in run_rounds(config, workers, out):
-            rounds.append(record)
-            lines.write(json.dumps(record) + "\n")
+    if (out / "config.json").exists():
+        return json.loads((out / "config.json").read_text())
+    if (out / "results.json").exists():
+        return json.loads((out / "results.json").read_text())["config"]
+    return None
+
+
+def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) -> None:
+    """Raise ValueError unless ``out`` may take ``config``'s rounds: it holds no benchmark, or
+    ``resume`` is set and it holds one of ``config``. Reads at most one small file, so the CLI
+    calls it before it loads a model or starts workers."""
+    out = Path(out)
+    if not any((out / name).exists() for name in ("config.json", "rounds.jsonl", "results.json")):
+        return
+    if not resume:
+        raise ValueError(
+            f"out {out} already holds a benchmark; pass resume=True (--resume) to finish it, "
+            "or choose another out (--out)"
+        )
+    recorded, wanted = recorded_config(out), _plain(config)
+    if recorded is None:
+        raise ValueError(
+            f"out {out} holds rounds of an unrecorded configuration (no config.json); "
+            "choose another out (--out)"
+        )
+    if recorded != wanted:
+        differ = sorted(
+            k for k in recorded.keys() | wanted.keys() if recorded.get(k) != wanted.get(k)
+        )
+        raise ValueError(
+            f"out {out} holds a benchmark of another configuration (its {', '.join(differ)} "
+            "differ); choose another out (--out)"
+        )
+
+
+def read_rounds(path: str | Path) -> dict[int, dict[str, Any]]:
+    """The round records of a ``rounds.jsonl`` by seed (the first record of each seed). An
+    incomplete last line, left by a run killed while writing it, is ignored: its round is
+    missing and reruns."""
+    path = Path(path)
+    if not path.exists():
+        return {}
+    text = path.read_text()
+    rounds: dict[int, dict[str, Any]] = {}
+    for line in text[: text.rfind("\n") + 1].splitlines():
+        record = json.loads(line)
+        rounds.setdefault(record["seed"], record)
+    return rounds
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Replace ``path`` by ``text`` (`write_atomic`)."""
+    write_atomic(path, lambda f: f.write(text), mode="w")
+
+
+def _write_rounds(path: Path, rounds: Iterable[dict[str, Any]]) -> None:
+    """Replace ``path`` by ``rounds``, one JSON line each."""
+    _write_text(path, "".join(json.dumps(r) + "\n" for r in rounds))
+
+
+def _append_round(lines: TextIO, record: dict[str, Any]) -> None:
+    """Append ``record`` to the open ``rounds.jsonl`` and make it durable now. The one write
+    that is not `write_atomic`'s: rounds stream in for hours, and a finished round must
+    survive a kill of the run. A kill mid-line leaves a torn last line, which `read_rounds`
+    ignores and `run_benchmark` drops before it appends again."""
+    lines.write(json.dumps(record) + "\n")
+    lines.flush()
+    os.fsync(lines.fileno())
+
+
+def run_benchmark(
+    config: BenchmarkConfig, out: str | Path, workers: int = 1, resume: bool = False
+) -> dict[str, Any]:
+    """Play ``config``'s rounds into the folder ``out`` and return their summary.
+
+    ``config.json`` records the configuration before any round runs; each round is appended
+    to ``rounds.jsonl`` as it finishes (in any order with several workers). At the end
+    ``rounds.jsonl`` is rewritten in seed order, and ``results.json`` and ``results.md`` are
+    derived from it. With ``resume``, only the rounds missing from ``out`` are played.
+    Raises ValueError as `check_out` does, before anything is played or written."""
+    out = Path(out)
+    check_out(config, out, resume)
+    if not (out / "config.json").exists():
+        _write_text(out / "config.json", json.dumps(asdict(config), indent=1) + "\n")
+    path = out / "rounds.jsonl"
+    done = read_rounds(path)
+    _write_rounds(path, done.values())  # without a torn last line, so appends start afresh
+    missing = [seed for seed in round_seeds(config) if seed not in done]
+    if missing:
+        with open(path, "a") as lines:
+            for record in run_rounds(config, workers, out, missing):
+                _append_round(lines, record)
+                done[record["seed"]] = record
+    rounds = [done[seed] for seed in round_seeds(config)]  # seed order: the bootstrap's order
+    _write_rounds(path, rounds)
     summary = summarise(rounds, config.seed)
     result = {"config": asdict(config), "summary": summary}
-    (out / "results.json").write_text(json.dumps(result, indent=1) + "\n")
-    (out / "results.md").write_text(markdown_table(summary, config))
+    _write_text(out / "results.json", json.dumps(result, indent=1) + "\n")
+    _write_text(out / "results.md", markdown_table(summary, config))
     return summary
 
 
 def saved_rounds(config: BenchmarkConfig, out: str | Path) -> list[dict[str, Any]] | None:
-    """The round records in ``out`` when its ``results.json`` is of ``config``, else None."""
-    saved = Path(out) / "results.json"
-    if not saved.exists():
+    """The round records of ``config`` in seed order when ``out`` holds every one of them,
+    else None (no benchmark, an unfinished one, or another configuration's)."""
+    if recorded_config(out) != _plain(config):
         return None
-    if json.loads(saved.read_text())["config"] != json.loads(json.dumps(asdict(config))):
-        return None
-    return [json.loads(line) for line in (Path(out) / "rounds.jsonl").read_text().splitlines()]
+    done = read_rounds(Path(out) / "rounds.jsonl")
+    seeds = round_seeds(config)
+    return [done[seed] for seed in seeds] if all(seed in done for seed in seeds) else None
 
 
 def run_or_reuse(
     config: BenchmarkConfig, out: str | Path, workers: int = 1
 ) -> list[dict[str, Any]]:
-    """The round records of ``config``: those already in ``out`` (`saved_rounds`), else
-    `run_benchmark`'s, so scripts over many benchmarks resume where they stopped."""
+    """The round records of ``config``: those in ``out`` when it holds them all
+    (`saved_rounds`), else `run_benchmark`'s resuming ``out``, so scripts over many benchmarks
+    skip finished ones and finish interrupted ones. Raises ValueError when ``out`` holds
+    another configuration's benchmark."""
     rounds = saved_rounds(config, out)
     if rounds is None:
-        run_benchmark(config, out, workers)
+        run_benchmark(config, out, workers, resume=True)
         rounds = saved_rounds(config, out)
     return rounds

@@ -1,0 +1,159 @@
+"""A benchmark folder survives a kill: rounds saved as they finish, --resume plays the missing
+ones, a folder of another configuration or an existing one without --resume is refused."""
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+import pytest
+
+import symgrasp
+from symgrasp.benchmark import runner
+from symgrasp.benchmark.declutter import Attempt, Round
+from symgrasp.benchmark.runner import BenchmarkConfig
+from symgrasp.cli import main
+
+
+@pytest.fixture
+def played(monkeypatch):
+    """Seeds played, in order, by fake rounds: a success on odd seeds, a slip on even ones (so
+    the bootstrap sees different rounds), without a simulator or a model."""
+    seeds = []
+
+    class Detector:
+        gripper = "franka"
+
+    def fake_round(detector, objects, num_objects, seed, observer, diagnose):
+        seeds.append(seed)
+        outcome = "success" if seed % 2 else "slipped"
+        return Round(seed, num_objects, "gl", [Attempt(outcome, None, 1, 0, 0.1, num_objects)])
+
+    monkeypatch.setattr(runner, "run_round", fake_round)
+    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
+        config=config, detector=Detector(), out=out))  # fmt: skip
+    return seeds
+
+
+def _lines(path):
+    return [json.loads(line) for line in Path(path).read_text().splitlines()]
+
+
+def test_resume_plays_only_the_missing_rounds_once_each_in_seed_order(played, tmp_path):
+    config = BenchmarkConfig(rounds=4, seed=10)
+    whole = runner.run_benchmark(config, tmp_path / "whole")
+    rounds = _lines(tmp_path / "whole" / "rounds.jsonl")
+    assert [r["seed"] for r in rounds] == [10, 11, 12, 13] and played == [10, 11, 12, 13]
+    part = tmp_path / "part"  # as a killed run with workers leaves it: out of order, a torn line
+    runner.run_benchmark(config, part)
+    lines = (part / "rounds.jsonl").read_text().splitlines(keepends=True)
+    (part / "rounds.jsonl").write_text(lines[2] + lines[0] + lines[3][:25])
+    assert runner.saved_rounds(config, part) is None  # unfinished
+    del played[:]
+    assert runner.run_benchmark(config, part, resume=True) == whole
+    assert played == [11, 13]
+    assert _lines(part / "rounds.jsonl") == rounds
+    assert json.loads((part / "results.json").read_text())["summary"] == whole
+    assert runner.run_benchmark(config, part, resume=True) == whole and played == [11, 13]
+
+
+def test_a_torn_last_line_is_ignored_and_dropped_before_appending(played, tmp_path):
+    config = BenchmarkConfig(rounds=2, seed=0)
+    runner.run_benchmark(config, tmp_path)
+    text = (tmp_path / "rounds.jsonl").read_text()
+    (tmp_path / "rounds.jsonl").write_text(text[: len(text) - 10])  # killed mid-line
+    assert list(runner.read_rounds(tmp_path / "rounds.jsonl")) == [0]
+    assert runner.run_or_reuse(config, tmp_path) == _lines(tmp_path / "rounds.jsonl")
+    assert [r["seed"] for r in _lines(tmp_path / "rounds.jsonl")] == [0, 1]
+    assert played == [0, 1, 1]
+
+
+def test_stale_results_beside_an_empty_rounds_file_are_resumed_not_returned(played, tmp_path):
+    config = BenchmarkConfig(rounds=3, seed=5)  # a folder that the old, buffered runner left
+    (tmp_path / "results.json").write_text(json.dumps({"config": asdict(config), "summary": {}}))
+    (tmp_path / "rounds.jsonl").write_text("")
+    assert runner.saved_rounds(config, tmp_path) is None
+    rounds = runner.run_or_reuse(config, tmp_path)
+    assert [r["seed"] for r in rounds] == [5, 6, 7] and played == [5, 6, 7]
+    assert json.loads((tmp_path / "config.json").read_text()) == json.loads(
+        json.dumps(asdict(config))
+    )
+    assert runner.run_or_reuse(config, tmp_path) == rounds and played == [5, 6, 7]
+
+
+def test_an_existing_folder_needs_resume_and_the_same_configuration(played, tmp_path, monkeypatch):
+    argv = ["bench", "declutter", "--rounds", "2", "--num-objects", "1", "--seed", "3"]
+    main([*argv, "--out", str(tmp_path)])
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+
+    def no_model(*args, **kwargs):
+        raise AssertionError("the folder must be checked before the model loads")
+
+    monkeypatch.setattr("symgrasp.detect.GraspDetector.from_pretrained", no_model)
+    guarded = [*argv, "--gripper", "robotiq-2f85", "--out", str(tmp_path)]
+    with pytest.raises(SystemExit, match=r"^error: out .* already holds a benchmark; .*--resume"):
+        main(guarded)
+    with pytest.raises(SystemExit, match=r"another configuration \(its num_objects, seed differ\)"):
+        main([*guarded, "--num-objects", "2", "--seed", "4", "--resume"])
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    assert played == [3, 4]
+    with pytest.raises(ValueError, match="another configuration"):
+        runner.run_or_reuse(BenchmarkConfig(rounds=3, seed=3, num_objects=1), tmp_path)
+    (tmp_path / "config.json").unlink()
+    (tmp_path / "results.json").unlink()
+    with pytest.raises(ValueError, match="unrecorded configuration"):
+        runner.run_benchmark(BenchmarkConfig(rounds=2, seed=3), tmp_path, resume=True)
+
+
+def _without_timings(value):
+    """``value`` (a round record or summary) without its planning times."""
+    if isinstance(value, dict):
+        return {k: _without_timings(v) for k, v in value.items() if not k.startswith("planning_s")}
+    if isinstance(value, list):
+        return [_without_timings(v) for v in value]
+    return value
+
+
+def _run_and_kill(argv, out, delay):
+    """Run ``argv`` in a process and SIGKILL it ``delay`` s after one more round than ``out``
+    held at the start is in its rounds.jsonl (unless it finished first); return the text the
+    kill left in rounds.jsonl."""
+    env = {**os.environ, "PYTHONPATH": str(Path(symgrasp.__file__).parents[1])}
+    code = f"from symgrasp.cli import main; main({[*argv, '--out', str(out)]!r})"
+    rounds = out / "rounds.jsonl"
+    before = rounds.read_text().count("\n") if rounds.exists() else 0
+    with open(out.parent / f"{out.name}.log", "a") as log:
+        process = subprocess.Popen([sys.executable, "-c", code], env=env, stdout=log, stderr=log)
+    deadline = time.monotonic() + 120
+    while process.poll() is None and not (
+        rounds.exists() and rounds.read_text().count("\n") > before
+    ):
+        assert time.monotonic() < deadline, "no round finished in 120 s"
+        time.sleep(0.02)
+    time.sleep(delay)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    assert rounds.exists(), (out.parent / f"{out.name}.log").read_text()
+    return rounds.read_text()
+
+
+def test_killed_benchmarks_resume_to_the_uninterrupted_result(tmp_path):
+    argv = ["bench", "declutter", "--rounds", "4", "--num-objects", "1", "--seed", "3"]
+    out, delays = tmp_path / "killed", random.Random(0)
+    saved = []
+    for kill in range(2):  # killed at random moments: between rounds, inside one, mid-write
+        text = _run_and_kill([*argv, *(["--resume"] if kill else [])], out, delays.uniform(0, 1))
+        saved += [json.loads(line) for line in text[: text.rfind("\n") + 1].splitlines()]
+    assert saved and {r["seed"] for r in saved} <= {3, 4, 5, 6}
+    main([*argv, "--resume", "--out", str(out)])
+    main([*argv, "--out", str(tmp_path / "whole")])
+    resumed, whole = (_lines(tmp_path / name / "rounds.jsonl") for name in ("killed", "whole"))
+    assert all(r in resumed for r in saved)  # kept as they were (timings too), not replayed
+    assert _without_timings(resumed) == _without_timings(whole)
+    results = [json.loads((tmp_path / n / "results.json").read_text()) for n in ("killed", "whole")]
+    assert _without_timings(results[0]) == _without_timings(results[1])
