@@ -5,6 +5,7 @@ each case takes well under a second."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 
@@ -12,6 +13,7 @@ import numpy as np
 import pytest
 
 from symgrasp.cli import main
+from symgrasp.config import BenchmarkConfig
 from symgrasp.detect.pretrained import shipped_path
 
 SHIPPED = "bingham2d-robotiq-2f85"
@@ -39,6 +41,9 @@ def files(tmp_path):
     manifest = {"gripper": "franka", "object_set": "blocks", "k_max": 8, "scene_ids": []}
     (unfinished / "manifest.json").write_text(json.dumps(manifest))
     (unfinished / "scenes" / "scene_000000.npz").write_bytes(b"")
+    (tmp_path / "bench").mkdir()  # a benchmark folder of the default configuration
+    config = json.loads(json.dumps(dataclasses.asdict(BenchmarkConfig())))
+    (tmp_path / "bench" / "config.json").write_text(json.dumps(config))
     return tmp_path
 
 
@@ -75,6 +80,8 @@ CLI = {
     "demo --num-objects 1000": (lambda d: ["demo", "--num-objects", "1000", "--out", str(d)], "--num-objects"),
     "an unknown command": (lambda d: ["declutter"], "declutter"),
     # files: named in the message
+    "bench into an existing benchmark": (lambda d: ["bench", "declutter", "--out", str(d / "bench")], "--resume"),
+    "bench --resume of another configuration": (lambda d: ["bench", "declutter", "--out", str(d / "bench"), "--resume", "--rounds", "3"], "rounds differ"),
     "data generate --out ''": (lambda d: ["data", "generate", "--out", ""], "out"),
     "data generate --out a file": (lambda d: ["data", "generate", "--out", str(d / "a_file")], "a_file"),
     "data generate --out unrelated files": (lambda d: ["data", "generate", "--out", str(d / "unrelated")], "not a symgrasp dataset"),
