@@ -12,8 +12,14 @@ REPRESENTATIONS = ("bingham2d", "rotmat6d", "rotmat6d_naive", "quaternion", "bin
 GRIPPERS = ("franka", "robotiq-2f85")
 """Built-in grippers (`symgrasp.sim.grippers`)."""
 
-OBJECT_SETS = ("household-train", "household-test", "large-box", "blocks")
-"""Named object sets (`symgrasp.sim.objects`)."""
+PROCEDURAL_OBJECT_SETS = ("household-train", "household-test", "large-box", "blocks")
+"""Object sets built in code (`symgrasp.sim.objects`); they need no files."""
+
+MESH_OBJECT_SETS = ("vgn-pile-train", "vgn-pile-test", "vgn-packed-train", "vgn-packed-test")
+"""VGN's household mesh sets, read from the data folder (`symgrasp.objects.folder`)."""
+
+OBJECT_SETS = (*PROCEDURAL_OBJECT_SETS, *MESH_OBJECT_SETS)
+"""Named object sets; ``--objects`` also takes a folder of meshes."""
 
 SCENES = ("pile", "packed")
 """Scene kinds (`symgrasp.sim.world`)."""

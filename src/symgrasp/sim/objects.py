@@ -22,7 +22,7 @@ import numpy as np
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from symgrasp.names import OBJECT_SETS
+from symgrasp.names import PROCEDURAL_OBJECT_SETS
 from symgrasp.sim.physics import OBJECT_TORSION_ROLL
 
 PART_KINDS = ("box", "cylinder", "capsule", "sphere", "ellipsoid")
@@ -314,7 +314,7 @@ TEST_FAMILIES = (*TRAIN_FAMILIES, "mug", "t_shape", "cup")
 LARGE_BOX_SIZE = (0.07, 0.2, 0.03)
 """The paper's precision case (Appx. D): 70 × 200 mm footprint, 30 mm thick, laid flat."""
 
-_SET_STREAM = {name: i for i, name in enumerate(OBJECT_SETS)}  # disjoint seed streams
+_SET_STREAM = {name: i for i, name in enumerate(PROCEDURAL_OBJECT_SETS)}  # disjoint seed streams
 
 
 def make_object(family: str, rng: np.random.Generator, name: str = "") -> ObjectSpec:
@@ -352,7 +352,7 @@ def object_set(name: str, n: int, seed: int = 0) -> list[ObjectSpec]:
     ``blocks`` (cuboids for debugging).
     """
     if name not in _SET_STREAM:
-        raise ValueError(f"name must be one of {OBJECT_SETS}, got {name!r}")
+        raise ValueError(f"name must be one of {PROCEDURAL_OBJECT_SETS}, got {name!r}")
     if n < 0:
         raise ValueError(f"n must be a non-negative count, got {n}")
     if seed < 0:

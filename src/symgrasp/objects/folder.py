@@ -1,0 +1,46 @@
+"""Where object sets live on disk: the data folder and the named sets inside it.
+
+The data folder is ``$SYMGRASP_DATA`` when set, else ``$XDG_CACHE_HOME/symgrasp`` (by default
+``~/.cache/symgrasp``). VGN's sets (Breyer et al., "Volumetric Grasping Network", CoRL 2020)
+sit in it as ``objects/vgn/{pile,packed}/{train,test}``, the layout ``symgrasp objects fetch
+vgn`` writes.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from symgrasp.names import MESH_OBJECT_SETS
+
+DATA_ENV = "SYMGRASP_DATA"
+"""The environment variable naming the data folder."""
+
+VGN_ROOT = Path("objects") / "vgn"
+"""VGN's object sets, relative to the data folder."""
+
+
+def data_folder() -> Path:
+    """The data folder: ``$SYMGRASP_DATA``, else the per-user cache folder."""
+    if os.environ.get(DATA_ENV):
+        return Path(os.environ[DATA_ENV]).expanduser()
+    cache = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(cache) / "symgrasp"
+
+
+def set_folder(name: str) -> Path:
+    """The folder of the named mesh set (``vgn-pile-train`` → ``objects/vgn/pile/train``).
+
+    Raises ValueError for an unknown name, and FileNotFoundError naming the folder searched
+    and how to get the set when it is not in the data folder.
+    """
+    if name not in MESH_OBJECT_SETS:
+        raise ValueError(f"object set must be one of {MESH_OBJECT_SETS}, got {name!r}")
+    _, scene, split = name.split("-")
+    folder = data_folder() / VGN_ROOT / scene / split
+    if not folder.is_dir():
+        raise FileNotFoundError(
+            f"object set {name} is not in the data folder: {folder} does not exist; run "
+            f"`symgrasp objects fetch vgn`, or point {DATA_ENV} at a folder holding {VGN_ROOT}"
+        )
+    return folder
