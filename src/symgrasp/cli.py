@@ -15,6 +15,7 @@ import dataclasses
 import math
 import shlex
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any, NoReturn
 
 from symgrasp.config import (
@@ -31,9 +32,20 @@ from symgrasp.workspace import WORKSPACE_SIZE
 
 # -- options shared between commands ------------------------------------------------------
 
+
+def _object_set(value: str) -> str:
+    """An object set's name or an existing folder (read and checked when the command runs)."""
+    if value in OBJECT_SETS or Path(value).expanduser().is_dir():
+        return value
+    raise argparse.ArgumentTypeError(
+        f"expected one of {', '.join(OBJECT_SETS)} or a folder of URDF files, got {value!r}"
+    )
+
+
 SHARED = {
-    "objects": ("--objects", {"choices": OBJECT_SETS}),
-    "object_set": ("--objects", {"choices": OBJECT_SETS}),
+    "objects": ("--objects", {"type": _object_set, "metavar": "SET|FOLDER"}),
+    "object_set": ("--objects", {"type": _object_set, "metavar": "SET|FOLDER"}),
+    "scene": ("--scene", {"choices": SCENES}),
     "gripper": ("--gripper", {"choices": GRIPPERS}),
     "representation": ("--rep", {"choices": REPRESENTATIONS}),
     "kinds": ("--kinds", {"choices": SCENES}),
@@ -378,7 +390,7 @@ def _run_sim_show(args: argparse.Namespace) -> None:
     from symgrasp.sim.show import save_scene_pictures
 
     world = make_scene(args.scene, args.objects, n=args.n, seed=args.seed)
-    stem = f"{args.scene}_{args.objects}_seed{args.seed}"
+    stem = f"{args.scene}_{Path(args.objects).name}_seed{args.seed}"
     paths, renderer = save_scene_pictures(world, args.out, stem)
     print(f"{len(world.objects)} objects settled: {', '.join(o.name for o in world.objects)}")
     print(f"depth renderer: {renderer}")

@@ -174,10 +174,10 @@ class SceneConfig:
         return get_gripper(self.gripper)
 
     def pool(self) -> list[ObjectSpec]:
-        """The objects scenes are drawn from (names ``<family>_<index>``)."""
-        from symgrasp.sim.objects import object_set
+        """The objects scenes are drawn from (`symgrasp.objects.sets.ObjectSource.pool`)."""
+        from symgrasp.objects.sets import resolve
 
-        return object_set(self.object_set, self.pool_size, seed=self.pool_seed)
+        return resolve(self.object_set).pool(self.pool_size, self.pool_seed)
 
 
 @dataclass(frozen=True)
@@ -282,7 +282,9 @@ class BenchmarkConfig:
     model: str = "bingham2d-robotiq-2f85"
     """Shipped model name or checkpoint path."""
     objects: str = "household-test"
-    """Object set the rounds draw from."""
+    """Object set the rounds draw from: a name or a folder of URDF files."""
+    scene: str = "pile"
+    """How each round's objects are laid out: "pile" or "packed"."""
     num_objects: int = 5
     """Objects per round."""
     rounds: int = 100
@@ -297,6 +299,8 @@ class BenchmarkConfig:
     """Draw every attempt into pictures/seed_NNNN/ of the output folder."""
 
     def __post_init__(self) -> None:
+        if self.scene not in SCENES:
+            raise ValueError(f"scene must be one of {SCENES}, got {self.scene!r}")
         check_range("num_objects", self.num_objects, 1, MAX_OBJECTS)
         check_range("rounds", self.rounds, 1, 100_000)
         check_range("seed", self.seed, 0, SEED_MAX - self.rounds)

@@ -85,7 +85,7 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
     class Detector:
         gripper = "franka"
 
-    def fake_round(detector, objects, num_objects, seed, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, scene, observer, diagnose):
         if seed == 11:
             raise RuntimeError("simulation unstable")
         from symgrasp.benchmark.declutter import Round
@@ -147,7 +147,7 @@ def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(mon
 
     played = []
 
-    def fake_round(detector, objects, num_objects, seed, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, scene, observer, diagnose):
         from symgrasp.benchmark.declutter import Round
 
         played.append(seed)

@@ -22,14 +22,14 @@ import numpy as np
 
 from symgrasp.benchmark.failures import aimed_object, failure_mode
 from symgrasp.detect import Grasp, GraspDetector
+from symgrasp.objects.sets import make_scene
 from symgrasp.perception import CameraIntrinsic, depth_to_points
 from symgrasp.perception.camera import default_extrinsic
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.grippers import GripperSpec
-from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
-from symgrasp.sim.world import World, pile_scene
+from symgrasp.sim.world import World
 
 NONE_FOUND = "none_found"
 """The outcome of an attempt for which the detector proposed no executable grasp."""
@@ -109,6 +109,7 @@ def run_round(
     objects: str = "household-test",
     num_objects: int = 5,
     seed: int = 0,
+    scene: str = "pile",
     max_failures: int = 2,
     max_attempts: int | None = None,
     intrinsic: CameraIntrinsic | None = None,
@@ -117,7 +118,8 @@ def run_round(
     diagnose: bool = True,
 ) -> Round:
     """Play one declutter round with ``detector`` (its gripper) on ``num_objects`` objects of
-    the set ``objects``; the pile and the objects are drawn from ``seed``.
+    the set ``objects`` (a name or folder, `symgrasp.objects.sets.resolve`) in a ``scene``
+    ("pile" or "packed"); the scene and its objects are drawn from ``seed``.
 
     ``max_attempts`` defaults to twice the number of objects; the camera defaults to the
     workspace's default view (`symgrasp.perception.camera.default_extrinsic`). With
@@ -131,7 +133,7 @@ def run_round(
     intrinsic = intrinsic or CameraIntrinsic()
     T_world_camera = default_extrinsic() if T_world_camera is None else T_world_camera
     renderer = make_renderer(intrinsic)
-    world = pile_scene(object_set(objects, num_objects, seed), seed=seed, gripper=detector.gripper)
+    world = make_scene(scene, objects, num_objects, seed, gripper=detector.gripper)
     record = Round(seed, len(world.objects), renderer.name)
     max_attempts = 2 * num_objects if max_attempts is None else max_attempts
     failures = 0

@@ -92,8 +92,8 @@ def _round_task(seed: int) -> dict[str, Any]:
         observer = picture_observer(folder, detector.gripper, f"seed {seed}, ")
     try:
         record = run_round(
-            detector, config.objects, config.num_objects, seed, observer=observer,
-            diagnose=config.diagnose,
+            detector, config.objects, config.num_objects, seed, scene=config.scene,
+            observer=observer, diagnose=config.diagnose,
         )  # fmt: skip
         return round_record(record)
     except Exception as error:  # a crashed round is data, not the end of the benchmark
@@ -221,10 +221,12 @@ def recorded_config(out: str | Path) -> dict[str, Any] | None:
     before ``config.json`` was written, its ``results.json``'s; None when it has neither."""
     out = Path(out)
     if (out / "config.json").exists():
-        return json.loads((out / "config.json").read_text())
-    if (out / "results.json").exists():
-        return json.loads((out / "results.json").read_text())["config"]
-    return None
+        recorded = json.loads((out / "config.json").read_text())
+    elif (out / "results.json").exists():
+        recorded = json.loads((out / "results.json").read_text())["config"]
+    else:
+        return None
+    return {**_plain(BenchmarkConfig()), **recorded}  # fields added later: their defaults
 
 
 def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) -> None:

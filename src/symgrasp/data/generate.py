@@ -32,7 +32,7 @@ from symgrasp.config import SEED_MAX, DatabaseConfig, SceneConfig, check_range
 from symgrasp.data.dataset import load_scene, scene_path
 from symgrasp.data.grasp_db import GraspDatabase, cached_database
 from symgrasp.data.scenes import make_scene_record
-from symgrasp.names import OBJECT_SETS
+from symgrasp.objects.sets import resolve
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
@@ -141,8 +141,7 @@ def _of_a_dataset(name: str) -> bool:
 
 def check_names(object_set: str, gripper: str) -> None:
     """Raise ValueError listing the known names if either is unknown."""
-    if object_set not in OBJECT_SETS:
-        raise ValueError(f"object set must be one of {OBJECT_SETS}, got {object_set!r}")
+    resolve(object_set)
     get_gripper(gripper)
 
 

@@ -256,10 +256,12 @@ def build_database(
 
 
 def database_key(obj: ObjectSpec, gripper: GripperSpec, cfg: DatabaseConfig, seed: int) -> str:
-    """Cache key: a hash of the object's parameters, the gripper's name, the configuration,
-    seed."""
+    """Cache key: a hash of the object's parameters (a convex part's vertices included), the
+    gripper's name, the configuration, seed."""
     text = json.dumps(
-        [dataclasses.asdict(obj), gripper.name, dataclasses.asdict(cfg), seed], sort_keys=True
+        [dataclasses.asdict(obj), gripper.name, dataclasses.asdict(cfg), seed],
+        sort_keys=True,
+        default=lambda array: array.round(7).tolist(),
     )
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

@@ -23,11 +23,11 @@ from symgrasp.config import SceneConfig
 from symgrasp.data.directions import interpolate
 from symgrasp.data.grasp_db import GraspDatabase
 from symgrasp.data.labels import voxelise
+from symgrasp.objects.sets import resolve
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, look_at
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.objects import ObjectSpec, surface_samples
 from symgrasp.sim.render import make_renderer
-from symgrasp.sim.world import packed_scene, pile_scene
 from symgrasp.workspace import RESOLUTION, WORKSPACE_SIZE
 
 DEPTH_UNIT = 1e-4
@@ -94,8 +94,7 @@ def make_scene_record(
     n = min(int(rng.poisson(cfg.mean_objects)) + 1, cfg.max_objects)
     chosen = [int(k) for k in rng.integers(cfg.pool_size, size=n)]
     specs = [pool[k] for k in chosen]
-    build = pile_scene if kind == "pile" else packed_scene
-    world = build(specs, seed=int(rng.integers(2**31)))
+    world = resolve(cfg.object_set).scene(kind, specs, seed=int(rng.integers(2**31)))
     kept = [next(j for j, s in enumerate(specs) if s is o) for o in world.objects]
     pool_index = np.array([chosen[j] for j in kept], dtype=np.int64)
     poses = world.object_poses()

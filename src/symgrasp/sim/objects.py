@@ -1,9 +1,11 @@
-"""Procedural objects built from MuJoCo primitives, each with a matching surface mesh.
+"""Objects: rigid unions of convex parts, procedural ones built from MuJoCo primitives.
 
-An object is a rigid union of :class:`Part` primitives given in the object frame, whose
-origin is the centre of the object's base and whose +z is "up" when it stands upright.
-The same parts give the MuJoCo geoms (collision and rendering) and a trimesh surface (for
-sampling and ray casting), so both always describe the same shape.
+An object is a rigid union of parts given in the object frame, whose origin is the centre of
+the object's base and whose +z is "up" when it stands upright. A part is a :class:`Part`
+primitive (box, cylinder, …) or a :class:`ConvexPart` (the convex hull of a vertex set: a
+piece of a real object's convex decomposition, `symgrasp.objects`). The same parts give the
+MuJoCo geoms (collision and rendering) and a trimesh surface (for sampling and ray casting),
+so both always describe the same shape.
 
 Families drawn by :func:`object_set`:
 
@@ -15,11 +17,13 @@ Families drawn by :func:`object_set`:
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import trimesh
+from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 from symgrasp.names import PROCEDURAL_OBJECT_SETS
@@ -109,13 +113,70 @@ class Part:
         return np.linalg.norm(p - np.c_[0 * axial, 0 * axial, axial], axis=1) < s[0] - eps
 
 
+@dataclass(frozen=True, eq=False)
+class ConvexPart:
+    """The convex hull of ``vertices`` ((V, 3) array in the object frame [m], V ≥ 4, not all
+    in one plane): one piece of a mesh object's convex decomposition. MuJoCo collides a mesh
+    geom as its convex hull, so each piece is its own geom."""
+
+    vertices: np.ndarray = field(repr=False)
+
+    kind = "mesh"
+
+    def __post_init__(self) -> None:
+        v = np.asarray(self.vertices, dtype=float)
+        if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4 or not np.isfinite(v).all():
+            raise ValueError(f"vertices must be a finite (V ≥ 4, 3) array, got shape {v.shape}")
+        if self._hull_volume(v) <= 1e-12:
+            raise ValueError("vertices span no volume (a flat or degenerate convex part)")
+        v.setflags(write=False)
+        object.__setattr__(self, "vertices", v)
+
+    @staticmethod
+    def _hull_volume(v: np.ndarray) -> float:
+        try:
+            return float(ConvexHull(v).volume)
+        except Exception:  # qhull refuses flat and repeated point sets
+            return 0.0
+
+    @functools.cached_property
+    def _hull(self) -> ConvexHull:
+        return ConvexHull(self.vertices)
+
+    @property
+    def volume(self) -> float:
+        """Volume of the hull [m³]."""
+        return float(self._hull.volume)
+
+    def transform(self) -> np.ndarray:
+        """``T_object_part``: the identity (vertices are in the object frame)."""
+        return np.eye(4)
+
+    def scaled(self, factor: float) -> ConvexPart:
+        """This part scaled by ``factor`` about the object origin."""
+        return ConvexPart(self.vertices * factor)
+
+    def mesh(self) -> trimesh.Trimesh:
+        """Surface mesh of the hull in the object frame, faces wound outward."""
+        hull = self._hull
+        return trimesh.Trimesh(self.vertices, hull.simplices, process=True).convex_hull
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """Whether points (N, 3) in the object frame lie strictly inside the hull, (N,)."""
+        eq = self._hull.equations  # outward normal · x + offset ≤ 0 inside
+        return np.all(points @ eq[:, :3].T + eq[:, 3] < -1e-6, axis=1)
+
+
 @dataclass(frozen=True)
 class ObjectSpec:
-    """A rigid object: its parts, mass [kg], sliding friction coefficient and colour."""
+    """A rigid object: its parts, mass [kg], sliding friction coefficient and colour.
+
+    ``family`` groups objects in the benchmark's per-family counts: the procedural family
+    (``box``, ``mug``, …) or, for a mesh object, the object's own name."""
 
     name: str
     family: str
-    parts: tuple[Part, ...]
+    parts: tuple[Part | ConvexPart, ...]
     mass: float
     friction: float
     rgba: tuple[float, float, float, float] = (0.6, 0.6, 0.6, 1.0)
@@ -128,22 +189,45 @@ class ObjectSpec:
         if self.friction <= 0:
             raise ValueError(f"friction must be positive, got {self.friction}")
 
-    def geoms_xml(self) -> str:
-        """The object's ``<geom>`` elements; the mass is shared out by volume."""
+    def assets_xml(self, prefix: str) -> str:
+        """The ``<mesh>`` assets of the object's convex parts, named ``{prefix}_{j}``."""
+        return "".join(
+            f'<mesh name="{prefix}_{j}" vertex="{" ".join(f"{x:.6f}" for x in p.vertices.ravel())}"/>'
+            for j, p in enumerate(self.parts)
+            if isinstance(p, ConvexPart)
+        )
+
+    def geoms_xml(self, prefix: str) -> str:
+        """The object's ``<geom>`` elements (convex parts use `assets_xml`'s meshes of the same
+        ``prefix``); the mass is shared out by volume."""
         total = sum(p.volume for p in self.parts)
         friction = f"{self.friction:.4f} {OBJECT_TORSION_ROLL[0]} {OBJECT_TORSION_ROLL[1]}"
         rgba = " ".join(f"{c:.3f}" for c in self.rgba)
         lines = []
-        for part in self.parts:
-            size = " ".join(f"{v:.5f}" for v in part.size)
-            pos = " ".join(f"{v:.5f}" for v in part.pos)
-            quat = " ".join(f"{v:.6f}" for v in part.quat)
+        for j, part in enumerate(self.parts):
             mass = self.mass * part.volume / total
+            if isinstance(part, ConvexPart):
+                shape = f'type="mesh" mesh="{prefix}_{j}"'
+            else:
+                size = " ".join(f"{v:.5f}" for v in part.size)
+                pos = " ".join(f"{v:.5f}" for v in part.pos)
+                quat = " ".join(f"{v:.6f}" for v in part.quat)
+                shape = f'type="{part.kind}" size="{size}" pos="{pos}" quat="{quat}"'
             lines.append(
-                f'<geom class="object" type="{part.kind}" size="{size}" pos="{pos}" '
-                f'quat="{quat}" mass="{mass:.6f}" friction="{friction}" rgba="{rgba}"/>'
+                f'<geom class="object" {shape} mass="{mass:.6f}" friction="{friction}" '
+                f'rgba="{rgba}"/>'
             )
         return "\n".join(lines)
+
+    def scaled(self, factor: float) -> ObjectSpec:
+        """This object scaled by ``factor`` about its origin, mass unchanged (as VGN's
+        simulator scales its objects). Only for objects made of convex parts."""
+        if not all(isinstance(p, ConvexPart) for p in self.parts):
+            raise ValueError(f"only mesh objects scale; {self.name} has primitive parts")
+        if not 0 < factor <= 10:
+            raise ValueError(f"factor must be in (0, 10], got {factor}")
+        parts = tuple(p.scaled(factor) for p in self.parts)
+        return ObjectSpec(self.name, self.family, parts, self.mass, self.friction, self.rgba)
 
     def mesh(self) -> trimesh.Trimesh:
         """Surface mesh of the union (parts concatenated; inner faces stay inside)."""

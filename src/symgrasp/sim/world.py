@@ -18,9 +18,8 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from symgrasp.names import SCENES
 from symgrasp.sim.grippers import PREFIX, GripperSpec, get_gripper
-from symgrasp.sim.objects import ObjectSpec, object_set
+from symgrasp.sim.objects import ObjectSpec
 from symgrasp.sim.physics import HAND_GROUP, HIDDEN_GROUP, option_xml
 from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 
@@ -89,7 +88,7 @@ def _object_xml(index: int, spec: ObjectSpec) -> str:
     return f"""
     <body name="obj_{index}">
       <freejoint name="obj_{index}"/>
-      {spec.geoms_xml()}
+      {spec.geoms_xml(f"obj_{index}")}
     </body>"""
 
 
@@ -99,10 +98,12 @@ def world_xml(
     """The complete MJCF of a world."""
     hand = gripper.hand_xml() if gripper is not None else None
     body = "".join(_object_xml(i, o) for i, o in enumerate(objects))
+    assets = "".join(o.assets_xml(f"obj_{i}") for i, o in enumerate(objects))
     light = '<light pos="0.15 0.15 1.5" dir="0 0 -1" directional="true"/>'
     return f"""
 <mujoco model="symgrasp_world">
   {option_xml()}
+  <asset>{assets}</asset>
   <worldbody>
     {light}
     {_table_xml()}
@@ -262,6 +263,17 @@ class World:
             if self.at_rest():
                 break
         return t
+
+    def objects_touching(self, index: int) -> list[int]:
+        """Indices of the other objects that object ``index`` touches now, sorted."""
+        touching = set()
+        for c in self.data.contact[: self.data.ncon]:
+            a, b = self._geom_object[c.geom1], self._geom_object[c.geom2]
+            if a == index and b >= 0 and b != index:
+                touching.add(int(b))
+            if b == index and a >= 0 and a != index:
+                touching.add(int(a))
+        return sorted(touching)
 
     def outside_workspace(self) -> list[int]:
         """Indices of objects whose origin left the workspace or fell below the table."""
@@ -465,23 +477,94 @@ def packed_scene(
     return world
 
 
+VGN_DROP_HEIGHT = 0.2
+"""Height above the table from which VGN drops each object of a pile [m]."""
+
+VGN_PACKED_RANGE = (0.08, 0.22)
+"""The x and y range in which VGN stands the objects of a packed scene [m]."""
+
+VGN_PACKED_ATTEMPTS = 12
+"""Placements VGN tries per packed scene, taken or not."""
+
+
+def _bounding_centre(obj: ObjectSpec) -> np.ndarray:
+    vertices = obj.mesh().vertices
+    return vertices.min(axis=0) / 2 + vertices.max(axis=0) / 2
+
+
+def vgn_pile_scene(
+    objects: Sequence[ObjectSpec],
+    seed: int = 0,
+    gripper: GripperSpec | str | None = None,
+    max_settle: float = 1.0,
+) -> World:
+    """A pile as VGN builds one (``generate_pile_scene`` of Breyer et al.'s simulator): inside
+    a temporary box, each object in turn is dropped with a random orientation from
+    `VGN_DROP_HEIGHT` above a random point of the middle third of the workspace and left up to
+    ``max_settle`` s to rest; then the box is removed and objects that leave the workspace are
+    dropped until the rest lies still."""
+    rng = np.random.default_rng(seed)
+    world = World((), gripper=gripper, walls=True)
+    for obj in objects:
+        R = _random_rotation(rng)
+        T = np.eye(4)
+        T[:3, :3] = R
+        xy = rng.uniform(WORKSPACE_SIZE / 3, 2 * WORKSPACE_SIZE / 3, size=2)
+        T[:3, 3] = np.r_[xy, TABLE_HEIGHT + VGN_DROP_HEIGHT] - R @ _bounding_centre(obj)
+        poses = np.concatenate([world.object_poses(), T[None]])
+        world = World([*world.objects, obj], poses, gripper=gripper, walls=True)
+        world.settle(max_settle)
+    world.rebuild(walls=False)
+    _settle_and_drop_outside(world, 2 * max_settle)
+    return world
+
+
+def vgn_packed_scene(
+    objects: Sequence[ObjectSpec],
+    seed: int = 0,
+    gripper: GripperSpec | str | None = None,
+    max_settle: float = 1.0,
+    attempts: int = VGN_PACKED_ATTEMPTS,
+) -> World:
+    """A packed scene as VGN builds one (``generate_packed_scene``): up to ``attempts`` times,
+    the next object stands upright at a random (x, y) in `VGN_PACKED_RANGE` with a random yaw,
+    resting on the table; if it touches another object it is taken away (its next attempt
+    draws a new place), else the scene settles. Stops when every object stands or the
+    attempts are spent, so a scene may hold fewer objects than given."""
+    rng = np.random.default_rng(seed)
+    world = World((), gripper=gripper)
+    waiting = list(objects)
+    for _ in range(attempts):
+        if not waiting:
+            break
+        obj = waiting[0]
+        T = np.eye(4)
+        T[:3, :3] = Rotation.from_euler("z", rng.uniform(0, 2 * np.pi)).as_matrix()
+        T[:3, 3] = (*rng.uniform(*VGN_PACKED_RANGE, size=2), TABLE_HEIGHT + 0.002)
+        T[:2, 3] -= T[:2, :2] @ _bounding_centre(obj)[:2]
+        trial = World(
+            [*world.objects, obj], np.concatenate([world.object_poses(), T[None]]), gripper
+        )
+        if trial.objects_touching(len(world.objects)):
+            continue
+        waiting.pop(0)
+        world = trial
+        _settle_and_drop_outside(world, max_settle)
+    return world
+
+
+def _settle_and_drop_outside(world: World, max_settle: float) -> None:
+    """Settle, drop objects outside the workspace, and again until none leaves (VGN's
+    ``remove_and_wait``)."""
+    while True:
+        world.settle(max_settle)
+        outside = set(world.outside_workspace())
+        if not outside:
+            return
+        world.rebuild([i for i in range(len(world.objects)) if i not in outside])
+
+
 def _drop_outside(world: World) -> None:
     outside = set(world.outside_workspace())
     if outside:
         world.rebuild([i for i in range(len(world.objects)) if i not in outside])
-
-
-def make_scene(
-    scene: str,
-    objects: str | Sequence[ObjectSpec] = "household-train",
-    n: int = 5,
-    seed: int = 0,
-    gripper: GripperSpec | str | None = None,
-) -> World:
-    """A settled ``scene`` ("pile" or "packed") of ``n`` objects drawn from the named object
-    set (or the given objects), with ``gripper`` parked above it."""
-    if scene not in SCENES:
-        raise ValueError(f"scene must be one of {SCENES}, got {scene!r}")
-    specs = object_set(objects, n, seed) if isinstance(objects, str) else list(objects)
-    build = pile_scene if scene == "pile" else packed_scene
-    return build(specs, seed=seed, gripper=gripper)

@@ -1,0 +1,153 @@
+"""An object set resolved once, at the edge: a procedural set's name, one of VGN's mesh sets,
+or a folder of URDF files. Every command that takes ``--objects`` resolves it here.
+
+A set gives the objects of a scene (`ObjectSource.draw`) and a training pool
+(`ObjectSource.pool`), and builds the scenes its objects belong in (`ObjectSource.scene`):
+procedural sets keep symgrasp's own pile and packed builders (so every result published on
+them reproduces), mesh sets are drawn and placed as VGN's simulator does (Breyer et al., CoRL
+2020): objects drawn uniformly with replacement, scaled by U(0.8, 1.0) in a pile and
+U(0.7, 0.9) in a packed scene.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from symgrasp.names import MESH_OBJECT_SETS, PROCEDURAL_OBJECT_SETS, SCENES
+from symgrasp.objects.folder import set_folder
+from symgrasp.sim.objects import ObjectSpec, object_set
+from symgrasp.workspace import WORKSPACE_SIZE
+
+if TYPE_CHECKING:
+    from symgrasp.sim.grippers import GripperSpec
+    from symgrasp.sim.world import World
+
+VGN_SCALE = {"pile": (0.8, 1.0), "packed": (0.7, 0.9)}
+"""The scale VGN draws for each object of a scene, by scene kind."""
+
+POOL_SCALE = (0.7, 1.0)
+"""The scale drawn once per object of a mesh set's training pool: both scene kinds' ranges.
+A pool object keeps one scale, because its grasp database is built at that scale."""
+
+_MESH_STREAM = 1000  # random streams of mesh sets, apart from the procedural sets' 0..3
+
+
+@dataclass(frozen=True)
+class ObjectSource:
+    """Where a scene's objects come from: ``name`` (a procedural set) or ``folder`` (URDFs)."""
+
+    name: str
+    folder: Path | None = None
+
+    @functools.cached_property
+    def files(self) -> tuple[Path, ...]:
+        """The URDF files of a mesh set, sorted by name."""
+        if self.folder is None:
+            return ()
+        return tuple(sorted(self.folder.glob("*.urdf")))
+
+    def load(self, index: int) -> ObjectSpec:
+        """Object ``index`` of a mesh set, unscaled."""
+        return _load(self.files[index])
+
+    def draw(self, n: int, seed: int, scene: str = "pile") -> list[ObjectSpec]:
+        """The ``n`` objects of round/scene ``seed`` for a ``scene`` of that kind."""
+        if scene not in SCENES:
+            raise ValueError(f"scene must be one of {SCENES}, got {scene!r}")
+        if self.folder is None:
+            return object_set(self.name, n, seed)
+        rng = np.random.default_rng([seed, _MESH_STREAM])
+        chosen = rng.integers(len(self.files), size=n)
+        scales = rng.uniform(*VGN_SCALE[scene], size=n)
+        return [self.load(int(k)).scaled(float(s)) for k, s in zip(chosen, scales, strict=True)]
+
+    def pool(self, size: int, seed: int) -> list[ObjectSpec]:
+        """``size`` objects to build grasp databases for: a procedural set's draw, or a mesh
+        set's objects in a random order (again from the start when ``size`` exceeds the set),
+        each scaled once by U`POOL_SCALE`."""
+        if self.folder is None:
+            return object_set(self.name, size, seed)
+        rng = np.random.default_rng([seed, _MESH_STREAM + 1])
+        order = np.concatenate(
+            [rng.permutation(len(self.files)) for _ in range(-(-size // len(self.files)))]
+        )[:size]
+        scales = rng.uniform(*POOL_SCALE, size=size)
+        return [self.load(int(k)).scaled(float(s)) for k, s in zip(order, scales, strict=True)]
+
+    def scene(
+        self,
+        kind: str,
+        objects: Sequence[ObjectSpec],
+        seed: int,
+        gripper: GripperSpec | str | None = None,
+    ) -> World:
+        """A settled scene of ``kind`` holding ``objects`` (`symgrasp.sim.world`)."""
+        from symgrasp.sim import world
+
+        if kind not in SCENES:
+            raise ValueError(f"scene must be one of {SCENES}, got {kind!r}")
+        if self.folder is None:
+            build = world.pile_scene if kind == "pile" else world.packed_scene
+        else:
+            build = world.vgn_pile_scene if kind == "pile" else world.vgn_packed_scene
+        return build(objects, seed=seed, gripper=gripper)
+
+
+@functools.lru_cache(maxsize=1024)
+def _load(path: Path) -> ObjectSpec:
+    from symgrasp.objects.urdf import load_urdf
+
+    obj = load_urdf(path)
+    size = np.ptp(np.concatenate([p.mesh().vertices for p in obj.parts]), axis=0)
+    if size.max() > WORKSPACE_SIZE:
+        raise ValueError(
+            f"{path}: the object is {size.max():.3f} m long, larger than the "
+            f"{WORKSPACE_SIZE} m workspace (is the mesh in millimetres?)"
+        )
+    return obj
+
+
+def resolve(objects: str | Path) -> ObjectSource:
+    """The source named ``objects``: a procedural set, one of VGN's sets (from the data
+    folder) or a folder holding URDF files. Raises ValueError listing the known names when it
+    is none of these, and FileNotFoundError when a named mesh set is not in the data folder."""
+    name = str(objects)
+    if name in PROCEDURAL_OBJECT_SETS:
+        return ObjectSource(name)
+    if name in MESH_OBJECT_SETS:
+        folder = set_folder(name)
+    else:
+        folder = Path(objects).expanduser()
+        if not folder.is_dir():
+            raise ValueError(
+                f"objects must be one of {', '.join(PROCEDURAL_OBJECT_SETS + MESH_OBJECT_SETS)} "
+                f"or a folder of URDF files, got {name!r}"
+            )
+    source = ObjectSource(name, folder)
+    if not source.files:
+        raise ValueError(f"objects folder {folder} holds no .urdf file")
+    return source
+
+
+def make_scene(
+    scene: str,
+    objects: str | Path | Sequence[ObjectSpec] = "household-train",
+    n: int = 5,
+    seed: int = 0,
+    gripper: GripperSpec | str | None = None,
+) -> World:
+    """A settled ``scene`` ("pile" or "packed") of ``n`` objects of the set ``objects``
+    (`resolve`; or these objects, in a procedural scene) drawn with ``seed``, with
+    ``gripper`` parked above it."""
+    if scene not in SCENES:
+        raise ValueError(f"scene must be one of {SCENES}, got {scene!r}")
+    if isinstance(objects, (str, Path)):
+        source = resolve(objects)
+        return source.scene(scene, source.draw(n, seed, scene), seed, gripper)
+    return ObjectSource("objects").scene(scene, list(objects), seed, gripper)
