@@ -205,9 +205,7 @@ def main() -> None:
         fast["speedup_over_paper"] = (
             paper["us_per_constant_with_gradient"] / fast["us_per_constant_with_gradient"]
         )
-        if (
-            d == 3
-        ):  # the erf quadrature against the I₀ᵉ integral first suggested, kernel to kernel
+        if d == 3:  # the erf quadrature against the I₀ᵉ integral first suggested, kernel to kernel
             shifted = lam.sort(-1).values
             shifted = shifted - shifted[..., -1:]
             rows = torch.tensor(grid, dtype=torch.float64).sort(-1).values

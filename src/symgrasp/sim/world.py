@@ -244,15 +244,17 @@ class World:
         """Set the gravity vector [m/s²] (e.g. zero for a free-floating pull-out test)."""
         self.model.opt.gravity[:] = gravity
 
+    def moving_objects(self, linear: float = 5e-3, angular: float = 0.1) -> list[int]:
+        """Indices of the objects moving at ``linear`` [m/s] or ``angular`` [rad/s] or faster."""
+        _, qvel = self._object_states()
+        fast = (np.linalg.norm(qvel[:, :3], axis=1) >= linear) | (
+            np.linalg.norm(qvel[:, 3:], axis=1) >= angular
+        )
+        return [int(i) for i in np.flatnonzero(fast)]
+
     def at_rest(self, linear: float = 5e-3, angular: float = 0.1) -> bool:
         """Whether every object moves slower than ``linear`` [m/s] and ``angular`` [rad/s]."""
-        _, qvel = self._object_states()
-        if not len(qvel):
-            return True
-        return bool(
-            np.all(np.linalg.norm(qvel[:, :3], axis=1) < linear)
-            and np.all(np.linalg.norm(qvel[:, 3:], axis=1) < angular)
-        )
+        return not self.moving_objects(linear, angular)
 
     def settle(self, max_time: float = 2.0, check_every: float = 0.05) -> float:
         """Simulate until all objects are at rest or ``max_time`` [s]; returns the time taken."""
