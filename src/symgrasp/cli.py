@@ -357,6 +357,52 @@ def _run_export(args: argparse.Namespace) -> None:
 # -- sim ----------------------------------------------------------------------------------
 
 
+def _add_objects(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "objects",
+        help="object sets: look inside one",
+        description="Object sets on disk: VGN's household meshes in the data folder "
+        "($SYMGRASP_DATA, default ~/.cache/symgrasp) or a folder of URDF files.",
+    )
+    actions = parser.add_subparsers(
+        dest="action", required=True, metavar="ACTION", help="what to do (inspect)"
+    )
+    inspect = actions.add_parser(
+        "inspect",
+        help="print what a set holds and draw it",
+        description="Print, per object: the units its size suggests, its size, mass, convex "
+        "parts (MuJoCo collides each as one convex geom) and whether its visual mesh is "
+        "watertight; then draw the first objects' collision parts into one picture.",
+    )
+    inspect.add_argument("objects", type=_object_set, metavar="SET|FOLDER",
+                         help="a mesh set's name (vgn-pile-test, …) or a folder of URDF files")  # fmt: skip
+    inspect.add_argument(
+        "--out", default=None, help="picture to write (default: out/objects/<set>.png)"
+    )
+    inspect.add_argument(
+        "--limit", type=_integer(1, 500), default=48, help="objects drawn (default: 48)"
+    )
+    inspect.set_defaults(run=_run_objects_inspect)
+
+
+def _run_objects_inspect(args: argparse.Namespace) -> None:
+    from symgrasp.objects.inspect import HEADER, contact_sheet, inspect_objects
+    from symgrasp.objects.sets import resolve
+
+    source = resolve(args.objects)
+    if source.folder is None:
+        raise SystemExit(f"error: {args.objects} is built in code, not read from meshes")
+    reports, refused = inspect_objects(source)
+    print(f"{len(reports)} objects in {source.folder}, {len(refused)} refused")
+    print(HEADER)
+    for report in reports:
+        print(report.row())
+    for reason in refused:
+        print(f"refused: {reason}")
+    out = args.out or f"out/objects/{Path(args.objects).name}.png"
+    print(f"picture: {contact_sheet(source, out, args.limit)}")
+
+
 def _add_sim(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "sim",
@@ -774,6 +820,7 @@ def build_parser() -> argparse.ArgumentParser:
         dest="command", required=True, metavar="COMMAND", help="the job to run"
     )
     _add_demo(subparsers)
+    _add_objects(subparsers)
     _add_sim(subparsers)
     _add_data(subparsers)
     _add_figures(subparsers)

@@ -148,3 +148,18 @@ def test_vgn_scenes_are_drawn_scaled_settled_and_repeatable(vgn, scene):
     assert np.all((centres >= 0) & (centres <= WORKSPACE_SIZE))
     for i in range(len(a.objects)):  # nothing lies under the table
         assert a.data.xpos[a._obj_body[i], 2] > TABLE_HEIGHT - 1e-3
+
+
+def test_inspect_lists_each_object_names_refused_files_and_draws_them(tmp_path, capsys):
+    from symgrasp.cli import main
+
+    folder = tmp_path / "set"
+    folder.mkdir()
+    _urdf(folder, "pair", mass=0.2, offsets=[(0, 0, 0), (0.04, 0, 0)])
+    _urdf(folder, "huge", offsets=[(0, 0, 0), (0.5, 0, 0)])
+    main(["objects", "inspect", str(folder), "--out", str(tmp_path / "sheet.png")])
+    out = capsys.readouterr().out
+    assert "1 objects in" in out and "1 refused" in out
+    assert "| pair | m | 80 × 40 × 40 | 0.200 | 2 | – |" in out
+    assert "refused: " in out and "huge.urdf" in out and "larger than the 0.3 m workspace" in out
+    assert (tmp_path / "sheet.png").stat().st_size > 0

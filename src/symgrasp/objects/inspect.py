@@ -1,0 +1,125 @@
+"""What a folder of objects holds, for a person deciding whether to use it: per object its
+units as given, size, mass, convex parts and whether its visual mesh is watertight, and a
+contact sheet of the objects as MuJoCo collides them."""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from symgrasp.objects.sets import ObjectSource
+
+MILLIMETRE_HINT = 2.0
+"""An object longer than this [in the file's units] is most likely in millimetres."""
+
+
+@dataclass(frozen=True)
+class ObjectReport:
+    """One object of a folder, as `inspect_objects` found it."""
+
+    name: str
+    units: str
+    size_mm: tuple[float, float, float]
+    mass_kg: float
+    parts: int
+    watertight: bool | None
+
+    def row(self) -> str:
+        size = " × ".join(f"{s:.0f}" for s in self.size_mm)
+        tight = {True: "yes", False: "no", None: "–"}[self.watertight]
+        return (
+            f"| {self.name} | {self.units} | {size} | {self.mass_kg:.3f} | {self.parts} | {tight} |"
+        )
+
+
+HEADER = "| object | units | size [mm] | mass [kg] | parts | visual watertight |\n|---|---|---|---|---|---|"
+
+
+def _visual_watertight(urdf: Path) -> bool | None:
+    import trimesh
+
+    mesh = ET.parse(urdf).getroot().find("link/visual/geometry/mesh")
+    if mesh is None or not (urdf.parent / mesh.get("filename", "")).is_file():
+        return None
+    loaded = trimesh.load(urdf.parent / mesh.get("filename"), force="mesh", process=True)
+    return bool(loaded.is_watertight)
+
+
+def inspect_objects(source: ObjectSource) -> tuple[list[ObjectReport], list[str]]:
+    """A report per usable object of a mesh set (`ObjectSource` with a folder), and why each
+    other file cannot be used (one line naming it)."""
+    reports, refused = [], []
+    for index, urdf in enumerate(source.files):
+        try:
+            obj = source.load(index)
+        except (ValueError, OSError) as error:
+            refused.append(str(error))
+            continue
+        size = np.ptp(np.concatenate([p.vertices for p in obj.parts]), axis=0)
+        units = "mm?" if size.max() > MILLIMETRE_HINT else "m"
+        reports.append(
+            ObjectReport(
+                obj.name,
+                units,
+                tuple(float(s) * 1e3 for s in size),
+                obj.mass,
+                len(obj.parts),
+                _visual_watertight(urdf),
+            )
+        )
+    return reports, refused
+
+
+def contact_sheet(source: ObjectSource, path: str | Path, limit: int = 48) -> Path:
+    """Draw up to ``limit`` objects of ``source`` (their convex parts, each its own colour)
+    into one picture at ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    objects = []
+    for k in range(len(source.files)):
+        if len(objects) == limit:
+            break
+        try:
+            objects.append(source.load(k))
+        except (ValueError, OSError):
+            continue  # listed by `inspect_objects`
+    count = max(1, len(objects))
+    columns = min(8, count)
+    rows = math.ceil(count / columns)
+    figure = plt.figure(figsize=(2.2 * columns, 2.4 * rows))
+    colours = plt.get_cmap("tab20")
+    for k, obj in enumerate(objects):
+        ax = figure.add_subplot(rows, columns, k + 1, projection="3d")
+        for j, part in enumerate(obj.parts):
+            mesh = part.mesh()
+            ax.add_collection3d(
+                Poly3DCollection(
+                    mesh.vertices[mesh.faces],
+                    facecolors=[colours(j % 20)],
+                    linewidth=0,
+                    shade=True,
+                )
+            )
+        vertices = np.concatenate([p.vertices for p in obj.parts])
+        centre, half = vertices.mean(axis=0), np.ptp(vertices, axis=0).max() / 2
+        ax.set(
+            xlim=centre[0] + [-half, half],
+            ylim=centre[1] + [-half, half],
+            zlim=centre[2] + [-half, half],
+        )
+        ax.set_axis_off()
+        ax.set_title(f"{obj.name[:22]}\n{len(obj.parts)} parts", fontsize=7)
+    figure.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path, dpi=80)
+    plt.close(figure)
+    return path
