@@ -237,7 +237,14 @@ def main() -> None:
                     rows.append({"key": key, "objects": objects, "model": model, "summary": None})
                     continue
                 options = () if threshold else (("confidence_threshold", 0.0),)
-                config = BenchmarkConfig(model, objects, args.num_objects, args.rounds, 0, options)
+                config = BenchmarkConfig(
+                    model=model,
+                    objects=objects,
+                    num_objects=args.num_objects,
+                    rounds=args.rounds,
+                    seed=0,
+                    options=options,
+                )
                 folder = Path(args.out) / short / (rep + ("" if threshold else "-noconf")) / objects
                 print(f"{gripper} {rep}{'' if threshold else ' (no threshold)'} on {objects}")
                 summary = cell(config, folder, args.workers, args.collate_only)

@@ -52,7 +52,11 @@ def main() -> None:
         for objects in OBJECTS:
             run = str(Path(args.runs) / f"{rep}-robotiq-seed1" / "best.pt")
             config = BenchmarkConfig(
-                SHIPPED if args.quick else run, objects, args.num_objects, args.rounds, 0
+                model=SHIPPED if args.quick else run,
+                objects=objects,
+                num_objects=args.num_objects,
+                rounds=args.rounds,
+                seed=0,
             )
             seed0 = Path(args.out) / "robotiq" / rep / objects / "rounds.jsonl"
             if args.quick:  # the seed-0 cell that declutter_table.py would have played

@@ -108,7 +108,12 @@ def main() -> None:
                 print(f"{model} on {objects}, validity ≥ {validity}")
                 options = (("validity_threshold", validity),)
                 config = BenchmarkConfig(
-                    model, objects, args.num_objects, args.rounds, seed, options
+                    model=model,
+                    objects=objects,
+                    num_objects=args.num_objects,
+                    rounds=args.rounds,
+                    seed=seed,
+                    options=options,
                 )
                 folder = Path(args.out) / model / objects / str(validity)
                 played[validity] = run_or_reuse(config, folder, args.workers)

@@ -274,10 +274,10 @@ class TrainConfig:
         return NetworkConfig(self.representation, self.widths, self.features)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class BenchmarkConfig:
     """What a declutter benchmark runs (`symgrasp.benchmark.runner`): seeds ``seed … seed +
-    rounds − 1``."""
+    rounds − 1``. Keyword-only, so a field added later cannot shift a caller's arguments."""
 
     model: str = "bingham2d-robotiq-2f85"
     """Shipped model name or checkpoint path."""
