@@ -13,6 +13,7 @@ from symgrasp.bingham import (
     log_normalizer,
     nll,
     optimal_b,
+    sampling,
     second_moments,
     sym_to_triu,
     triu_to_sym,
@@ -106,7 +107,52 @@ def test_nll_validation():
         nll(A, torch.zeros(4))  # trailing sizes are checked even without validate_args
     with pytest.raises(ValueError, match="`A` must be"):
         Bingham(torch.zeros(2, 3))
-    nll(torch.triu(torch.ones(3, 3)), 2 * v)  # unchecked hot path: no error
+    nll(torch.triu(torch.ones(3, 3)), v)  # symmetry is checked only with validate_args
+    assert torch.isnan(nll(torch.full((3, 3), torch.nan), v))  # NaN in A propagates without it
+
+
+def test_nll_refuses_non_unit_v():
+    A, v = random_symmetric(8, 3, 5.0, 20), uniform_sphere(8, 3, 21)
+    v[[2, 5]] *= 1.01
+    with pytest.raises(
+        ValueError,
+        match=r"`v` must hold finite unit vectors.*2 of 8 are not, the first at batch index \(2,\) with ‖v‖ = 1.01",
+    ):
+        nll(A, v)
+    with pytest.raises(ValueError, match=r"`v` must hold finite unit vectors.*got ‖v‖ = nan"):
+        Bingham(A[0]).log_prob(torch.tensor([torch.nan, 0.0, 0.0], dtype=F64))
+    with pytest.raises(ValueError, match="`v` must hold finite unit vectors"):
+        fit(2 * uniform_sphere(100, 3, 22))
+
+
+def test_nll_accepts_unit_vectors_normalised_in_float32():
+    A = random_symmetric(1000, 3, 30.0, 23).float()
+    v = torch.nn.functional.normalize(
+        torch.randn(1000, 3, generator=torch.Generator().manual_seed(24)) * 1e3, dim=-1
+    )
+    R = torch.linalg.qr(torch.randn(3, 3, generator=torch.Generator().manual_seed(25)))[0]
+    rotated = v @ R.T  # one more float32 rounding
+    assert torch.isfinite(nll(A, rotated)).all()
+    assert torch.isfinite(nll(A.double(), v.double())).all()  # float32 data cast to float64
+
+
+def test_nll_promotes_dtypes_and_checks_batch_shapes():
+    A, v = random_symmetric(4, 3, 5.0, 25), uniform_sphere(4, 3, 26)
+    mixed = nll(A.float(), v)
+    assert mixed.dtype == F64
+    torch.testing.assert_close(mixed, nll(A.float().double(), v), rtol=0, atol=0)
+    diagonal = torch.diag(torch.tensor([-3, -1, 0]))
+    torch.testing.assert_close(
+        nll(diagonal, torch.tensor([0, 0, 1])), nll(diagonal.float(), torch.tensor([0.0, 0, 1]))
+    )
+    assert nll(A[:, None], v[None, :3]).shape == (4, 3)  # batch dimensions broadcast
+    message = r"`A` \[\.\.\., 3, 3\] and `v` \[\.\.\., 3\] must broadcast in their batch dimensions; got `A` \(4, 3, 3\), `v` \(5, 3\)"
+    with pytest.raises(ValueError, match=message):
+        nll(A, uniform_sphere(5, 3, 27))
+    with pytest.raises(ValueError, match=message):
+        Bingham(A).log_prob(uniform_sphere(5, 3, 27).float())
+    with pytest.raises(TypeError, match=r"`A` must be real, got torch\.complex128"):
+        nll(A.to(torch.complex128), v)
 
 
 # --- the distribution --------------------------------------------------------------------------
@@ -177,6 +223,33 @@ def test_sampler_batch_shapes_reproducibility_and_acceptance():
     assert rate.shape == (2, 3)
     assert (rate > 0.45).all() and (rate <= 1).all()
     assert Bingham(torch.zeros(3, 3)).sample().shape == (3,)
+
+
+def test_sample_refuses_non_finite_rows_instead_of_hanging():
+    A = torch.diag(torch.tensor([-3.0, -1.0, 0.0])).repeat(1000, 1, 1)
+    A[417, 1, 2] = A[417, 2, 1] = torch.nan
+    A[900, 0, 0] = torch.inf
+    with pytest.raises(
+        ValueError,
+        match=r"`A` must be finite: 2 of 1000 matrices hold NaN or inf, the first at batch index \(417,\)",
+    ):
+        Bingham(A).sample()
+    with pytest.raises(ValueError, match="`A` must be finite"):
+        Bingham(A[417]).acceptance_rate(10)
+    huge = torch.diag(torch.tensor([-1e308, 0.0, 0.0], dtype=F64))  # finite, but 2κ overflows
+    with pytest.raises(ValueError, match=r"`concentrations` λ_max − λ must be finite"):
+        Bingham(huge).sample((1000,))
+
+
+def test_sampler_rounds_are_bounded(monkeypatch):
+    monkeypatch.setattr(sampling, "_MAX_ROUNDS", 0)
+    dist = Bingham(torch.zeros(3, 3, 3))
+    assert dist.sample((0,)).shape == (0, 3, 3)  # nothing to draw: no round needed
+    with pytest.raises(
+        RuntimeError,
+        match="15 of 15 samples are still unaccepted after 0 rounds of rejection, in 3 of 3",
+    ):
+        dist.sample((5,))
 
 
 def test_optimal_b_solves_its_equation():

@@ -204,6 +204,24 @@ def test_float32_in_float32_out():
     assert out.item() == pytest.approx(_log_c([-5.0, -1.0, 0.0], "quadrature").item(), rel=1e-6)
 
 
+def test_integer_and_bool_input_in_the_default_float_dtype():
+    integer = torch.tensor([[-2, -1, 0], [1, 0, 0]])
+    torch.testing.assert_close(log_normalizer(integer), log_normalizer(integer.float()))
+    assert log_normalizer(integer)[0].item() == pytest.approx(1.6619056, rel=1e-6)  # not 1
+    boolean = torch.tensor([True, False, False, False])
+    torch.testing.assert_close(log_normalizer(boolean), log_normalizer(boolean.float()))
+    default = torch.get_default_dtype()
+    try:
+        torch.set_default_dtype(torch.float64)
+        torch.testing.assert_close(
+            log_normalizer(integer), _log_c([[-2, -1, 0], [1, 0, 0]], "quadrature")
+        )
+    finally:
+        torch.set_default_dtype(default)
+    with pytest.raises(TypeError, match=r"`eigenvalues` must be real, got torch\.complex64"):
+        log_normalizer(torch.zeros(3, dtype=torch.complex64))
+
+
 def test_empty_batch():
     assert log_normalizer(torch.zeros(0, 3)).shape == (0,)
     assert log_normalizer(torch.zeros(0, 4), "paper").shape == (0,)

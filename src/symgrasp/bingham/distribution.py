@@ -23,41 +23,14 @@ from symgrasp.bingham.normalizer import (
     second_moments,
 )
 from symgrasp.bingham.sampling import sample_in_eigenbasis
+from symgrasp.bingham.validation import (
+    check_density_args,
+    check_finite,
+    check_matrix,
+    check_unit_vectors,
+)
 
 Tensor = torch.Tensor
-
-_SYMMETRY_TOLERANCE = 1e-5
-_UNIT_TOLERANCE = 1e-4
-
-
-def _check_matrix(A: Tensor, name: str, full: bool) -> None:
-    if A.ndim < 2 or A.shape[-1] != A.shape[-2] or A.shape[-1] not in (3, 4):
-        raise ValueError(f"`{name}` must be [..., 3, 3] or [..., 4, 4], got shape {tuple(A.shape)}")
-    if not full:
-        return
-    if not torch.isfinite(A).all():
-        raise ValueError(
-            f"`{name}` must be finite, got non-finite entries (shape {tuple(A.shape)})"
-        )
-    scale = A.abs().amax(dim=(-2, -1)).clamp(min=1.0)
-    asymmetry = (A - A.transpose(-1, -2)).abs().amax(dim=(-2, -1)) / scale
-    if (asymmetry > _SYMMETRY_TOLERANCE).any():
-        raise ValueError(
-            f"`{name}` must be symmetric, got relative asymmetry {asymmetry.max().item():.3g} "
-            f"(shape {tuple(A.shape)})"
-        )
-
-
-def _check_vector(v: Tensor, d: int, name: str, full: bool) -> None:
-    if v.ndim == 0 or v.shape[-1] != d:
-        raise ValueError(f"`{name}` must be [..., {d}], got shape {tuple(v.shape)}")
-    if full:
-        deviation = (v.norm(dim=-1) - 1).abs()
-        if not torch.isfinite(v).all() or (deviation > _UNIT_TOLERANCE).any():
-            raise ValueError(
-                f"`{name}` must hold finite unit vectors, got |‖v‖ − 1| up to "
-                f"{deviation.max().item():.3g} (shape {tuple(v.shape)})"
-            )
 
 
 def eigh(A: Tensor) -> tuple[Tensor, Tensor]:
@@ -101,15 +74,16 @@ def nll(A: Tensor, v: Tensor, method: str = "auto", validate_args: bool = False)
 
     Args:
         A: ``[..., d, d]`` symmetric, d = 3 or 4.
-        v: ``[..., d]`` unit vectors; batch dimensions broadcast with A's.
+        v: ``[..., d]`` unit vectors; batch dimensions broadcast with A's. Refused unless
+            |‖v‖ − 1| is within `validation.unit_tolerance` of v's dtype.
         method: normaliser method, see `log_normalizer`.
-        validate_args: check symmetry, finiteness and unit norm (trailing sizes are always checked).
+        validate_args: also check that A is symmetric and finite (shapes, dtypes and the unit
+            norm of v are always checked; see `symgrasp.bingham.validation`).
 
     Returns:
-        ``[...]`` the per-element loss.
+        ``[...]`` the per-element loss, in the promoted dtype of A and v.
     """
-    _check_matrix(A, "A", validate_args)
-    _check_vector(v, A.shape[-1], "v", validate_args)
+    A, v = check_density_args(A, v, validate_args)
     quadratic = torch.einsum("...i,...ij,...j->...", v, A, v)
     return _LogNormalizerOfMatrix.apply(A, resolve_method(method, A.shape[-1])) - quadratic
 
@@ -118,14 +92,18 @@ class Bingham:
     """Bingham distribution with parameter matrix A.
 
     Args:
-        A: ``[*batch_shape, d, d]``, symmetric, d = 3 (S²) or 4 (S³).
-        validate_args: check symmetry and finiteness of A and unit norm of values passed to
-            `log_prob` (off by default: the hot path checks nothing but trailing sizes).
+        A: ``[*batch_shape, d, d]``, symmetric, d = 3 (S²) or 4 (S³); integer and bool
+            tensors are promoted to the default float dtype.
+        validate_args: check symmetry and finiteness of A here and in `log_prob` (off by
+            default: a NaN in A gives NaN results, except in `sample`, which always refuses
+            it; shapes and the unit norm of values passed to `log_prob` are always checked).
         method: normaliser method used by `log_prob` and `entropy`, see `log_normalizer`.
     """
 
     def __init__(self, A: Tensor, validate_args: bool = False, method: str = "auto") -> None:
-        _check_matrix(A, "A", validate_args)
+        A = check_matrix(A, "A", symmetric=validate_args)
+        if validate_args:
+            check_finite(A, "A")
         resolve_method(method, A.shape[-1])
         self.A = A
         self.method = method
@@ -203,6 +181,7 @@ class Bingham:
     def _sample_with_count(
         self, sample_shape: tuple[int, ...] | torch.Size, generator: torch.Generator | None
     ) -> tuple[Tensor, Tensor]:
+        check_finite(self.A, "A")  # no candidate is ever accepted for a non-finite A
         n = math.prod(sample_shape)
         lam, vectors = (t.detach().to(torch.float64) for t in self._eigh)
         concentrations = (lam[..., -1:] - lam).reshape(-1, self.dim)
@@ -258,7 +237,7 @@ def fit(v: Tensor, steps: int = 100) -> Bingham:
     E[vᵢ²] = Sᵢᵢ, the minimum of the convex −Σ λᵢ Sᵢᵢ + log C(λ), found by L-BFGS over
     log-concentrations (λ_d = 0).
     """
-    _check_vector(v, v.shape[-1], "v", full=True)
+    v = check_unit_vectors(v, v.shape[-1], "v")
     if v.ndim != 2 or v.shape[-1] not in (3, 4):
         raise ValueError(f"fit: `v` must be [N, 3] or [N, 4], got shape {tuple(v.shape)}")
     scatter = torch.einsum("ni,nj->ij", v, v).to(torch.float64) / v.shape[0]

@@ -55,6 +55,8 @@ import numpy as np
 import torch
 from torch.autograd.function import once_differentiable
 
+from symgrasp.bingham.validation import as_floating
+
 Tensor = torch.Tensor
 
 METHODS = ("auto", "quadrature", "paper", "bessel")
@@ -258,11 +260,12 @@ def log_normalizer(eigenvalues: Tensor, method: str = "auto") -> Tensor:
     """log C(λ) of the Bingham distribution on S² (``[..., 3]``) or S³ (``[..., 4]``).
 
     C uses the surface measure (C(0) = 4π on S², 2π² on S³). Eigenvalues may come in any order
-    and with any shift. Computed in float64 and returned in the input's dtype; differentiable
-    in the eigenvalues with the analytic gradient ∂ log C/∂λᵢ = E[vᵢ²].
+    and with any shift. Computed in float64 and returned in the input's dtype (integer and bool
+    input in the default float dtype, as torch functions promote it); differentiable in the
+    eigenvalues with the analytic gradient ∂ log C/∂λᵢ = E[vᵢ²].
 
     Args:
-        eigenvalues: ``[..., 3]`` or ``[..., 4]``, finite.
+        eigenvalues: ``[..., 3]`` or ``[..., 4]``, finite, real.
         method: ``"auto"`` (``"quadrature"`` on S², ``"bessel"`` on S³), ``"quadrature"``,
             ``"paper"`` or ``"bessel"``; see the module docstring.
 
@@ -275,7 +278,7 @@ def log_normalizer(eigenvalues: Tensor, method: str = "auto") -> Tensor:
             f"got shape {tuple(eigenvalues.shape)}"
         )
     concrete = resolve_method(method, eigenvalues.shape[-1])
-    return _LogNormalizer.apply(eigenvalues, concrete)
+    return _LogNormalizer.apply(as_floating(eigenvalues, "eigenvalues"), concrete)
 
 
 def second_moments(eigenvalues: Tensor, method: str = "auto") -> Tensor:

@@ -1,0 +1,114 @@
+"""Argument checks of the Bingham functions: what is promoted and what is refused.
+
+Shapes and dtypes cost nothing to check and are always checked. A check that reads values is
+one fused reduction over the tensor (one host synchronisation on a GPU); counting the offending
+rows and finding the first one happens only when it fails.
+
+- Integer and bool tensors are promoted to ``torch.get_default_dtype()``, and ``A`` and ``v`` of
+  different floating dtypes to ``torch.promote_types`` of the two, as torch's own operators do.
+- Complex tensors are refused (`TypeError`); so are batch shapes that do not broadcast,
+  vectors that are not unit, and a non-finite ``A`` where NaN cannot simply propagate (the
+  sampler would never accept a candidate) or when ``validate_args`` asks (`ValueError`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+Tensor = torch.Tensor
+
+_SYMMETRY_TOLERANCE = 1e-5
+# Normalising a vector in a dtype leaves |‖v‖ − 1| of a few eps, and composing rotations a few
+# eps more; √eps (3.5e-4 in float32, 3e-2 in float16) is orders of magnitude above that and
+# orders below a forgotten normalisation. The floor admits float32 data cast to float64
+# (|‖v‖ − 1| up to ~1e-6), where √eps = 1.5e-8 would refuse it. An admitted deviation δ
+# changes vᵀAv by the relative 2δ.
+_UNIT_TOLERANCE_FLOOR = 1e-5
+
+
+def unit_tolerance(dtype: torch.dtype) -> float:
+    """The largest |‖v‖ − 1| accepted as a unit vector stored in ``dtype``."""
+    return max(math.sqrt(torch.finfo(dtype).eps), _UNIT_TOLERANCE_FLOOR)
+
+
+def as_floating(t: Tensor, name: str) -> Tensor:
+    """``t`` if real floating point; integer and bool tensors in the default float dtype."""
+    if t.is_complex():
+        raise TypeError(f"`{name}` must be real, got {t.dtype}")
+    return t if t.is_floating_point() else t.to(torch.get_default_dtype())
+
+
+def _offenders(bad: Tensor) -> tuple[str, tuple[int, ...]]:
+    """'k of N' and the batch index of the first offender, for a non-empty bool mask ``[...]``."""
+    return f"{int(bad.sum())} of {bad.numel()}", tuple(bad.nonzero()[0].tolist())
+
+
+def check_matrix(A: Tensor, name: str, symmetric: bool) -> Tensor:
+    """``A [..., d, d]``, d = 3 or 4, as floating point; its symmetry checked if ``symmetric``."""
+    if A.ndim < 2 or A.shape[-1] != A.shape[-2] or A.shape[-1] not in (3, 4):
+        raise ValueError(f"`{name}` must be [..., 3, 3] or [..., 4, 4], got shape {tuple(A.shape)}")
+    A = as_floating(A, name)
+    if symmetric:
+        scale = A.abs().amax(dim=(-2, -1)).clamp(min=1.0)
+        asymmetry = (A - A.transpose(-1, -2)).abs().amax(dim=(-2, -1)) / scale
+        if (asymmetry > _SYMMETRY_TOLERANCE).any():
+            raise ValueError(
+                f"`{name}` must be symmetric, got relative asymmetry {asymmetry.max().item():.3g} "
+                f"(shape {tuple(A.shape)})"
+            )
+    return A
+
+
+def check_finite(A: Tensor, name: str) -> None:
+    """Refuse NaN or inf anywhere in the matrices ``A [..., d, d]``."""
+    if torch.isfinite(A).all():
+        return
+    bad = ~torch.isfinite(A).flatten(-2).all(-1)
+    if bad.ndim:
+        count, first = _offenders(bad)
+        detail = f"{count} matrices hold NaN or inf, the first at batch index {first}"
+    else:
+        detail = "got NaN or inf"
+    raise ValueError(f"`{name}` must be finite: {detail} (shape {tuple(A.shape)})")
+
+
+def check_unit_vectors(v: Tensor, d: int, name: str) -> Tensor:
+    """``v [..., d]`` as floating point, refused unless every vector is finite and unit."""
+    if v.ndim == 0 or v.shape[-1] != d:
+        raise ValueError(f"`{name}` must be [..., {d}], got shape {tuple(v.shape)}")
+    v = as_floating(v, name)
+    tolerance = unit_tolerance(v.dtype)
+    norm = torch.linalg.vector_norm(v, dim=-1)
+    within = (norm - 1).abs() <= tolerance  # False for NaN, so non-finite vectors fail too
+    if within.all():
+        return v
+    count, first = _offenders(~within)
+    detail = f"{count} are not, the first at batch index {first} with" if within.ndim else "got"
+    raise ValueError(
+        f"`{name}` must hold finite unit vectors (|‖v‖ − 1| ≤ {tolerance:.2g} in {v.dtype}): "
+        f"{detail} ‖v‖ = {norm[first].item():.6g} (shape {tuple(v.shape)})"
+    )
+
+
+def check_density_args(A: Tensor, v: Tensor, validate_args: bool) -> tuple[Tensor, Tensor]:
+    """``A [..., d, d]`` and unit ``v [..., d]`` in one dtype, their batch shapes broadcastable.
+
+    Symmetry and finiteness of A are checked only if ``validate_args``: a NaN in A gives a NaN
+    density, which is not silent, and a training loop can report it with its own advice.
+    """
+    A = check_matrix(A, "A", symmetric=validate_args)
+    if validate_args:
+        check_finite(A, "A")
+    d = A.shape[-1]
+    v = check_unit_vectors(v, d, "v")
+    try:
+        torch.broadcast_shapes(A.shape[:-2], v.shape[:-1])
+    except RuntimeError:
+        raise ValueError(
+            f"`A` [..., {d}, {d}] and `v` [..., {d}] must broadcast in their batch dimensions; "
+            f"got `A` {tuple(A.shape)}, `v` {tuple(v.shape)}"
+        ) from None
+    dtype = torch.promote_types(A.dtype, v.dtype)
+    return A.to(dtype), v.to(dtype)
