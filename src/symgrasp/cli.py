@@ -360,13 +360,33 @@ def _run_export(args: argparse.Namespace) -> None:
 def _add_objects(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "objects",
-        help="object sets: look inside one",
+        help="object sets: download VGN's, look inside one",
         description="Object sets on disk: VGN's household meshes in the data folder "
         "($SYMGRASP_DATA, default ~/.cache/symgrasp) or a folder of URDF files.",
     )
     actions = parser.add_subparsers(
-        dest="action", required=True, metavar="ACTION", help="what to do (inspect)"
+        dest="action", required=True, metavar="ACTION", help="what to do (fetch, inspect)"
     )
+    fetch = actions.add_parser(
+        "fetch",
+        help="download VGN's household object sets into the data folder",
+        description="Download VGN's object sets (pile/packed, train/test; Breyer et al. 2020, "
+        "as redistributed by the MIT-licensed HaojHuang/Edge-Grasp-Network at a pinned "
+        "commit) into <data>/objects/vgn. Every file is checked against the manifest shipped "
+        "with symgrasp; a killed download continues where it stopped; nothing is put in "
+        "place until all of it is there and checked. Does nothing when the sets are there.",
+    )
+    fetch.add_argument("what", choices=("vgn",), help="what to download (vgn: VGN's four sets)")
+    fetch.add_argument(
+        "--data", default=None,
+        help="data folder to download into (default: $SYMGRASP_DATA, else ~/.cache/symgrasp)",
+    )  # fmt: skip
+    fetch.add_argument(
+        "--url", default=None,
+        help="archive to download instead of the pinned GitHub one: a mirror, or a file:// "
+        "URL of a copy; its files must still match the shipped manifest",
+    )  # fmt: skip
+    fetch.set_defaults(run=_run_objects_fetch)
     inspect = actions.add_parser(
         "inspect",
         help="print what a set holds and draw it",
@@ -383,6 +403,12 @@ def _add_objects(subparsers: argparse._SubParsersAction) -> None:
         "--limit", type=_integer(1, 500), default=48, help="objects drawn (default: 48)"
     )
     inspect.set_defaults(run=_run_objects_inspect)
+
+
+def _run_objects_fetch(args: argparse.Namespace) -> None:
+    from symgrasp.objects.fetch import VGN_ARCHIVE_URL, fetch_vgn
+
+    print(f"VGN's object sets are in {fetch_vgn(args.data, args.url or VGN_ARCHIVE_URL)}")
 
 
 def _run_objects_inspect(args: argparse.Namespace) -> None:

@@ -245,3 +245,13 @@ def test_the_shipped_manifest_matches_the_sets():
     expected = shipped_manifest()
     assert manifest(SHARED_VGN) == expected
     assert len(expected) == 3 * (303 + 40 + 114 + 16) + 1
+
+
+def test_the_command_line_checks_against_the_shipped_manifest(tmp_path, archive, capsys):
+    from symgrasp.cli import main
+
+    with pytest.raises(SystemExit) as exit:
+        main(["objects", "fetch", "vgn", "--data", str(tmp_path / "d"), "--url", archive.as_uri()])
+    message = str(exit.value)
+    assert message.startswith("error: the archive from file://") and "\n" not in message
+    assert "missing" in message and nothing_in_place(tmp_path / "d")
