@@ -27,18 +27,23 @@ from symgrasp.config import (
     TrainConfig,
     field_docs,
 )
-from symgrasp.names import GRIPPERS, OBJECT_SETS, REPRESENTATIONS, SCENES
+from symgrasp.names import GRIPPERS, MESH_OBJECT_SETS, OBJECT_SETS, REPRESENTATIONS, SCENES
 from symgrasp.workspace import WORKSPACE_SIZE
 
 # -- options shared between commands ------------------------------------------------------
 
 
 def _object_set(value: str) -> str:
-    """An object set's name or an existing folder (read and checked when the command runs)."""
-    if value in OBJECT_SETS or Path(value).expanduser().is_dir():
+    """An object set's name, an existing folder, or mesh sets and folders joined by commas
+    (read and checked when the command runs)."""
+    parts = value.split(",")
+    if value in OBJECT_SETS or all(
+        p in MESH_OBJECT_SETS or Path(p).expanduser().is_dir() for p in parts
+    ):
         return value
     raise argparse.ArgumentTypeError(
-        f"expected one of {', '.join(OBJECT_SETS)} or a folder of URDF files, got {value!r}"
+        f"expected one of {', '.join(OBJECT_SETS)}, a folder of URDF files, or mesh sets and "
+        f"folders joined by commas, got {value!r}"
     )
 
 
@@ -395,7 +400,8 @@ def _add_objects(subparsers: argparse._SubParsersAction) -> None:
         "watertight; then draw the first objects' collision parts into one picture.",
     )
     inspect.add_argument("objects", type=_object_set, metavar="SET|FOLDER",
-                         help="a mesh set's name (vgn-pile-test, …) or a folder of URDF files")  # fmt: skip
+                         help="a mesh set's name (vgn-pile-test, …), a folder of URDF files, or "
+                         "several joined by commas")  # fmt: skip
     inspect.add_argument(
         "--out", default=None, help="picture to write (default: out/objects/<set>.png)"
     )
@@ -416,10 +422,11 @@ def _run_objects_inspect(args: argparse.Namespace) -> None:
     from symgrasp.objects.sets import resolve
 
     source = resolve(args.objects)
-    if source.folder is None:
+    if not source.meshes:
         raise SystemExit(f"error: {args.objects} is built in code, not read from meshes")
     reports, refused = inspect_objects(source)
-    print(f"{len(reports)} objects in {source.folder}, {len(refused)} refused")
+    where = ", ".join(map(str, source.folders))
+    print(f"{len(reports)} objects in {where}, {len(refused)} refused")
     print(HEADER)
     for report in reports:
         print(report.row())

@@ -125,7 +125,8 @@ class SceneConfig:
     """What a dataset is made of: everything that changes its content (`symgrasp.data`)."""
 
     object_set: str = "household-train"
-    """Named object set the pool is drawn from."""
+    """Object set the pool is drawn from: a name, a folder of URDF files, or mesh sets and
+    folders joined by commas (`symgrasp.objects.sets.resolve`)."""
     gripper: str = "robotiq-2f85"
     """The gripper whose grasps are labelled."""
     pool_size: int = 16
@@ -282,7 +283,8 @@ class BenchmarkConfig:
     model: str = "bingham2d-robotiq-2f85"
     """Shipped model name or checkpoint path."""
     objects: str = "household-test"
-    """Object set the rounds draw from: a name or a folder of URDF files."""
+    """Object set the rounds draw from: a name, a folder of URDF files, or mesh sets and
+    folders joined by commas (`symgrasp.objects.sets.resolve`)."""
     scene: str = "pile"
     """How each round's objects are laid out: "pile" or "packed"."""
     num_objects: int = 5

@@ -111,11 +111,29 @@ def test_broken_urdf_files_are_named_in_the_error(tmp_path, setup, error, match)
 def test_folders_and_names_that_are_not_sets_are_refused(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match=r"holds no \.urdf file"):
         resolve(tmp_path)
-    with pytest.raises(ValueError, match=r"household-train, .*vgn-pile-train.* or a folder"):
+    with pytest.raises(ValueError, match=r"household-train, .*vgn-pile-train.*, a folder"):
         resolve("kitchen")
+    with pytest.raises(ValueError, match=r"got 'blocks' \(procedural sets cannot be joined\)"):
+        resolve(f"{tmp_path},blocks")
     monkeypatch.setenv(DATA_ENV, str(tmp_path))
     with pytest.raises(FileNotFoundError, match=rf"{tmp_path}/objects/vgn/pile/test does not exist; run `symgrasp objects fetch vgn`"):  # fmt: skip
         resolve("vgn-pile-test")
+
+
+def test_sets_joined_by_commas_are_the_union_of_their_files(tmp_path):
+    first, second = tmp_path / "a", tmp_path / "b"
+    first.mkdir(), second.mkdir()
+    _urdf(first, "mug"), _urdf(first, "can"), _urdf(second, "box")
+    source = resolve(f"{first},{second}")
+    assert [f.name for f in source.files] == ["can.urdf", "mug.urdf", "box.urdf"]
+    assert source.load(2).name == resolve(second).load(0).name
+    drawn = [o.name for o in source.draw(40, seed=3)]
+    assert set(drawn) == {"mug", "can", "box"}, "every object of either folder can be drawn"
+    with pytest.raises(ValueError, match="names a set twice"):
+        resolve(f"{first},{first}/../a")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ValueError, match=r"empty holds no \.urdf file"):
+        resolve(f"{first},{tmp_path / 'empty'}")
 
 
 @pytest.fixture

@@ -50,7 +50,7 @@ def _visual_watertight(urdf: Path) -> bool | None:
 
 
 def inspect_objects(source: ObjectSource) -> tuple[list[ObjectReport], list[str]]:
-    """A report per usable object of a mesh set (`ObjectSource` with a folder), and why each
+    """A report per usable object of a mesh set (an `ObjectSource` read from files), and why each
     other file cannot be used (one line naming it)."""
     reports, refused = [], []
     for index, urdf in enumerate(source.files):

@@ -1,5 +1,7 @@
 """An object set resolved once, at the edge: a procedural set's name, one of VGN's mesh sets,
-or a folder of URDF files. Every command that takes ``--objects`` resolves it here.
+a folder of URDF files, or several mesh sets and folders joined by commas
+(``vgn-pile-train,vgn-packed-train``: the union of their objects). Every command that takes
+``--objects`` resolves it here.
 
 A set gives the objects of a scene (`ObjectSource.draw`) and a training pool
 (`ObjectSource.pool`), and builds the scenes its objects belong in (`ObjectSource.scene`):
@@ -40,17 +42,21 @@ _MESH_STREAM = 1000  # random streams of mesh sets, apart from the procedural se
 
 @dataclass(frozen=True)
 class ObjectSource:
-    """Where a scene's objects come from: ``name`` (a procedural set) or ``folder`` (URDFs)."""
+    """Where a scene's objects come from: ``name`` (a procedural set, no ``folders``) or the
+    URDF files of ``folders``."""
 
     name: str
-    folder: Path | None = None
+    folders: tuple[Path, ...] = ()
+
+    @property
+    def meshes(self) -> bool:
+        """Whether the objects are read from files (else built in code)."""
+        return bool(self.folders)
 
     @functools.cached_property
     def files(self) -> tuple[Path, ...]:
-        """The URDF files of a mesh set, sorted by name."""
-        if self.folder is None:
-            return ()
-        return tuple(sorted(self.folder.glob("*.urdf")))
+        """The URDF files of a mesh set: each folder's sorted by name, in folder order."""
+        return tuple(path for folder in self.folders for path in sorted(folder.glob("*.urdf")))
 
     def load(self, index: int) -> ObjectSpec:
         """Object ``index`` of a mesh set, unscaled."""
@@ -60,7 +66,7 @@ class ObjectSource:
         """The ``n`` objects of round/scene ``seed`` for a ``scene`` of that kind."""
         if scene not in SCENES:
             raise ValueError(f"scene must be one of {SCENES}, got {scene!r}")
-        if self.folder is None:
+        if not self.meshes:
             return object_set(self.name, n, seed)
         rng = np.random.default_rng([seed, _MESH_STREAM])
         chosen = rng.integers(len(self.files), size=n)
@@ -71,7 +77,7 @@ class ObjectSource:
         """``size`` objects to build grasp databases for: a procedural set's draw, or a mesh
         set's objects in a random order (again from the start when ``size`` exceeds the set),
         each scaled once by U`POOL_SCALE`."""
-        if self.folder is None:
+        if not self.meshes:
             return object_set(self.name, size, seed)
         rng = np.random.default_rng([seed, _MESH_STREAM + 1])
         order = np.concatenate(
@@ -92,7 +98,7 @@ class ObjectSource:
 
         if kind not in SCENES:
             raise ValueError(f"scene must be one of {SCENES}, got {kind!r}")
-        if self.folder is None:
+        if not self.meshes:
             build = world.pile_scene if kind == "pile" else world.packed_scene
         else:
             build = world.vgn_pile_scene if kind == "pile" else world.vgn_packed_scene
@@ -115,24 +121,34 @@ def _load(path: Path) -> ObjectSpec:
 
 def resolve(objects: str | Path) -> ObjectSource:
     """The source named ``objects``: a procedural set, one of VGN's sets (from the data
-    folder) or a folder holding URDF files. Raises ValueError listing the known names when it
-    is none of these, and FileNotFoundError when a named mesh set is not in the data folder."""
+    folder), a folder holding URDF files, or several of the last two joined by commas. Raises
+    ValueError listing the known names when a part is none of these (or a procedural set is
+    joined to others), and FileNotFoundError when a named mesh set is not in the data folder."""
     name = str(objects)
     if name in PROCEDURAL_OBJECT_SETS:
         return ObjectSource(name)
-    if name in MESH_OBJECT_SETS:
-        folder = set_folder(name)
-    else:
-        folder = Path(objects).expanduser()
-        if not folder.is_dir():
-            raise ValueError(
-                f"objects must be one of {', '.join(PROCEDURAL_OBJECT_SETS + MESH_OBJECT_SETS)} "
-                f"or a folder of URDF files, got {name!r}"
-            )
-    source = ObjectSource(name, folder)
-    if not source.files:
-        raise ValueError(f"objects folder {folder} holds no .urdf file")
-    return source
+    folders = tuple(_mesh_folder(part) for part in name.split(","))
+    if len(set(folders)) < len(folders):
+        raise ValueError(f"objects names a set twice: {name!r}")
+    for folder in folders:
+        if not any(folder.glob("*.urdf")):
+            raise ValueError(f"objects folder {folder} holds no .urdf file")
+    return ObjectSource(name, folders)
+
+
+def _mesh_folder(part: str) -> Path:
+    """The folder of one mesh set's name or a folder path."""
+    if part in MESH_OBJECT_SETS:
+        return set_folder(part).resolve()
+    folder = Path(part).expanduser()
+    if not folder.is_dir():
+        known = ", ".join(PROCEDURAL_OBJECT_SETS + MESH_OBJECT_SETS)
+        joined = " (procedural sets cannot be joined)" if part in PROCEDURAL_OBJECT_SETS else ""
+        raise ValueError(
+            f"objects must be one of {known}, a folder of URDF files, or mesh sets and folders "
+            f"joined by commas, got {part!r}{joined}"
+        )
+    return folder.resolve()
 
 
 def make_scene(
