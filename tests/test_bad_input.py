@@ -11,7 +11,9 @@ import shutil
 
 import numpy as np
 import pytest
+import torch
 
+from symgrasp import bingham
 from symgrasp.cli import main
 from symgrasp.config import BenchmarkConfig
 from symgrasp.detect.pretrained import shipped_path
@@ -171,7 +173,13 @@ API = {
     "unknown object set": (lambda d: __import__("symgrasp.sim", fromlist=["x"]).object_set("kitchen", 3), "household-train"),
     "unknown gripper": (lambda d: __import__("symgrasp.sim", fromlist=["x"]).get_gripper("shadow"), "robotiq-2f85"),
     "unknown representation": (lambda d: __import__("symgrasp.rotation", fromlist=["x"]).get("rotmat9d"), "bingham2d"),
+    "Bingham A (2, 3)": (lambda d: bingham.Bingham(torch.zeros(2, 3)), "`A` must be"),
+    "Bingham NaN A, sampled": (lambda d: bingham.Bingham(torch.full((3, 3), torch.nan)).sample(), "`A` must be finite"),
+    "Bingham nll of a non-unit v": (lambda d: bingham.nll(torch.zeros(3, 3), torch.tensor([2.0, 0, 0])), "unit vectors"),
+    "Bingham normalizer method": (lambda d: bingham.log_normalizer(torch.zeros(3), method="laplace"), "`method`"),
 }  # fmt: skip
+"""Bad calls of the API: each raises ValueError or TypeError naming the argument. The Bingham
+rows cover its entry points; tests/test_bingham_*.py hold the rest of its cases."""
 
 
 @pytest.mark.parametrize("case", API)
