@@ -28,6 +28,7 @@ from symgrasp.config import (
     field_docs,
 )
 from symgrasp.names import GRIPPERS, MESH_OBJECT_SETS, OBJECT_SETS, REPRESENTATIONS, SCENES
+from symgrasp.objects.folder import data_folder
 from symgrasp.workspace import WORKSPACE_SIZE
 
 # -- options shared between commands ------------------------------------------------------
@@ -42,8 +43,9 @@ def _object_set(value: str) -> str:
     ):
         return value
     raise argparse.ArgumentTypeError(
-        f"expected one of {', '.join(OBJECT_SETS)}, a folder of URDF files, or mesh sets and "
-        f"folders joined by commas, got {value!r}"
+        f"expected one of {', '.join(OBJECT_SETS)} (mesh sets are read from the data folder "
+        f"{data_folder()}), a folder of URDF files, or mesh sets and folders joined by commas, "
+        f"got {value!r}"
     )
 
 
