@@ -5,7 +5,6 @@ objects as MuJoCo collides them."""
 from __future__ import annotations
 
 import math
-import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,9 +54,7 @@ def _visual_watertight(urdf: Path) -> bool | None:
 def _bare_mesh(path: Path, mesh_unit: str) -> tuple[str, bool]:
     """A bare mesh's units as read ("mm (guessed)", "cm (given)") and whether it is
     watertight."""
-    with warnings.catch_warnings():  # the units are in the table; the load warned once
-        warnings.simplefilter("ignore")
-        bare = read_mesh(path, mesh_unit)
+    bare = read_mesh(path, mesh_unit)
     return f"{bare.unit} ({'guessed' if bare.guessed else 'given'})", bool(bare.mesh.is_watertight)
 
 

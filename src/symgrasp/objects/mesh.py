@@ -78,8 +78,8 @@ class BareMesh:
 
 def read_mesh(path: str | Path, mesh_unit: str = "auto") -> BareMesh:
     """The triangles of the mesh file ``path`` and its units (``mesh_unit``, or guessed from its
-    size: module doc). Raises ValueError naming the file when it is not a mesh trimesh reads
-    or holds no triangles."""
+    size: module doc; `load_mesh` says so). Raises ValueError naming the file when it is not a
+    mesh trimesh reads or holds no triangles."""
     import trimesh
 
     path = Path(path)
@@ -93,15 +93,7 @@ def read_mesh(path: str | Path, mesh_unit: str = "auto") -> BareMesh:
         raise ValueError(f"{path} holds no triangles: not an OBJ, STL or PLY mesh")
     if mesh_unit != "auto":
         return BareMesh(path, mesh, mesh_unit, guessed=False)
-    longest = float(mesh.extents.max())
-    if longest <= MILLIMETRE_HINT:
-        return BareMesh(path, mesh, "m", guessed=True)
-    warnings.warn(
-        f"{path}: longest side {longest:.4g} file units, read as millimetres "
-        f"({longest / 1000:.3f} m); --mesh-unit (mesh_unit) sets the units",
-        stacklevel=2,
-    )
-    return BareMesh(path, mesh, "mm", guessed=True)
+    return BareMesh(path, mesh, "mm" if mesh.extents.max() > MILLIMETRE_HINT else "m", True)
 
 
 def load_mesh(path: str | Path, mesh_unit: str = "auto", name: str | None = None) -> ObjectSpec:
@@ -131,6 +123,13 @@ def load_mesh(path: str | Path, mesh_unit: str = "auto", name: str | None = None
     volume = float(mesh.volume)
     if volume * bare.metres**3 <= 1e-12:
         raise ValueError(f"{path} encloses no volume (its faces cancel out)")
+    if bare.guessed and bare.unit == "mm":
+        longest = float(mesh.extents.max())
+        warnings.warn(
+            f"{path}: longest side {longest:.4g} file units, read as millimetres "
+            f"({longest / 1000:.3f} m); --mesh-unit (mesh_unit) sets the units",
+            stacklevel=2,
+        )
     if hull.volume <= (1 + CONVEX_TOLERANCE) * volume:
         groups = [hull.vertices]
     else:
