@@ -11,7 +11,9 @@ import shutil
 
 import numpy as np
 import pytest
+import torch
 
+from symgrasp import bingham
 from symgrasp.cli import main
 from symgrasp.config import BenchmarkConfig
 from symgrasp.detect.pretrained import shipped_path
@@ -41,10 +43,28 @@ def files(tmp_path):
     manifest = {"gripper": "franka", "object_set": "blocks", "k_max": 8, "scene_ids": []}
     (unfinished / "manifest.json").write_text(json.dumps(manifest))
     (unfinished / "scenes" / "scene_000000.npz").write_bytes(b"")
+    _urdf_object(tmp_path / "no_mesh", mesh=None)
+    _urdf_object(tmp_path / "too_big", mesh=0.4)
     (tmp_path / "bench").mkdir()  # a benchmark folder of the default configuration
     config = json.loads(json.dumps(dataclasses.asdict(BenchmarkConfig())))
     (tmp_path / "bench" / "config.json").write_text(json.dumps(config))
     return tmp_path
+
+
+def _urdf_object(folder, mesh):
+    """A folder holding ``thing.urdf`` whose collision mesh is a cube of side ``mesh`` [m], or
+    names a file that is not there (``mesh=None``)."""
+    folder.mkdir()
+    if mesh is not None:
+        corners = np.array(np.meshgrid([0, mesh], [0, mesh], [0, mesh])).reshape(3, -1).T
+        faces = "f 1 2 4\nf 5 6 8\nf 1 3 5\nf 2 4 8\n"
+        (folder / "thing.obj").write_text(
+            "".join(f"v {x} {y} {z}\n" for x, y, z in corners) + faces
+        )
+    (folder / "thing.urdf").write_text(
+        '<robot name="thing"><link name="l"><inertial><mass value="0.2"/></inertial>'
+        '<collision><geometry><mesh filename="thing.obj"/></geometry></collision></link></robot>'
+    )
 
 
 def _detect(d, *extra, depth="depth.npy", intrinsic="intrinsic.json", model=SHIPPED):
@@ -98,6 +118,11 @@ CLI = {
     "detect --out is a file": (lambda d: [*_detect(d)[:-1], str(d / "a_file")], "a_file"),
     "sim show --out is a file": (lambda d: ["sim", "show", "--n", "1", "--out", str(d / "a_file")], "a_file"),
     "export into a folder": (lambda d: ["export", str(shipped_path(SHIPPED)), str(d / "folder")], "folder"),
+    "sim show --objects an empty folder": (lambda d: ["sim", "show", "--objects", str(d / "folder"), "--out", str(d / "s")], "holds no .urdf file"),
+    "sim show --objects a URDF without its mesh": (lambda d: ["sim", "show", "--objects", str(d / "no_mesh"), "--out", str(d / "s")], "thing.obj"),
+    "sim show --objects an object larger than the workspace": (lambda d: ["sim", "show", "--objects", str(d / "too_big"), "--out", str(d / "s")], "larger than the 0.3 m workspace"),
+    "sim show --objects an unknown set": (lambda d: ["sim", "show", "--objects", "kitchen", "--out", str(d / "s")], "data folder"),
+    "objects inspect a procedural set": (lambda d: ["objects", "inspect", "blocks"], "built in code"),
     "export a garbage checkpoint": (lambda d: ["export", str(d / "garbage.pt"), str(d / "x.pt")], "garbage.pt"),
 }  # fmt: skip
 
@@ -171,7 +196,13 @@ API = {
     "unknown object set": (lambda d: __import__("symgrasp.sim", fromlist=["x"]).object_set("kitchen", 3), "household-train"),
     "unknown gripper": (lambda d: __import__("symgrasp.sim", fromlist=["x"]).get_gripper("shadow"), "robotiq-2f85"),
     "unknown representation": (lambda d: __import__("symgrasp.rotation", fromlist=["x"]).get("rotmat9d"), "bingham2d"),
+    "Bingham A (2, 3)": (lambda d: bingham.Bingham(torch.zeros(2, 3)), "`A` must be"),
+    "Bingham NaN A, sampled": (lambda d: bingham.Bingham(torch.full((3, 3), torch.nan)).sample(), "`A` must be finite"),
+    "Bingham nll of a non-unit v": (lambda d: bingham.nll(torch.zeros(3, 3), torch.tensor([2.0, 0, 0])), "unit vectors"),
+    "Bingham normalizer method": (lambda d: bingham.log_normalizer(torch.zeros(3), method="laplace"), "`method`"),
 }  # fmt: skip
+"""Bad calls of the API: each raises ValueError or TypeError naming the argument. The Bingham
+rows cover its entry points; tests/test_bingham_*.py hold the rest of its cases."""
 
 
 @pytest.mark.parametrize("case", API)

@@ -35,6 +35,7 @@ from symgrasp.names import (
     REPRESENTATIONS,
     SCENES,
 )
+from symgrasp.objects.folder import data_folder
 from symgrasp.workspace import WORKSPACE_SIZE
 
 # -- options shared between commands ------------------------------------------------------
@@ -49,8 +50,9 @@ def _object_set(value: str) -> str:
     ):
         return value
     raise argparse.ArgumentTypeError(
-        f"expected one of {', '.join(OBJECT_SETS)}, a folder of URDF files or meshes, or mesh "
-        f"sets and folders joined by commas, got {value!r}"
+        f"expected one of {', '.join(OBJECT_SETS)} (mesh sets are read from the data folder "
+        f"{data_folder()}), a folder of URDF files or meshes, or mesh sets and folders joined "
+        f"by commas, got {value!r}"
     )
 
 

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from symgrasp.names import MESH_OBJECT_SETS, MESH_UNITS, PROCEDURAL_OBJECT_SETS, SCENES
-from symgrasp.objects.folder import set_folder
+from symgrasp.objects.folder import data_folder, set_folder
 from symgrasp.sim.objects import ObjectSpec, object_set
 from symgrasp.workspace import WORKSPACE_SIZE
 
@@ -172,7 +172,8 @@ def _mesh_folder(part: str) -> Path:
         known = ", ".join(PROCEDURAL_OBJECT_SETS + MESH_OBJECT_SETS)
         joined = " (procedural sets cannot be joined)" if part in PROCEDURAL_OBJECT_SETS else ""
         raise ValueError(
-            f"objects must be one of {known}, a folder of URDF files or meshes, or mesh sets and folders "
+            f"objects must be one of {known} (mesh sets are read from the data folder "
+            f"{data_folder()}), a folder of URDF files or meshes, or mesh sets and folders "
             f"joined by commas, got {part!r}{joined}"
         )
     return folder.resolve()

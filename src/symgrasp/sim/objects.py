@@ -207,16 +207,13 @@ class ObjectSpec:
         for j, part in enumerate(self.parts):
             mass = self.mass * part.volume / total
             if isinstance(part, ConvexPart):
-                shape = f'type="mesh" mesh="{prefix}_{j}"'
+                shape = f'class="mesh_object" type="mesh" mesh="{prefix}_{j}"'
             else:
                 size = " ".join(f"{v:.5f}" for v in part.size)
                 pos = " ".join(f"{v:.5f}" for v in part.pos)
                 quat = " ".join(f"{v:.6f}" for v in part.quat)
-                shape = f'type="{part.kind}" size="{size}" pos="{pos}" quat="{quat}"'
-            lines.append(
-                f'<geom class="object" {shape} mass="{mass:.6f}" friction="{friction}" '
-                f'rgba="{rgba}"/>'
-            )
+                shape = f'class="object" type="{part.kind}" size="{size}" pos="{pos}" quat="{quat}"'
+            lines.append(f'<geom {shape} mass="{mass:.6f}" friction="{friction}" rgba="{rgba}"/>')
         return "\n".join(lines)
 
     def scaled(self, factor: float) -> ObjectSpec:
