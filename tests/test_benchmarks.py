@@ -23,6 +23,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "yaw_tolerance": ("yaw_tolerance.json", "cells"),
     "seed_check": ("seed_check.json", "paired_lead"),
     "scene_physics": ("scene_physics.json", "cells"),
+    "decomposition": ("decomposition.json", "summary"),
     "grasp_db": ("grasp_db.json", "cells"),
 }
 NEEDS_VGN = {"scene_physics", "grasp_db"}  # reads VGN's meshes from the data folder

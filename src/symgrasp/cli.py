@@ -27,7 +27,14 @@ from symgrasp.config import (
     TrainConfig,
     field_docs,
 )
-from symgrasp.names import GRIPPERS, MESH_OBJECT_SETS, OBJECT_SETS, REPRESENTATIONS, SCENES
+from symgrasp.names import (
+    GRIPPERS,
+    MESH_OBJECT_SETS,
+    MESH_UNITS,
+    OBJECT_SETS,
+    REPRESENTATIONS,
+    SCENES,
+)
 from symgrasp.objects.folder import data_folder
 from symgrasp.workspace import WORKSPACE_SIZE
 
@@ -44,8 +51,8 @@ def _object_set(value: str) -> str:
         return value
     raise argparse.ArgumentTypeError(
         f"expected one of {', '.join(OBJECT_SETS)} (mesh sets are read from the data folder "
-        f"{data_folder()}), a folder of URDF files, or mesh sets and folders joined by commas, "
-        f"got {value!r}"
+        f"{data_folder()}), a folder of URDF files or meshes, or mesh sets and folders joined "
+        f"by commas, got {value!r}"
     )
 
 
@@ -56,6 +63,7 @@ SHARED = {
     "gripper": ("--gripper", {"choices": GRIPPERS}),
     "representation": ("--rep", {"choices": REPRESENTATIONS}),
     "kinds": ("--kinds", {"choices": SCENES}),
+    "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),
 }
 """How a field of these names appears on any command line: its flag and its choices."""
 
@@ -64,6 +72,13 @@ def _add_shared(parser: argparse.ArgumentParser, name: str, help: str, default: 
     """The shared option ``name`` (a key of `SHARED`) with its flag and choices."""
     flag, options = SHARED[name]
     parser.add_argument(flag, dest=name, default=default, help=help, **options)
+
+
+def _add_mesh_unit(parser: argparse.ArgumentParser) -> None:
+    """``--mesh-unit``, as `SceneConfig.mesh_unit` documents it, on a command without a
+    configuration."""
+    help = _sentence(field_docs(SceneConfig)["mesh_unit"])
+    _add_shared(parser, "mesh_unit", f"{help} (default: auto)", "auto")
 
 
 def _add_confidence_options(parser: argparse.ArgumentParser) -> None:
@@ -243,13 +258,17 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--model", default=None, help="a checkpoint path instead of the shipped model"
     )
+    _add_mesh_unit(parser)
     parser.set_defaults(run=_run_demo)
 
 
 def _run_demo(args: argparse.Namespace) -> None:
     from symgrasp.demo import run_demo
 
-    run_demo(args.out, args.seed, args.gripper, args.objects, args.num_objects, args.model)
+    run_demo(
+        args.out, args.seed, args.gripper, args.objects, args.num_objects, args.model,
+        args.mesh_unit,
+    )  # fmt: skip
 
 
 # -- detect and export --------------------------------------------------------------------
@@ -369,7 +388,8 @@ def _add_objects(subparsers: argparse._SubParsersAction) -> None:
         "objects",
         help="object sets: download VGN's, look inside one",
         description="Object sets on disk: VGN's household meshes in the data folder "
-        "($SYMGRASP_DATA, default ~/.cache/symgrasp) or a folder of URDF files.",
+        "($SYMGRASP_DATA, default ~/.cache/symgrasp), a folder of URDF files or a folder of "
+        "bare OBJ/STL/PLY meshes (cut into convex parts once, cached in <data>/cache).",
     )
     actions = parser.add_subparsers(
         dest="action", required=True, metavar="ACTION", help="what to do (fetch, inspect)"
@@ -397,19 +417,22 @@ def _add_objects(subparsers: argparse._SubParsersAction) -> None:
     inspect = actions.add_parser(
         "inspect",
         help="print what a set holds and draw it",
-        description="Print, per object: the units its size suggests, its size, mass, convex "
-        "parts (MuJoCo collides each as one convex geom) and whether its visual mesh is "
-        "watertight; then draw the first objects' collision parts into one picture.",
+        description="Print, per object: its units (a bare mesh's as read, guessed or given "
+        "by --mesh-unit; a URDF's as its size suggests), its size, mass, convex parts (MuJoCo "
+        "collides each as one convex geom) and whether its mesh (a URDF's visual mesh) is "
+        "watertight, and every file refused and why; then draw the first objects' collision "
+        "parts into one picture.",
     )
     inspect.add_argument("objects", type=_object_set, metavar="SET|FOLDER",
-                         help="a mesh set's name (vgn-pile-test, …), a folder of URDF files, or "
-                         "several joined by commas")  # fmt: skip
+                         help="a mesh set's name (vgn-pile-test, …), a folder of URDF files or "
+                         "bare OBJ/STL/PLY meshes, or several joined by commas")  # fmt: skip
     inspect.add_argument(
         "--out", default=None, help="picture to write (default: out/objects/<set>.png)"
     )
     inspect.add_argument(
         "--limit", type=_integer(1, 500), default=48, help="objects drawn (default: 48)"
     )
+    _add_mesh_unit(inspect)
     inspect.set_defaults(run=_run_objects_inspect)
 
 
@@ -423,7 +446,7 @@ def _run_objects_inspect(args: argparse.Namespace) -> None:
     from symgrasp.objects.inspect import HEADER, contact_sheet, inspect_objects
     from symgrasp.objects.sets import resolve
 
-    source = resolve(args.objects)
+    source = resolve(args.objects, args.mesh_unit)
     if not source.meshes:
         raise SystemExit(f"error: {args.objects} is built in code, not read from meshes")
     reports, refused = inspect_objects(source)
@@ -463,14 +486,17 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
     )
     show.add_argument("--seed", type=SEED, default=0, help="random seed (default: 0)")
     show.add_argument("--out", default="out/sim", help="output folder (default: out/sim)")
+    _add_mesh_unit(show)
     show.set_defaults(run=_run_sim_show)
 
 
 def _run_sim_show(args: argparse.Namespace) -> None:
+    from symgrasp.objects.sets import resolve
     from symgrasp.sim import make_scene
     from symgrasp.sim.show import save_scene_pictures
 
-    world = make_scene(args.scene, args.objects, n=args.n, seed=args.seed)
+    source = resolve(args.objects, args.mesh_unit)
+    world = make_scene(args.scene, source, n=args.n, seed=args.seed)
     stem = f"{args.scene}_{Path(args.objects).name}_seed{args.seed}"
     paths, renderer = save_scene_pictures(world, args.out, stem)
     print(f"{len(world.objects)} objects settled: {', '.join(o.name for o in world.objects)}")
@@ -871,6 +897,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     try:
         args.run(args)
     except ValueError as error:  # bad input: the message names the argument, no traceback needed
+        raise SystemExit(f"error: {error}") from error
+    except ModuleNotFoundError as error:  # an optional extra not installed: its message says which
         raise SystemExit(f"error: {error}") from error
     except OSError as error:  # a path that cannot be read or written: name it
         where = f"{error.filename}: " if error.filename else ""

@@ -19,7 +19,7 @@ import textwrap
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from symgrasp.names import REPRESENTATIONS, SCENES
+from symgrasp.names import MESH_UNITS, REPRESENTATIONS, SCENES
 
 if TYPE_CHECKING:
     from symgrasp.sim.grippers import GripperSpec
@@ -68,6 +68,11 @@ def _check_interval(name: str, value: tuple[float, float], lo: float, hi: float)
         raise ValueError(f"{name} must be two numbers (low, high), got {value!r}")
     check_range(f"{name}[0]", value[0], lo, hi, integer=False)
     check_range(f"{name}[1]", value[1], value[0], hi, integer=False)
+
+
+def _check_mesh_unit(value: str) -> None:
+    if value not in MESH_UNITS:
+        raise ValueError(f"mesh_unit must be one of {MESH_UNITS}, got {value!r}")
 
 
 DEFAULT_VALIDITY = 0.08
@@ -125,8 +130,11 @@ class SceneConfig:
     """What a dataset is made of: everything that changes its content (`symgrasp.data`)."""
 
     object_set: str = "household-train"
-    """Object set the pool is drawn from: a name, a folder of URDF files, or mesh sets and
-    folders joined by commas (`symgrasp.objects.sets.resolve`)."""
+    """Object set the pool is drawn from: a name, a folder of URDF files or bare meshes, or
+    mesh sets and folders joined by commas (`symgrasp.objects.sets.resolve`)."""
+    mesh_unit: str = "auto"
+    """Length unit of bare mesh files: m, cm, mm, or auto (millimetres when a mesh is longer
+    than 2 units, else metres)."""
     gripper: str = "robotiq-2f85"
     """The gripper whose grasps are labelled."""
     pool_size: int = 16
@@ -154,6 +162,7 @@ class SceneConfig:
     """How the per-object grasp databases are built."""
 
     def __post_init__(self) -> None:
+        _check_mesh_unit(self.mesh_unit)
         unknown = set(self.kinds) - set(SCENES)
         if not self.kinds or unknown:
             raise ValueError(f"kinds must be a non-empty subset of {SCENES}, got {self.kinds}")
@@ -178,7 +187,7 @@ class SceneConfig:
         """The objects scenes are drawn from (`symgrasp.objects.sets.ObjectSource.pool`)."""
         from symgrasp.objects.sets import resolve
 
-        return resolve(self.object_set).pool(self.pool_size, self.pool_seed)
+        return resolve(self.object_set, self.mesh_unit).pool(self.pool_size, self.pool_seed)
 
 
 @dataclass(frozen=True)
@@ -283,8 +292,11 @@ class BenchmarkConfig:
     model: str = "bingham2d-robotiq-2f85"
     """Shipped model name or checkpoint path."""
     objects: str = "household-test"
-    """Object set the rounds draw from: a name, a folder of URDF files, or mesh sets and
-    folders joined by commas (`symgrasp.objects.sets.resolve`)."""
+    """Object set the rounds draw from: a name, a folder of URDF files or bare meshes, or mesh
+    sets and folders joined by commas (`symgrasp.objects.sets.resolve`)."""
+    mesh_unit: str = "auto"
+    """Length unit of bare mesh files: m, cm, mm, or auto (millimetres when a mesh is longer
+    than 2 units, else metres)."""
     scene: str = "pile"
     """How each round's objects are laid out: "pile" or "packed"."""
     num_objects: int = 5
@@ -303,6 +315,7 @@ class BenchmarkConfig:
     def __post_init__(self) -> None:
         if self.scene not in SCENES:
             raise ValueError(f"scene must be one of {SCENES}, got {self.scene!r}")
+        _check_mesh_unit(self.mesh_unit)
         check_range("num_objects", self.num_objects, 1, MAX_OBJECTS)
         check_range("rounds", self.rounds, 1, 100_000)
         check_range("seed", self.seed, 0, SEED_MAX - self.rounds)

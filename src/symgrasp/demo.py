@@ -20,6 +20,7 @@ import numpy as np
 
 from symgrasp.benchmark.declutter import Attempt, Round, run_round, save_attempt_png
 from symgrasp.detect import Grasp, GraspDetector
+from symgrasp.objects.sets import resolve
 from symgrasp.sim import World
 
 
@@ -30,8 +31,10 @@ def run_demo(
     objects: str = "household-test",
     num_objects: int = 5,
     model: str | None = None,
+    mesh_unit: str = "auto",
 ) -> Round:
-    """Play one declutter round and write its pictures, ``demo.html`` and ``summary.json``."""
+    """Play one declutter round and write its pictures, ``demo.html`` and ``summary.json``
+    (bare meshes of ``objects`` read in ``mesh_unit``)."""
     start = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -58,7 +61,8 @@ def run_demo(
             )
         )
 
-    record = run_round(detector, objects, num_objects, seed, observer=observe)
+    source = resolve(objects, mesh_unit)
+    record = run_round(detector, source, num_objects, seed, observer=observe)
     summary = {
         "model": name,
         "gripper": detector.gripper.name,

@@ -21,6 +21,10 @@ MESH_OBJECT_SETS = ("vgn-pile-train", "vgn-pile-test", "vgn-packed-train", "vgn-
 OBJECT_SETS = (*PROCEDURAL_OBJECT_SETS, *MESH_OBJECT_SETS)
 """Named object sets; ``--objects`` also takes a folder of meshes."""
 
+MESH_UNITS = ("auto", "m", "cm", "mm")
+"""Length units of bare mesh files (`symgrasp.objects.mesh`); "auto" guesses metres or
+millimetres from each mesh's size."""
+
 SCENES = ("pile", "packed")
 """Scene kinds (`symgrasp.sim.world`)."""
 

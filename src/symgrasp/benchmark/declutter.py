@@ -22,7 +22,7 @@ import numpy as np
 
 from symgrasp.benchmark.failures import aimed_object, failure_mode
 from symgrasp.detect import Grasp, GraspDetector
-from symgrasp.objects.sets import make_scene
+from symgrasp.objects.sets import ObjectSource, make_scene
 from symgrasp.perception import CameraIntrinsic, depth_to_points
 from symgrasp.perception.camera import default_extrinsic
 from symgrasp.sim.collision import hand_collides
@@ -106,7 +106,7 @@ attempt."""
 
 def run_round(
     detector: GraspDetector,
-    objects: str = "household-test",
+    objects: str | ObjectSource = "household-test",
     num_objects: int = 5,
     seed: int = 0,
     scene: str = "pile",
@@ -118,8 +118,9 @@ def run_round(
     diagnose: bool = True,
 ) -> Round:
     """Play one declutter round with ``detector`` (its gripper) on ``num_objects`` objects of
-    the set ``objects`` (a name or folder, `symgrasp.objects.sets.resolve`) in a ``scene``
-    ("pile" or "packed"); the scene and its objects are drawn from ``seed``.
+    the set ``objects`` (a name or folder for `symgrasp.objects.sets.resolve`, or a resolved
+    `ObjectSource`) in a ``scene`` ("pile" or "packed"); the scene and its objects are drawn
+    from ``seed``.
 
     ``max_attempts`` defaults to twice the number of objects; the camera defaults to the
     workspace's default view (`symgrasp.perception.camera.default_extrinsic`). With

@@ -38,6 +38,7 @@ from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.declutter import Round, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES
 from symgrasp.config import BenchmarkConfig
+from symgrasp.objects.sets import resolve
 
 BOOTSTRAP = 2000
 """Bootstrap resamples of the rounds for the confidence intervals."""
@@ -92,8 +93,8 @@ def _round_task(seed: int) -> dict[str, Any]:
         observer = picture_observer(folder, detector.gripper, f"seed {seed}, ")
     try:
         record = run_round(
-            detector, config.objects, config.num_objects, seed, scene=config.scene,
-            observer=observer, diagnose=config.diagnose,
+            detector, resolve(config.objects, config.mesh_unit), config.num_objects, seed,
+            scene=config.scene, observer=observer, diagnose=config.diagnose,
         )  # fmt: skip
         return round_record(record)
     except Exception as error:  # a crashed round is data, not the end of the benchmark

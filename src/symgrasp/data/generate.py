@@ -178,7 +178,9 @@ def generate(
         old = json.loads(manifest_path.read_text())
         if not resume:
             raise ValueError(f"out {root} already holds a dataset; pass resume=True (--resume)")
-        if old["config"] != json.loads(json.dumps(dataclasses.asdict(cfg))) or old["seed"] != seed:
+        defaults = dataclasses.asdict(SceneConfig())  # fields added later: their defaults
+        recorded = json.loads(json.dumps({**defaults, **old["config"]}))
+        if recorded != json.loads(json.dumps(dataclasses.asdict(cfg))) or old["seed"] != seed:
             raise ValueError(f"out {root} holds a dataset of another configuration or seed")
     elif any((root / "scenes").glob("*.npz")) and not resume:
         raise ValueError(f"out {root} already holds scenes; pass resume=True (--resume)")

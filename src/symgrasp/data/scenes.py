@@ -94,7 +94,7 @@ def make_scene_record(
     n = min(int(rng.poisson(cfg.mean_objects)) + 1, cfg.max_objects)
     chosen = [int(k) for k in rng.integers(cfg.pool_size, size=n)]
     specs = [pool[k] for k in chosen]
-    world = resolve(cfg.object_set).scene(kind, specs, seed=int(rng.integers(2**31)))
+    world = resolve(cfg.object_set, cfg.mesh_unit).scene(kind, specs, seed=int(rng.integers(2**31)))
     kept = [next(j for j, s in enumerate(specs) if s is o) for o in world.objects]
     pool_index = np.array([chosen[j] for j in kept], dtype=np.int64)
     poses = world.object_poses()

@@ -1,6 +1,6 @@
 """What a folder of objects holds, for a person deciding whether to use it: per object its
-units as given, size, mass, convex parts and whether its visual mesh is watertight, and a
-contact sheet of the objects as MuJoCo collides them."""
+units, size, mass, convex parts and whether its mesh is watertight, and a contact sheet of the
+objects as MuJoCo collides them."""
 
 from __future__ import annotations
 
@@ -11,10 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from symgrasp.objects.mesh import MILLIMETRE_HINT, read_mesh
 from symgrasp.objects.sets import ObjectSource
-
-MILLIMETRE_HINT = 2.0
-"""An object longer than this [in the file's units] is most likely in millimetres."""
 
 
 @dataclass(frozen=True)
@@ -36,7 +34,11 @@ class ObjectReport:
         )
 
 
-HEADER = "| object | units | size [mm] | mass [kg] | parts | visual watertight |\n|---|---|---|---|---|---|"
+HEADER = (
+    "| object | units | size [mm] | mass [kg] | parts | watertight |\n|---|---|---|---|---|---|"
+)
+"""The table's head: units as a bare mesh is read (guessed or given), or as a URDF's size
+suggests ("mm?": likely millimetres); watertight: a bare mesh's, or a URDF's visual mesh's."""
 
 
 def _visual_watertight(urdf: Path) -> bool | None:
@@ -49,18 +51,29 @@ def _visual_watertight(urdf: Path) -> bool | None:
     return bool(loaded.is_watertight)
 
 
+def _bare_mesh(path: Path, mesh_unit: str) -> tuple[str, bool]:
+    """A bare mesh's units as read ("mm (guessed)", "cm (given)") and whether it is
+    watertight."""
+    bare = read_mesh(path, mesh_unit)
+    return f"{bare.unit} ({'guessed' if bare.guessed else 'given'})", bool(bare.mesh.is_watertight)
+
+
 def inspect_objects(source: ObjectSource) -> tuple[list[ObjectReport], list[str]]:
     """A report per usable object of a mesh set (an `ObjectSource` read from files), and why each
     other file cannot be used (one line naming it)."""
     reports, refused = [], []
-    for index, urdf in enumerate(source.files):
+    for index, path in enumerate(source.files):
         try:
             obj = source.load(index)
         except (ValueError, OSError) as error:
             refused.append(str(error))
             continue
         size = np.ptp(np.concatenate([p.vertices for p in obj.parts]), axis=0)
-        units = "mm?" if size.max() > MILLIMETRE_HINT else "m"
+        if path.suffix == ".urdf":
+            units = "mm?" if size.max() > MILLIMETRE_HINT else "m"
+            watertight = _visual_watertight(path)
+        else:
+            units, watertight = _bare_mesh(path, source.mesh_unit)
         reports.append(
             ObjectReport(
                 obj.name,
@@ -68,7 +81,7 @@ def inspect_objects(source: ObjectSource) -> tuple[list[ObjectReport], list[str]
                 tuple(float(s) * 1e3 for s in size),
                 obj.mass,
                 len(obj.parts),
-                _visual_watertight(urdf),
+                watertight,
             )
         )
     return reports, refused

@@ -1,7 +1,11 @@
 """An object set resolved once, at the edge: a procedural set's name, one of VGN's mesh sets,
-a folder of URDF files, or several mesh sets and folders joined by commas
-(``vgn-pile-train,vgn-packed-train``: the union of their objects). Every command that takes
-``--objects`` resolves it here.
+a folder of URDF files or of bare meshes (`symgrasp.objects.mesh`), or several mesh sets and
+folders joined by commas (``vgn-pile-train,vgn-packed-train``: the union of their objects).
+Every command that takes ``--objects`` resolves it here.
+
+A folder holding a URDF file is a folder of URDF objects, and its other files are theirs (VGN's
+folders hold each object's collision and visual OBJ beside its URDF); a folder without one is
+a folder of bare meshes (`symgrasp.objects.mesh.mesh_files`).
 
 A set gives the objects of a scene (`ObjectSource.draw`) and a training pool
 (`ObjectSource.pool`), and builds the scenes its objects belong in (`ObjectSource.scene`):
@@ -21,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from symgrasp.names import MESH_OBJECT_SETS, PROCEDURAL_OBJECT_SETS, SCENES
+from symgrasp.names import MESH_OBJECT_SETS, MESH_UNITS, PROCEDURAL_OBJECT_SETS, SCENES
 from symgrasp.objects.folder import data_folder, set_folder
 from symgrasp.sim.objects import ObjectSpec, object_set
 from symgrasp.workspace import WORKSPACE_SIZE
@@ -43,10 +47,12 @@ _MESH_STREAM = 1000  # random streams of mesh sets, apart from the procedural se
 @dataclass(frozen=True)
 class ObjectSource:
     """Where a scene's objects come from: ``name`` (a procedural set, no ``folders``) or the
-    URDF files of ``folders``."""
+    URDF files or bare meshes of ``folders``, bare meshes read in ``mesh_unit`` (one of
+    `MESH_UNITS`)."""
 
     name: str
     folders: tuple[Path, ...] = ()
+    mesh_unit: str = "auto"
 
     @property
     def meshes(self) -> bool:
@@ -55,12 +61,13 @@ class ObjectSource:
 
     @functools.cached_property
     def files(self) -> tuple[Path, ...]:
-        """The URDF files of a mesh set: each folder's sorted by name, in folder order."""
-        return tuple(path for folder in self.folders for path in sorted(folder.glob("*.urdf")))
+        """The object files of a mesh set (`folder_files`), in folder order."""
+        return tuple(path for folder in self.folders for path in folder_files(folder))
 
     def load(self, index: int) -> ObjectSpec:
         """Object ``index`` of a mesh set, unscaled."""
-        return _load(self.files[index])
+        path = self.files[index]
+        return _load(path, self.mesh_unit, path.parent not in self.folders)
 
     def draw(self, n: int, seed: int, scene: str = "pile") -> list[ObjectSpec]:
         """The ``n`` objects of round/scene ``seed`` for a ``scene`` of that kind."""
@@ -105,25 +112,43 @@ class ObjectSource:
         return build(objects, seed=seed, gripper=gripper)
 
 
+def folder_files(folder: Path) -> tuple[Path, ...]:
+    """The objects of ``folder``: its URDF files sorted by name when it holds one, else its
+    bare meshes (`symgrasp.objects.mesh.mesh_files`)."""
+    from symgrasp.objects.mesh import mesh_files
+
+    return tuple(sorted(folder.glob("*.urdf"))) or mesh_files(folder)
+
+
 @functools.lru_cache(maxsize=1024)
-def _load(path: Path) -> ObjectSpec:
+def _load(path: Path, mesh_unit: str, in_subfolder: bool) -> ObjectSpec:
+    """The object of a URDF file or bare mesh at ``path`` (one in its own sub-folder is named
+    after the sub-folder), refused when longer than the workspace."""
+    from symgrasp.objects.mesh import load_mesh
     from symgrasp.objects.urdf import load_urdf
 
-    obj = load_urdf(path)
+    if path.suffix == ".urdf":
+        obj, hint = load_urdf(path), "is the mesh in millimetres?"
+    else:
+        name = path.parent.name if in_subfolder else None
+        obj, hint = load_mesh(path, mesh_unit, name), "check its units: --mesh-unit"
     size = np.ptp(np.concatenate([p.mesh().vertices for p in obj.parts]), axis=0)
     if size.max() > WORKSPACE_SIZE:
         raise ValueError(
             f"{path}: the object is {size.max():.3f} m long, larger than the "
-            f"{WORKSPACE_SIZE} m workspace (is the mesh in millimetres?)"
+            f"{WORKSPACE_SIZE} m workspace ({hint})"
         )
     return obj
 
 
-def resolve(objects: str | Path) -> ObjectSource:
+def resolve(objects: str | Path, mesh_unit: str = "auto") -> ObjectSource:
     """The source named ``objects``: a procedural set, one of VGN's sets (from the data
-    folder), a folder holding URDF files, or several of the last two joined by commas. Raises
-    ValueError listing the known names when a part is none of these (or a procedural set is
-    joined to others), and FileNotFoundError when a named mesh set is not in the data folder."""
+    folder), a folder holding URDF files or bare meshes (read in ``mesh_unit``, one of
+    `MESH_UNITS`), or several of the last two joined by commas. Raises ValueError listing the
+    known names when a part is none of these (or a procedural set is joined to others), and
+    FileNotFoundError when a named mesh set is not in the data folder."""
+    if mesh_unit not in MESH_UNITS:
+        raise ValueError(f"mesh_unit must be one of {MESH_UNITS}, got {mesh_unit!r}")
     name = str(objects)
     if name in PROCEDURAL_OBJECT_SETS:
         return ObjectSource(name)
@@ -131,9 +156,11 @@ def resolve(objects: str | Path) -> ObjectSource:
     if len(set(folders)) < len(folders):
         raise ValueError(f"objects names a set twice: {name!r}")
     for folder in folders:
-        if not any(folder.glob("*.urdf")):
-            raise ValueError(f"objects folder {folder} holds no .urdf file")
-    return ObjectSource(name, folders)
+        if not folder_files(folder):
+            raise ValueError(
+                f"objects folder {folder} holds no .urdf file, nor any .obj, .stl or .ply mesh"
+            )
+    return ObjectSource(name, folders, mesh_unit)
 
 
 def _mesh_folder(part: str) -> Path:
@@ -146,25 +173,25 @@ def _mesh_folder(part: str) -> Path:
         joined = " (procedural sets cannot be joined)" if part in PROCEDURAL_OBJECT_SETS else ""
         raise ValueError(
             f"objects must be one of {known} (mesh sets are read from the data folder "
-            f"{data_folder()}), a folder of URDF files, or mesh sets and folders joined by "
-            f"commas, got {part!r}{joined}"
+            f"{data_folder()}), a folder of URDF files or meshes, or mesh sets and folders "
+            f"joined by commas, got {part!r}{joined}"
         )
     return folder.resolve()
 
 
 def make_scene(
     scene: str,
-    objects: str | Path | Sequence[ObjectSpec] = "household-train",
+    objects: str | Path | ObjectSource | Sequence[ObjectSpec] = "household-train",
     n: int = 5,
     seed: int = 0,
     gripper: GripperSpec | str | None = None,
 ) -> World:
-    """A settled ``scene`` ("pile" or "packed") of ``n`` objects of the set ``objects``
-    (`resolve`; or these objects, in a procedural scene) drawn with ``seed``, with
-    ``gripper`` parked above it."""
+    """A settled ``scene`` ("pile" or "packed") of ``n`` objects of the set ``objects`` (a
+    name or folder for `resolve`, or a resolved source; or these objects, in a procedural
+    scene) drawn with ``seed``, with ``gripper`` parked above it."""
     if scene not in SCENES:
         raise ValueError(f"scene must be one of {SCENES}, got {scene!r}")
-    if isinstance(objects, (str, Path)):
-        source = resolve(objects)
+    if isinstance(objects, (str, Path, ObjectSource)):
+        source = objects if isinstance(objects, ObjectSource) else resolve(objects)
         return source.scene(scene, source.draw(n, seed, scene), seed, gripper)
     return ObjectSource("objects").scene(scene, list(objects), seed, gripper)

@@ -58,7 +58,7 @@ def _float(element: ET.Element | None, default: float | None, what: str, path: P
     return float(element.get("value"))
 
 
-def _colour(name: str) -> tuple[float, float, float, float]:
+def object_colour(name: str) -> tuple[float, float, float, float]:
     """A fixed colour per object name, so pictures stay the same from run to run."""
     digest = hashlib.sha256(name.encode()).digest()
     return (*(round(0.15 + 0.8 * b / 255, 3) for b in digest[:3]), 1.0)
@@ -102,4 +102,4 @@ def load_urdf(path: str | Path) -> ObjectSpec:
     if not parts:
         raise ValueError(f"{mesh_path} holds no convex part with volume")
     name = root.get("name") or path.stem
-    return ObjectSpec(name, name, tuple(parts), mass, friction, _colour(name))
+    return ObjectSpec(name, name, tuple(parts), mass, friction, object_colour(name))

@@ -1,0 +1,184 @@
+"""A bare mesh file (OBJ, STL or PLY) → an `ObjectSpec` of convex parts.
+
+A bare mesh gives a shape and nothing else; the rest is assumed, and said:
+
+- **units**: ``mesh_unit`` "m", "cm" or "mm"; "auto" reads a mesh whose longest side exceeds
+  `MILLIMETRE_HINT` file units as millimetres (a warning naming the file says so), any
+  other as metres;
+- **mass**: `DEFAULT_DENSITY` × the mesh's volume;
+- **friction**: `symgrasp.objects.urdf.DEFAULT_FRICTION` (1.0, as every VGN object);
+- **frame**: as `symgrasp.objects.urdf.load_urdf`'s: origin at the centre of the bounding
+  box's base, +z up as in the file;
+- **collision**: a convex mesh (hull volume within `CONVEX_TOLERANCE` of its volume) is one
+  part, its hull; any other is cut into convex parts once (`symgrasp.objects.decomposition`).
+
+A file that is not a readable mesh, holds no triangles or spans no volume is refused with a
+ValueError naming it. So is a mesh that is not watertight, unless its holes are single
+triangles or quads (filled, with a warning naming it): it has no inside to weigh, and CoACD
+would first remesh it into a manifold, a thickened shell of the surface (458 s and 77 parts
+for a 256-face cup missing its base, against 10 s and 24 parts for the closed cup).
+
+A folder of bare meshes (`mesh_files`) holds mesh files, or sub-folders that each hold one.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from symgrasp.names import MESH_UNITS
+from symgrasp.objects.decomposition import decompose
+from symgrasp.objects.urdf import DEFAULT_FRICTION, object_colour
+from symgrasp.sim.objects import ConvexPart, ObjectSpec
+
+if TYPE_CHECKING:
+    import trimesh
+
+MESH_SUFFIXES = (".obj", ".stl", ".ply")
+"""File suffixes of bare meshes (any case)."""
+
+COMPANION_SUFFIXES = (".mtl", ".png", ".jpg", ".jpeg", ".tga", ".bmp")
+"""Files that travel with meshes (OBJ materials, textures): skipped without a word."""
+
+UNIT_METRES = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+"""Metres per file unit."""
+
+MILLIMETRE_HINT = 2.0
+"""A mesh longer than this [file units] is read as millimetres by ``mesh_unit="auto"``: no
+object of the 30 cm workspace is 2 m long, and few are under 2 mm."""
+
+DEFAULT_DENSITY = 700.0
+"""Density [kg/m³] of a bare mesh: the median of mass / visual-mesh volume over VGN's 473
+URDF objects (quartiles 700 and 1433 kg/m³; docs/objects.md)."""
+
+CONVEX_TOLERANCE = 0.01
+"""A watertight mesh whose convex hull is at most this much larger (relative volume) is convex:
+one part, no decomposition."""
+
+
+@dataclass(frozen=True)
+class BareMesh:
+    """A mesh file as read: ``mesh`` in the file's units, ``unit`` the units it is read in
+    (a key of `UNIT_METRES`), ``guessed`` whether ``mesh_unit="auto"`` chose them."""
+
+    path: Path
+    mesh: trimesh.Trimesh
+    unit: str
+    guessed: bool
+
+    @property
+    def metres(self) -> float:
+        """Metres per file unit."""
+        return UNIT_METRES[self.unit]
+
+
+def read_mesh(path: str | Path, mesh_unit: str = "auto") -> BareMesh:
+    """The triangles of the mesh file ``path`` and its units (``mesh_unit``, or guessed from its
+    size: module doc; `load_mesh` says so). Raises ValueError naming the file when it is not a
+    mesh trimesh reads or holds no triangles."""
+    import trimesh
+
+    path = Path(path)
+    if mesh_unit not in MESH_UNITS:
+        raise ValueError(f"mesh_unit must be one of {MESH_UNITS}, got {mesh_unit!r}")
+    try:
+        mesh = trimesh.load(path, force="mesh", process=True, skip_materials=True)
+    except Exception as error:  # trimesh's loaders raise many kinds on a foreign file
+        raise ValueError(f"{path} is not a mesh trimesh can read: {error}") from None
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise ValueError(f"{path} holds no triangles: not an OBJ, STL or PLY mesh")
+    if mesh_unit != "auto":
+        return BareMesh(path, mesh, mesh_unit, guessed=False)
+    return BareMesh(path, mesh, "mm" if mesh.extents.max() > MILLIMETRE_HINT else "m", True)
+
+
+def load_mesh(path: str | Path, mesh_unit: str = "auto", name: str | None = None) -> ObjectSpec:
+    """The object of the bare mesh file ``path`` (module doc), named ``name`` (default: the
+    file's stem). Raises ValueError naming the file when it is refused."""
+    import trimesh
+
+    bare = read_mesh(path, mesh_unit)
+    mesh, path = bare.mesh, bare.path
+    try:
+        with np.errstate(divide="ignore", invalid="ignore"):  # a flat hull's centre of mass
+            hull = mesh.convex_hull
+    except Exception:  # qhull refuses flat point sets
+        hull = None
+    if hull is None or hull.volume * bare.metres**3 <= 1e-12:
+        raise ValueError(f"{path} spans no volume (a flat or degenerate mesh)")
+    if not mesh.is_watertight:
+        open_edges = len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))
+        if not trimesh.repair.fill_holes(mesh):
+            raise ValueError(
+                f"{path} is not watertight ({open_edges} open edges; holes larger than a quad "
+                "or non-manifold edges): it has no inside to weigh or cut into convex parts; "
+                "close it (e.g. MeshLab, or trimesh.repair.fill_holes(mesh, use_fan=True))"
+            )
+        warnings.warn(f"{path}: {open_edges} open edges closed (small holes filled)", stacklevel=2)
+    trimesh.repair.fix_normals(mesh, multibody=True)  # outward faces: a positive volume
+    volume = float(mesh.volume)
+    if volume * bare.metres**3 <= 1e-12:
+        raise ValueError(f"{path} encloses no volume (its faces cancel out)")
+    if bare.guessed and bare.unit == "mm":
+        longest = float(mesh.extents.max())
+        warnings.warn(
+            f"{path}: longest side {longest:.4g} file units, read as millimetres "
+            f"({longest / 1000:.3f} m); --mesh-unit (mesh_unit) sets the units",
+            stacklevel=2,
+        )
+    if hull.volume <= (1 + CONVEX_TOLERANCE) * volume:
+        groups = [hull.vertices]
+    else:
+        groups = decompose(path, mesh.vertices, mesh.faces)
+    groups = [np.asarray(g) * bare.metres for g in groups]
+    everything = np.concatenate(groups)
+    low, high = everything.min(axis=0), everything.max(axis=0)
+    origin = np.r_[(low[:2] + high[:2]) / 2, low[2]]
+    parts = []
+    for j, group in enumerate(groups):
+        try:
+            parts.append(ConvexPart(group - origin))
+        except ValueError as error:
+            warnings.warn(f"{path}: part {j} skipped: {error}", stacklevel=2)
+    if not parts:
+        raise ValueError(f"{path}: its convex decomposition holds no part with volume")
+    name = name or path.stem
+    mass = DEFAULT_DENSITY * volume * bare.metres**3
+    return ObjectSpec(name, name, tuple(parts), mass, DEFAULT_FRICTION, object_colour(name))
+
+
+def _kind(path: Path) -> str:
+    """ "mesh", "companion" or "other": what a file found in a mesh folder is."""
+    suffix = path.suffix.lower()
+    if suffix in MESH_SUFFIXES:
+        return "mesh"
+    return "companion" if suffix in COMPANION_SUFFIXES or path.name.startswith(".") else "other"
+
+
+def mesh_files(folder: Path) -> tuple[Path, ...]:
+    """The bare meshes of ``folder``, sorted by name: its mesh files, and the one mesh of each
+    sub-folder. A file that is neither a mesh nor a mesh's companion (`COMPANION_SUFFIXES`)
+    and a sub-folder without a mesh are skipped with a warning naming them; a sub-folder
+    holding several meshes is refused (ValueError naming them: which one is the object?)."""
+    found = []
+    for entry in sorted(folder.iterdir()):
+        if entry.is_dir() and not entry.name.startswith("."):
+            meshes = sorted(p for p in entry.iterdir() if p.is_file() and _kind(p) == "mesh")
+            if len(meshes) > 1:
+                names = ", ".join(p.name for p in meshes)
+                raise ValueError(
+                    f"{entry} holds {len(meshes)} meshes ({names}): a sub-folder of a mesh "
+                    "folder holds one object, one mesh"
+                )
+            if not meshes:
+                warnings.warn(f"{entry} holds no .obj, .stl or .ply mesh: skipped", stacklevel=2)
+            found += meshes
+        elif entry.is_file() and _kind(entry) == "mesh":
+            found.append(entry)
+        elif entry.is_file() and _kind(entry) == "other":
+            warnings.warn(f"{entry} is not an .obj, .stl or .ply mesh: skipped", stacklevel=2)
+    return tuple(found)
