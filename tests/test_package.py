@@ -29,7 +29,7 @@ def test_simulator_names_load_on_first_use():
 
 
 def test_the_package_renames_written_files_in_one_place():
-    """Every atomic write goes through `symgrasp.atomic.write_atomic`."""
+    """Every atomic write goes through `symgrasp.atomic` (`write_atomic`, `move_into_place`)."""
     from pathlib import Path
 
     import symgrasp

@@ -1,4 +1,5 @@
-"""Writing files so that a reader never sees half of one: temporary file, then rename."""
+"""Writing files so that a reader never sees half of one: temporary file, then rename. Every
+rename of something the package wrote happens here (a test checks it)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ def write_atomic(
 ) -> Path:
     """Call ``write(file)`` on a temporary file opened with ``mode`` (and ``open_options``, e.g.
     ``newline=""``) next to ``path``, then rename it over ``path``: an interrupted write
-    leaves the previous file intact. The only rename of a written file in the package."""
+    leaves the previous file intact."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
@@ -24,3 +25,11 @@ def write_atomic(
     finally:
         temporary.unlink(missing_ok=True)
     return path
+
+
+def move_into_place(source: str | Path, path: str | Path) -> Path:
+    """Rename ``source``, a file or folder finished elsewhere in pieces (a resumable download,
+    an extracted archive), to ``path`` in one step: a reader sees all of it or nothing. For a
+    folder ``path`` must not exist; a file replaces any file there."""
+    os.replace(source, path)
+    return Path(path)

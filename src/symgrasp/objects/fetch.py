@@ -38,6 +38,7 @@ from pathlib import Path, PurePosixPath
 
 from tqdm import tqdm
 
+from symgrasp.atomic import move_into_place
 from symgrasp.names import MESH_OBJECT_SETS
 from symgrasp.objects.folder import DATA_ENV, VGN_ROOT, data_folder
 
@@ -126,7 +127,7 @@ def fetch_vgn(
     try:
         _extract(archive, staging)
         _verify(staging, expected, url)
-        os.rename(staging, target)
+        move_into_place(staging, target)
     except ArchiveError as error:
         archive.unlink(missing_ok=True)
         raise ArchiveError(
@@ -207,8 +208,7 @@ def download(url: str, folder: Path, progress: bool = True) -> Path:
             f"could not download {url}: the server closed the connection after {size} of "
             f"{total} bytes; run again to resume"
         )
-    os.replace(part, done)
-    return done
+    return move_into_place(part, done)
 
 
 def _open(url: str, offset: int) -> http.client.HTTPResponse | urllib.response.addinfourl:
