@@ -32,8 +32,8 @@ import numpy as np
 
 from symgrasp.names import MESH_UNITS
 from symgrasp.objects.decomposition import decompose
-from symgrasp.objects.urdf import DEFAULT_FRICTION, object_colour
-from symgrasp.sim.objects import ConvexPart, ObjectSpec
+from symgrasp.objects.urdf import DEFAULT_FRICTION, convex_parts, object_colour
+from symgrasp.sim.objects import ObjectSpec
 
 if TYPE_CHECKING:
     import trimesh
@@ -134,21 +134,10 @@ def load_mesh(path: str | Path, mesh_unit: str = "auto", name: str | None = None
         groups = [hull.vertices]
     else:
         groups = decompose(path, mesh.vertices, mesh.faces)
-    groups = [np.asarray(g) * bare.metres for g in groups]
-    everything = np.concatenate(groups)
-    low, high = everything.min(axis=0), everything.max(axis=0)
-    origin = np.r_[(low[:2] + high[:2]) / 2, low[2]]
-    parts = []
-    for j, group in enumerate(groups):
-        try:
-            parts.append(ConvexPart(group - origin))
-        except ValueError as error:
-            warnings.warn(f"{path}: part {j} skipped: {error}", stacklevel=2)
-    if not parts:
-        raise ValueError(f"{path}: its convex decomposition holds no part with volume")
+    parts = convex_parts([np.asarray(g) * bare.metres for g in groups], path)
     name = name or path.stem
     mass = DEFAULT_DENSITY * volume * bare.metres**3
-    return ObjectSpec(name, name, tuple(parts), mass, DEFAULT_FRICTION, object_colour(name))
+    return ObjectSpec(name, name, parts, mass, DEFAULT_FRICTION, object_colour(name))
 
 
 def _kind(path: Path) -> str:

@@ -89,7 +89,16 @@ def load_urdf(path: str | Path) -> ObjectSpec:
     friction = _float(root.find("link/contact/lateral_friction"), DEFAULT_FRICTION, "", path)
     if not (mass > 0 and friction > 0):
         raise ValueError(f"{path}: mass and friction must be positive, got {mass}, {friction}")
-    groups = [g * scale for g in read_obj_groups(mesh_path)]
+    parts = convex_parts([g * scale for g in read_obj_groups(mesh_path)], mesh_path)
+    name = root.get("name") or path.stem
+    return ObjectSpec(name, name, parts, mass, friction, object_colour(name))
+
+
+def convex_parts(groups: list[np.ndarray], path: Path) -> tuple[ConvexPart, ...]:
+    """The convex hulls of vertex ``groups`` ((V_k, 3) arrays [m], read from ``path``) moved to
+    the object frame: origin at the centre of their bounding box's base, axes as in the file.
+    A group too flat to hold volume is skipped with a warning naming the file; raises
+    ValueError when none is left."""
     everything = np.concatenate(groups)
     low, high = everything.min(axis=0), everything.max(axis=0)
     origin = np.r_[(low[:2] + high[:2]) / 2, low[2]]
@@ -98,8 +107,7 @@ def load_urdf(path: str | Path) -> ObjectSpec:
         try:
             parts.append(ConvexPart(group - origin))
         except ValueError as error:
-            warnings.warn(f"{mesh_path}: part {j} skipped: {error}", stacklevel=2)
+            warnings.warn(f"{path}: part {j} skipped: {error}", stacklevel=2)
     if not parts:
-        raise ValueError(f"{mesh_path} holds no convex part with volume")
-    name = root.get("name") or path.stem
-    return ObjectSpec(name, name, tuple(parts), mass, friction, object_colour(name))
+        raise ValueError(f"{path} holds no convex part with volume")
+    return tuple(parts)
