@@ -23,7 +23,12 @@ SHIPPED = "bingham2d-robotiq-2f85"
 
 @pytest.fixture
 def files(tmp_path):
-    """Valid and broken input files in ``tmp_path``, by name."""
+    return make_files(tmp_path)
+
+
+def make_files(tmp_path):
+    """Valid and broken input files in ``tmp_path``, by name (also used by
+    benchmarks/bad_input.py, which plays the command-line cases as real processes)."""
     depth = np.full((48, 64), 0.6, dtype=np.float32)
     np.save(tmp_path / "depth.npy", depth)
     np.save(tmp_path / "depth_mm.npy", depth * 1000)

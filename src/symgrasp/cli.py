@@ -338,10 +338,12 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run_detect(args: argparse.Namespace) -> None:
+    from symgrasp.atomic import check_folder
     from symgrasp.detect import GraspDetector
     from symgrasp.detect.files import load_depth, load_extrinsic, load_intrinsic, write_detection
     from symgrasp.perception import depth_to_points
 
+    check_folder(args.out, "--out")
     depth = load_depth(args.depth, args.png_scale)
     intrinsic = load_intrinsic(args.intrinsic, depth.shape)
     extrinsic = load_extrinsic(args.extrinsic)

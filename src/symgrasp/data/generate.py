@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from symgrasp.atomic import write_atomic
+from symgrasp.atomic import check_folder, write_atomic
 from symgrasp.config import SEED_MAX, DatabaseConfig, SceneConfig, check_range
 from symgrasp.data.dataset import load_scene, scene_path
 from symgrasp.data.grasp_db import GraspDatabase, cached_database
@@ -162,11 +162,7 @@ def generate(
     check_range("scenes", scenes, 1, MAX_SCENES)
     check_range("workers", workers, 1, 256)
     check_range("seed", seed, 0, SEED_MAX)
-    if not str(out).strip():
-        raise ValueError("out must name a dataset folder, got an empty path")
-    root = Path(out)
-    if root.exists() and not root.is_dir():
-        raise ValueError(f"out {root} is a file, not a folder")
+    root = check_folder(out)
     manifest_path = root / "manifest.json"
     foreign = sorted(p.name for p in root.glob("*") if not _of_a_dataset(p.name))
     if foreign and not manifest_path.exists():

@@ -1,0 +1,124 @@
+"""Bad input as a user meets it → benchmarks/results/bad_input.{json,md}.
+
+    PYTHONPATH=src python benchmarks/bad_input.py [--timeout 120] [--quick [DIR]]
+
+Plays every command-line case of ``tests/test_bad_input.py`` as a real ``symgrasp`` process
+(the test runs them in-process) with a time limit, and calls every API case, and sorts each
+outcome the way the probes that found these defects did: a *clear error* (non-zero exit, one
+line that names the argument or file, no traceback), a *traceback*, an *unclear* message (one
+that does not name what was wrong), a *silent* run (exit 0) or a *hang* (the time limit).
+The seconds of each case show whether it was checked before any work started.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from common import parse_args, write_result
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+from test_bad_input import API, CLI, make_files  # noqa: E402
+
+OUTCOMES = ("clear error", "unclear", "traceback", "silent", "hang")
+
+
+def command_line_case(argv: list[str], named: str, timeout: float) -> tuple[str, float, str]:
+    """(outcome, seconds, the message's last line) of ``symgrasp ARGV`` in its own process."""
+    program = "import sys; from symgrasp.cli import main; main(sys.argv[1:])"
+    start = time.perf_counter()
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", program, *argv], capture_output=True, text=True, timeout=timeout
+        )
+    except subprocess.TimeoutExpired:
+        return "hang", time.perf_counter() - start, ""
+    seconds = time.perf_counter() - start
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    message = lines[-1] if lines else ""
+    if "Traceback" in done.stderr:
+        outcome = "traceback"
+    elif done.returncode == 0:
+        outcome = "silent"
+    elif len(lines) == 1 and named in message and "error" in message:
+        outcome = "clear error"
+    else:
+        outcome = "unclear"
+    return outcome, seconds, message
+
+
+def api_case(call, named: str, detector) -> tuple[str, float, str]:
+    """(outcome, seconds, message) of one bad API call."""
+    start = time.perf_counter()
+    try:
+        call(detector)
+    except (ValueError, TypeError) as error:
+        outcome = "clear error" if named in str(error) else "unclear"
+        return outcome, time.perf_counter() - start, str(error).splitlines()[0]
+    except Exception as error:  # the probe records what a user would meet
+        return "traceback", time.perf_counter() - start, f"{type(error).__name__}: {error}"
+    return "silent", time.perf_counter() - start, ""
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--timeout", type=float, default=120.0, help="seconds before a case is a hang"
+    )
+    parser.add_argument(
+        "--cases", type=int, default=0, help="play only the first N of each table (0: all)"
+    )
+    parser.add_argument("--result", default="benchmarks/results/bad_input", help="output stem")
+    args = parse_args(parser, outputs=("result",), quick={"cases": 2})
+
+    from symgrasp.detect import GraspDetector
+
+    detector = GraspDetector.from_pretrained("bingham2d-robotiq-2f85", device="cpu")
+    limit = args.cases or None
+    cells = []
+    with tempfile.TemporaryDirectory() as folder:
+        files = make_files(Path(folder))
+        for case, (argv, named) in list(CLI.items())[:limit]:
+            outcome, seconds, message = command_line_case(argv(files), named, args.timeout)
+            cells.append({"kind": "command line", "case": case, "outcome": outcome,
+                          "seconds": round(seconds, 2), "message": message})  # fmt: skip
+            print(f"{outcome:12s} {seconds:6.2f} s  symgrasp {case}", flush=True)
+        for case, (call, named) in list(API.items())[:limit]:
+            outcome, seconds, message = api_case(call, named, detector)
+            cells.append({"kind": "API", "case": case, "outcome": outcome,
+                          "seconds": round(seconds, 3), "message": message})  # fmt: skip
+            print(f"{outcome:12s} {seconds:6.3f} s  {case}", flush=True)
+
+    counts = {
+        kind: {o: sum(c["kind"] == kind and c["outcome"] == o for c in cells) for o in OUTCOMES}
+        for kind in ("command line", "API")
+    }
+    slowest = {kind: max(c["seconds"] for c in cells if c["kind"] == kind) for kind in counts}
+    rows = [
+        f"| {kind} | {sum(n.values())} | "
+        + " | ".join(str(n[o]) for o in OUTCOMES)
+        + f" | {slowest[kind]:.2f} |"
+        for kind, n in counts.items()
+    ]
+    table = (
+        "| cases | played | " + " | ".join(OUTCOMES) + " | slowest [s] |\n"
+        "|---|---|" + "---|" * len(OUTCOMES) + "---|\n" + "\n".join(rows) + "\n\n"
+        "| kind | case | outcome | s | message |\n|---|---|---|---|---|\n"
+        + "".join(
+            f"| {c['kind']} | {c['case']} | {c['outcome']} | {c['seconds']} | "
+            f"{c['message'].replace('|', '/')} |\n"
+            for c in cells
+        )
+    )
+    print(table.split("\n\n")[0])
+    write_result(args.result, "bad input", "PYTHONPATH=src python benchmarks/bad_input.py",
+                 cells, table, counts=counts, slowest_seconds=slowest, timeout_s=args.timeout)  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
