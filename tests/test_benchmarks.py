@@ -26,8 +26,10 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "decomposition": ("decomposition.json", "summary"),
     "grasp_db": ("grasp_db.json", "cells"),
     "bad_input": ("bad_input.json", "counts"),
+    "hands": ("hands.json", "cells"),
 }
 NEEDS_VGN = {"scene_physics", "grasp_db"}  # reads VGN's meshes from the data folder
+NEEDS_REFERENCE = {"hands"}  # reads MuJoCo Menagerie's hands from ../shared/reference
 SHARED = ROOT.parent / "shared"
 
 
@@ -47,6 +49,8 @@ def test_quick_run_writes_its_result_and_nothing_committed(script, tmp_path):
     name, key = RESULTS[script]
     before = _committed()
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    if script in NEEDS_REFERENCE and not (SHARED / "reference" / "menagerie").is_dir():
+        pytest.skip("the reference hands are not in ../shared")
     if script in NEEDS_VGN:
         if not (SHARED / "objects" / "vgn").is_dir():
             pytest.skip("VGN's object sets are not in ../shared")
