@@ -29,9 +29,15 @@ def test_every_built_in_name_resolves_to_its_spec():
 @pytest.mark.parametrize("spec", [get_gripper(n) for n in GRIPPERS] + [WIDE], ids=lambda s: s.name)
 def test_the_open_pads_are_max_width_apart(spec):
     boxes = hand_boxes(spec)
-    pads = np.argsort(-np.abs(boxes.centre[:, 2]))[:2]  # the two boxes farthest along e_z
-    inner = np.abs(boxes.centre[pads, 2]) - boxes.half[pads, 2]
-    assert inner == pytest.approx([spec.max_width / 2] * 2, abs=2e-3)
+    reach = np.einsum(
+        "bjk,bk->bj", np.abs(boxes.rotation), boxes.half
+    )  # extents along e_x, e_y, e_z
+    inner = np.abs(boxes.centre[:, 2]) - reach[:, 2]
+    tip = boxes.centre[:, 0] + reach[:, 0]
+    for sign in (1, -1):  # each finger's pad is the box at its fingertip
+        side = np.flatnonzero((inner > 0) & (np.sign(boxes.centre[:, 2]) == sign))
+        pad = side[np.argmax(tip[side])]
+        assert inner[pad] == pytest.approx(spec.max_width / 2, abs=2e-3)
 
 
 def _top_grasp_on_the_box(spec) -> np.ndarray:

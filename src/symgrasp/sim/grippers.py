@@ -14,13 +14,13 @@ read from that model (`symgrasp.sim.collision.hand_boxes`). This module imports 
 Two kinds are built:
 
 - ``rigid``, the Franka hand (``franka``) — a parallel jaw: two slide joints coupled by an equality (one rack and
-  pinion), each pushed by a 70 N motor; max opening 80 mm, 20 mm wide pads.
+  pinion), each pushed by a 70 N motor; max opening 80 mm, 17 × 20 mm pads at the fingertips.
 - ``robotiq``, the Robotiq 2F-85 (``robotiq-2f85``) — underactuated two-phalanx fingers, 85 mm max opening, 22 mm wide. Per
   finger: a proximal link on a hinge at the palm; a "parallel-keeping" hinge at its tip,
   tied by an equality to minus the proximal angle, so the pad keeps its orientation (the
   four-bar of the real hand); and a "curl" hinge carrying the pad, held against a stop by a
   pre-loaded spring. One velocity-integrating actuator drives the tendon
-  ``proximal + 0.2 · curl``: in free motion its force is small and the spring keeps the pads
+  ``proximal + 0.3 · curl``: in free motion its force is small and the spring keeps the pads
   parallel (pinch); when the proximal link is blocked the force grows and the excess curls
   the pad around the object (power grasp). A pad pinching at its tip is pushed against the
   stop and stays parallel.
@@ -95,7 +95,7 @@ FRANKA = GripperSpec(
     name="franka",
     kind="rigid",
     max_width=0.08,
-    finger_depth=0.054,
+    finger_depth=0.046,
     tcp_offset=0.1034,
     finger_width=0.02,
     tip_beyond_tcp=0.009,
@@ -108,17 +108,18 @@ FRANKA = GripperSpec(
 # Robotiq geometry: proximal link length, pivot offset from the centre plane, pad length,
 # and how far the pad face stands inward of the link (so pads, not links, pinch).
 _R_LINK, _R_PIVOT, _R_PAD, _R_INSET = 0.05, 0.0125, 0.035, 0.006
+_R_PALM_AHEAD = 0.006  # the palm face stands this far past the proximal pivots, as the 2F-85's base
 _R_OPEN = float(np.arcsin((0.0425 + _R_INSET - _R_PIVOT) / _R_LINK))  # link angle, fully open
 _R_CLOSED = float(np.arcsin((_R_INSET - _R_PIVOT) / _R_LINK))  # pads touching
 _R_PIVOT_X = -(_R_LINK * np.cos(_R_OPEN) + _R_PAD / 2)  # puts the open pad centre at the TCP
-_R_CURL_RATIO = 0.2  # tendon = proximal + ratio · curl
+_R_CURL_RATIO = 0.3  # tendon = proximal + ratio · curl
 _R_LEVER = 0.06  # distance from the proximal pivot to the pad centre along e_x [m]
 
 ROBOTIQ_2F85 = GripperSpec(
     name="robotiq-2f85",
     kind="robotiq",
     max_width=0.085,
-    finger_depth=float(_R_PAD / 2 - _R_PIVOT_X),
+    finger_depth=float(_R_PAD / 2 - _R_PIVOT_X - _R_PALM_AHEAD),
     tcp_offset=0.145,
     finger_width=0.022,
     tip_beyond_tcp=_R_PAD / 2,
@@ -163,16 +164,25 @@ def _weld() -> str:
     return f'<weld body1="{PREFIX}target" body2="{PREFIX}base" solref="{WELD_SOLREF}"/>'
 
 
+# Franka finger: a pad at the fingertip, the finger behind it set back from the pad's face
+# (as the real finger and MuJoCo Menagerie's model: a 17 mm pad, the finger 7-15 mm back).
+_F_PAD, _F_SETBACK, _F_THICK = 0.017, 0.007, 0.005
+
+
 def _rigid_finger(spec: GripperSpec, side: str, sign: int) -> str:
-    half_len = spec.finger_depth / 2
-    x = spec.tip_beyond_tcp - half_len
+    pad_x = spec.tip_beyond_tcp - _F_PAD / 2
+    body_half = (spec.finger_depth - _F_PAD) / 2
+    body_x = spec.tip_beyond_tcp - _F_PAD - body_half
     return f"""
       <body name="{PREFIX}finger_{side}" gravcomp="1">
         <joint name="{PREFIX}slide_{side}" type="slide" axis="0 0 {sign}"
                range="0 {spec.max_width / 2}" damping="300" armature="0.5"/>
-        <geom name="{PREFIX}pad_{side}" class="finger" type="box" mass="0.02"
-              size="{half_len:.4f} {spec.finger_width / 2} 0.005"
-              pos="{x:.4f} 0 {sign * 0.005}"/>
+        <geom name="{PREFIX}pad_{side}" class="finger" type="box" mass="0.01"
+              size="{_F_PAD / 2:.4f} {spec.finger_width / 2} {_F_THICK}"
+              pos="{pad_x:.4f} 0 {sign * _F_THICK}"/>
+        <geom name="{PREFIX}finger_{side}" class="finger" type="box" mass="0.01"
+              size="{body_half:.4f} {spec.finger_width / 2} {_F_THICK}"
+              pos="{body_x:.4f} 0 {sign * (_F_THICK + _F_SETBACK)}"/>
       </body>"""
 
 
@@ -220,7 +230,7 @@ def _robotiq_finger(spec: GripperSpec, side: str, sign: int) -> str:
 
 def _robotiq_xml(spec: GripperSpec) -> HandXml:
     """The Robotiq 2F-85 with passive compliance (see the module docstring)."""
-    palm_x = _R_PIVOT_X - spec.palm_half[0]
+    palm_x = _R_PIVOT_X + _R_PALM_AHEAD - spec.palm_half[0]
     fingers = _robotiq_finger(spec, "left", 1) + _robotiq_finger(spec, "right", -1)
     sides = ("left", "right")
     tendon = "".join(
