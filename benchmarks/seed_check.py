@@ -10,7 +10,7 @@ benchmarks the second runs of the Robotiq ``bingham2d`` and ``rotmat6d``, traine
 
 on the same 100 rounds as the table (cells in ``out/bench/seed1/robotiq/REP/OBJECTS``, read
 back when present), and compares ``bingham2d`` with ``rotmat6d`` within each training seed on
-the same rounds (`validity_sweep.paired_change`). The seed-0 cells are the table's
+the same rounds (`symgrasp.benchmark.compare.paired_change`). The seed-0 cells are the table's
 (``out/bench/robotiq/REP/OBJECTS``; run ``declutter_table.py`` first). ``--quick`` needs no
 training run: the shipped Robotiq model stands in for every run, and it plays the seed-0 cells
 too, one round of one object per cell.
@@ -23,8 +23,8 @@ import json
 from pathlib import Path
 
 from common import parse_args, write_result
-from validity_sweep import paired_change
 
+from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
 
 REPS = ("bingham2d", "rotmat6d")

@@ -19,13 +19,11 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
 
-import numpy as np
 from common import parse_args, write_result
 
+from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import (
-    BOOTSTRAP,
     BenchmarkConfig,
     percent_with_interval,
     run_or_reuse,
@@ -40,27 +38,6 @@ SETS = (  # (objects, seed of round 0, what the rows are for)
     ("household-test", 0, "sensitivity"),
     ("large-box", 0, "sensitivity"),
 )
-
-
-def paired_change(
-    rounds: list[dict[str, Any]], baseline: list[dict[str, Any]], seed: int = 0
-) -> dict[str, list[float]]:
-    """CR and SR of ``rounds`` minus those of ``baseline`` (the same seeds, in order): the
-    change and its 95 % interval from one bootstrap over rounds resampled in pairs."""
-    if [r["seed"] for r in rounds] != [r["seed"] for r in baseline]:
-        raise ValueError("rounds and baseline must be the same seeds in the same order")
-    counts = {name: np.array([[r[key] for r in rs] for key in ("successes", "executed", "objects")],
-                             dtype=float) for name, rs in (("a", rounds), ("b", baseline))}  # fmt: skip
-    picks = np.random.default_rng(seed).integers(len(rounds), size=(BOOTSTRAP, len(rounds)))
-    change = {}
-    for name, row in (("clear_ratio", 2), ("success_ratio", 1)):
-        a, b = counts["a"], counts["b"]
-        point = a[0].sum() / a[row].sum() - b[0].sum() / b[row].sum()
-        resampled = a[0][picks].sum(1) / a[row][picks].sum(1) - b[0][picks].sum(1) / b[row][
-            picks
-        ].sum(1)
-        change[name] = [float(point), *map(float, np.percentile(resampled, [2.5, 97.5]))]
-    return change
 
 
 def markdown(rows: list[dict]) -> str:

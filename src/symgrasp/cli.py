@@ -789,7 +789,7 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
         description="Benchmarks of trained detectors (symgrasp.benchmark).",
     )
     actions = parser.add_subparsers(
-        dest="action", required=True, metavar="ACTION", help="what to run (declutter)"
+        dest="action", required=True, metavar="ACTION", help="what to run (declutter, compare)"
     )
     declutter = actions.add_parser(
         "declutter",
@@ -837,6 +837,24 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
         "one simulated)",
     )
     declutter.set_defaults(run=_run_declutter)
+    compare = actions.add_parser(
+        "compare",
+        help="the paired change of SR and CR between two benchmarks of the same rounds",
+        description="Compare two `bench declutter` folders on the rounds both finished (the same "
+        "seeds drop the same objects the same way): SR and CR of each and A − B with a 95%% "
+        "interval from one bootstrap over rounds resampled in pairs. The folders must play the "
+        "same world (objects, mesh units, scene, objects per round); the models, thresholds and "
+        "hands may differ.",
+    )
+    compare.add_argument("a", help="benchmark folder A")
+    compare.add_argument("b", help="benchmark folder B (the baseline)")
+    compare.set_defaults(run=_run_compare)
+
+
+def _run_compare(args: argparse.Namespace) -> None:
+    from symgrasp.benchmark.compare import compare_table
+
+    print(compare_table(args.a, args.b))
 
 
 def _run_declutter(args: argparse.Namespace) -> None:

@@ -1,0 +1,57 @@
+"""`symgrasp bench compare`: the paired change of two benchmarks on their shared rounds."""
+
+import dataclasses
+import json
+
+import pytest
+
+from symgrasp.benchmark.compare import compare_table, paired_change, paired_rounds
+from symgrasp.cli import main
+from symgrasp.config import BenchmarkConfig
+
+
+def _bench(folder, counts, **config):
+    """A benchmark folder whose round ``seed`` had ``counts[seed]`` = (successes, executed,
+    objects)."""
+    folder.mkdir()
+    cfg = dataclasses.asdict(dataclasses.replace(BenchmarkConfig(), **config))
+    (folder / "config.json").write_text(json.dumps(cfg))
+    lines = [
+        json.dumps({"seed": seed, "successes": s, "executed": e, "objects": o})
+        for seed, (s, e, o) in counts.items()
+    ]
+    (folder / "rounds.jsonl").write_text("\n".join(lines) + "\n")
+    return folder
+
+
+def test_a_constant_lead_in_every_round_has_no_spread(tmp_path):
+    """Each round of A clears one object more with the same grasps: CR + 1/5 and SR + 1/4 in
+    every resample, so the interval collapses on the change."""
+    a = _bench(tmp_path / "a", {s: (3, 4, 5) for s in range(20)})
+    b = _bench(tmp_path / "b", {s: (2, 4, 5) for s in range(20)})
+    change = paired_change(*paired_rounds(a, b))
+    assert change["clear_ratio"] == pytest.approx([0.2, 0.2, 0.2])
+    assert change["success_ratio"] == pytest.approx([0.25, 0.25, 0.25])
+
+
+def test_only_the_shared_rounds_are_paired(tmp_path):
+    a = _bench(tmp_path / "a", {s: (1, 2, 5) for s in range(10)})
+    b = _bench(tmp_path / "b", {s: (1, 2, 5) for s in range(5, 15)})
+    rounds_a, rounds_b = paired_rounds(a, b)
+    assert [r["seed"] for r in rounds_a] == [r["seed"] for r in rounds_b] == list(range(5, 10))
+    assert "5 rounds played by both (seeds 5–9)" in compare_table(a, b)
+    assert "+0.0 [+0.0, +0.0]" in compare_table(a, a)
+
+
+def test_different_worlds_are_refused(tmp_path, capsys):
+    a = _bench(tmp_path / "a", {0: (1, 1, 5)})
+    b = _bench(tmp_path / "b", {0: (1, 1, 5)}, objects="large-box")
+    with pytest.raises(
+        SystemExit, match=r"different rounds \(objects: 'household-test' vs 'large-box'"
+    ):
+        main(["bench", "compare", str(a), str(b)])
+    with pytest.raises(SystemExit, match="holds no benchmark"):
+        main(["bench", "compare", str(a), str(tmp_path / "none")])
+    c = _bench(tmp_path / "c", {7: (1, 1, 5)})
+    with pytest.raises(SystemExit, match="share no finished round"):
+        main(["bench", "compare", str(a), str(c)])
