@@ -166,3 +166,16 @@ def test_a_spec_file_may_not_take_a_built_in_name_with_other_dimensions(wide, tm
         get_gripper(str(tmp_path / "franka.toml"))
     (tmp_path / "same.toml").write_text(_toml(FRANKA.to_dict()))
     assert get_gripper(str(tmp_path / "same.toml")) == FRANKA  # a copy of the built-in is it
+
+
+def test_every_key_of_both_kinds_is_documented():
+    """docs/sim.md's tables name every key of a spec file, top level and [fingers]."""
+    from pathlib import Path
+
+    docs = (Path(__file__).parents[2] / "docs" / "sim.md").read_text(encoding="utf-8")
+    for spec in (FRANKA, ROBOTIQ_2F85):
+        top = spec.to_dict()
+        fingers = top.pop("fingers")
+        for key in [*top, *fingers]:
+            assert f"| `{key}` |" in docs, key
+    assert "`[fingers]` of a `rigid` hand" in docs and "`[fingers]` of an `underactuated`" in docs

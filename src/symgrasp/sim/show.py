@@ -77,11 +77,13 @@ def _box_outline(
     return corners[ConvexHull(corners).vertices]
 
 
-def _dimension(ax: plt.Axes, a: tuple, b: tuple, text: str, **text_options: object) -> None:
-    """A double arrow from ``a`` to ``b`` [mm] labelled ``text`` at its middle."""
+def _dimension(
+    ax: plt.Axes, a: tuple, b: tuple, text: str, at: float = 0.5, **text_options: object
+) -> None:
+    """A double arrow from ``a`` to ``b`` [mm] labelled ``text`` at fraction ``at`` of it."""
     ax.annotate("", a, b, arrowprops={"arrowstyle": "<->", "lw": 0.8, "shrinkA": 0, "shrinkB": 0})
-    middle = (np.asarray(a) + np.asarray(b)) / 2
-    ax.text(*middle, text, fontsize=8, **{"ha": "center", "va": "center", **text_options})
+    where = (1 - at) * np.asarray(a) + at * np.asarray(b)
+    ax.text(*where, text, fontsize=8, **{"ha": "center", "va": "center", **text_options})
 
 
 def _hand_state(gripper: GripperSpec, close: bool) -> tuple[list[str], tuple, float]:
@@ -152,7 +154,8 @@ def _annotate(ax: plt.Axes, g: GripperSpec, view: str) -> None:
     _dimension(ax, (side, face), (side, tip), f" finger_depth\n {tip - face:.1f}", ha="left")
     _dimension(ax, (-side, 0), (-side, tip), f"tip_beyond_tcp {tip:.1f} ", ha="right")
     ax.plot([-side, 0], [0, 0], "k:", lw=0.6)
-    _dimension(ax, (-pz, back - 5), (pz, back - 5), f"palm_size[2] {2 * pz:g}", va="bottom")
+    _dimension(ax, (-pz, back - 5), (pz, back - 5), f"palm_size[2] {2 * pz:g}", at=0.75,
+               va="bottom")  # fmt: skip
     _dimension(ax, (pz + 4, back), (pz + 4, face), f" palm_size[0]\n {face - back:g}", ha="left")
     flange = -g.tcp_offset * mm
     ax.plot([-10, 10], [flange, flange], "k-", lw=2.5)
