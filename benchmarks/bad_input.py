@@ -23,6 +23,7 @@ from common import parse_args, write_result
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
+from conftest import WIDE_JAW  # noqa: E402
 from test_bad_input import API, CLI, make_files  # noqa: E402
 
 OUTCOMES = ("clear error", "unclear", "traceback", "silent", "hang")
@@ -82,7 +83,7 @@ def main() -> None:
     limit = args.cases or None
     cells = []
     with tempfile.TemporaryDirectory() as folder:
-        files = make_files(Path(folder))
+        files = make_files(Path(folder), WIDE_JAW)
         for case, (argv, named) in list(CLI.items())[:limit]:
             outcome, seconds, message = command_line_case(argv(files), named, args.timeout)
             cells.append({"kind": "command line", "case": case, "outcome": outcome,

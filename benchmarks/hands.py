@@ -183,7 +183,7 @@ def ours(spec: GripperSpec, bodies: list[Body]) -> Rig:
     T_base_hand = np.eye(4)
     T_base_hand[0, 3] = -spec.tcp_offset
     hold = None
-    if spec.kind == "robotiq":  # the integrating actuator's state is the drive's set-point
+    if spec.kind == "underactuated":  # the integrating actuator's state is the drive's set-point
         closed = float(m.jnt_range[m.joint(f"{PREFIX}proximal_left").id][1])
 
         def hold(d: mujoco.MjData, fraction: float) -> None:

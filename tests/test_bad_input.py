@@ -22,13 +22,18 @@ SHIPPED = "bingham2d-robotiq-2f85"
 
 
 @pytest.fixture
-def files(tmp_path):
-    return make_files(tmp_path)
+def files(tmp_path, wide_jaw):
+    return make_files(tmp_path, wide_jaw)
 
 
-def make_files(tmp_path):
-    """Valid and broken input files in ``tmp_path``, by name (also used by
-    benchmarks/bad_input.py, which plays the command-line cases as real processes)."""
+def make_files(tmp_path, wide_jaw):
+    """Valid and broken input files in ``tmp_path``, by name, the bad gripper specs made from
+    the made-up jaw's file ``wide_jaw`` (also used by benchmarks/bad_input.py, which plays the
+    command-line cases as real processes)."""
+    spec = wide_jaw.read_text()
+    for name, old, new in BAD_SPECS:
+        assert old in spec
+        (tmp_path / name).write_text(spec.replace(old, new))
     depth = np.full((48, 64), 0.6, dtype=np.float32)
     np.save(tmp_path / "depth.npy", depth)
     np.save(tmp_path / "depth_mm.npy", depth * 1000)
@@ -77,6 +82,14 @@ def _detect(d, *extra, depth="depth.npy", intrinsic="intrinsic.json", model=SHIP
             "--extrinsic", str(d / "extrinsic.json"), "--model", str(model),
             "--out", str(d / "out"), *extra]  # fmt: skip
 
+
+BAD_SPECS = (
+    ("negative.toml", "pad_width = 0.03", "pad_width = -0.03"),
+    ("wide_pad.toml", "pad_width = 0.03", "pad_width = 0.08"),
+    ("no_force.toml", "grip_force = 80.0", ""),
+    ("colour.toml", "grip_force = 80.0", 'grip_force = 80.0\ncolour = "red"'),
+)
+"""Gripper spec files made from the made-up wide jaw's: (file, text replaced, replacement)."""
 
 CLI = {
     # argument ranges and names, refused by the parser
@@ -127,6 +140,16 @@ CLI = {
     "sim show --objects a URDF without its mesh": (lambda d: ["sim", "show", "--objects", str(d / "no_mesh"), "--out", str(d / "s")], "thing.obj"),
     "sim show --objects an object larger than the workspace": (lambda d: ["sim", "show", "--objects", str(d / "too_big"), "--out", str(d / "s")], "larger than the 0.3 m workspace"),
     "sim show --objects an unknown set": (lambda d: ["sim", "show", "--objects", "kitchen", "--out", str(d / "s")], "data folder"),
+    "gripper show an unknown name": (lambda d: ["gripper", "show", "shadow-hand"], "shadow-hand"),
+    "gripper show a missing spec file": (lambda d: ["gripper", "show", str(d / "nothing.toml")], "nothing.toml"),
+    "gripper show a negative size": (lambda d: ["gripper", "show", str(d / "negative.toml")], "negative.toml: pad_width must be in (0, 1] m"),
+    "gripper show a pad wider than the palm": (lambda d: ["gripper", "show", str(d / "wide_pad.toml")], "pad_width (0.08 m) is wider than the palm"),
+    "gripper show a missing key": (lambda d: ["gripper", "show", str(d / "no_force.toml")], "no_force.toml: missing key grip_force"),
+    "gripper show an unknown key": (lambda d: ["gripper", "show", str(d / "colour.toml")], "colour.toml: unknown key colour"),
+    "data generate --gripper a bad spec": (lambda d: ["data", "generate", "--out", str(d / "g"), "--gripper", str(d / "negative.toml")], "pad_width"),
+    "train --gripper a missing spec file": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--gripper", str(d / "nothing.toml")], "--gripper"),
+    "demo --gripper a spec file without --model": (lambda d: ["demo", "--gripper", str(d / "negative.toml"), "--out", str(d)], "--model"),
+    "bench --gripper another than the model's": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--gripper", "franka"], "--gripper franka, but --model bingham2d-robotiq-2f85 is robotiq-2f85"),
     "objects inspect a procedural set": (lambda d: ["objects", "inspect", "blocks"], "built in code"),
     "export a garbage checkpoint": (lambda d: ["export", str(d / "garbage.pt"), str(d / "x.pt")], "garbage.pt"),
 }  # fmt: skip

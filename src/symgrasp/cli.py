@@ -28,6 +28,7 @@ from symgrasp.config import (
     field_docs,
 )
 from symgrasp.names import (
+    GRIPPER_SPEC_SUFFIX,
     GRIPPERS,
     MESH_OBJECT_SETS,
     MESH_UNITS,
@@ -56,11 +57,25 @@ def _object_set(value: str) -> str:
     )
 
 
+def _gripper(value: str) -> str:
+    """A built-in gripper's name or an existing .toml spec file (read and checked when the
+    command runs)."""
+    if value in GRIPPERS or (value.lower().endswith(GRIPPER_SPEC_SUFFIX) and Path(value).is_file()):
+        return value
+    raise argparse.ArgumentTypeError(
+        f"expected one of {', '.join(GRIPPERS)} or an existing .toml gripper spec file "
+        f"(docs/sim.md), got {value!r}"
+    )
+
+
+GRIPPER_METAVAR = "{" + ",".join(GRIPPERS) + "}|SPEC" + GRIPPER_SPEC_SUFFIX
+"""How ``--gripper``'s value is shown in every help."""
+
 SHARED = {
     "objects": ("--objects", {"type": _object_set, "metavar": "SET|FOLDER"}),
     "object_set": ("--objects", {"type": _object_set, "metavar": "SET|FOLDER"}),
     "scene": ("--scene", {"choices": SCENES}),
-    "gripper": ("--gripper", {"choices": GRIPPERS}),
+    "gripper": ("--gripper", {"type": _gripper, "metavar": GRIPPER_METAVAR}),
     "representation": ("--rep", {"choices": REPRESENTATIONS}),
     "kinds": ("--kinds", {"choices": SCENES}),
     "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),
@@ -193,7 +208,7 @@ def add_config_options(
         flag = flag or "--" + name.replace("_", "-")
         options = {**_value_options(str(f.type)), **options}
         if "choices" not in options and "action" not in options:
-            options["metavar"] = name.upper()
+            options.setdefault("metavar", name.upper())
         help = _sentence(docs[f.name])
         if f.default is dataclasses.MISSING:
             parser.add_argument(flag, dest=dest, required=True, help=help, **options)
@@ -245,7 +260,8 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
     _add_shared(
         parser,
         "gripper",
-        "gripper; the shipped bingham2d model for it is used (default: robotiq-2f85)",
+        "gripper: a built-in's name, whose shipped bingham2d model is used, or a spec file "
+        "(then --model is needed) (default: robotiq-2f85)",
         "robotiq-2f85",
     )
     _add_shared(parser, "objects", "object set (default: household-test)", "household-test")
@@ -505,6 +521,41 @@ def _run_sim_show(args: argparse.Namespace) -> None:
     print(f"depth renderer: {renderer}")
     for kind, path in paths.items():
         print(f"{kind}: {path}")
+
+
+def _add_gripper(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "gripper",
+        help="look at a gripper: a built-in or your own spec file",
+        description="A gripper is a small TOML spec file (docs/sim.md, 'Your own gripper'); "
+        "the built-in ones are shipped as such files.",
+    )
+    actions = parser.add_subparsers(
+        dest="action", required=True, metavar="ACTION", help="what to do (show)"
+    )
+    show = actions.add_parser(
+        "show",
+        help="draw a gripper open and closed",
+        description="Check a gripper's spec, build its simulated hand, close it on nothing and "
+        "draw its boxes (those the swept-hand collision check uses) open and closed, from the "
+        "side and from the front, with its dimensions annotated and its spec listed.",
+    )
+    show.add_argument(
+        "spec", type=_gripper, metavar=GRIPPER_METAVAR, help="a built-in's name or a spec file"
+    )
+    show.add_argument("--out", default=None, help="picture path (default: out/gripper/<name>.png)")
+    show.set_defaults(run=_run_gripper_show)
+
+
+def _run_gripper_show(args: argparse.Namespace) -> None:
+    from symgrasp.sim.grippers import get_gripper
+    from symgrasp.sim.show import save_gripper_png
+
+    spec = get_gripper(args.spec)
+    path = save_gripper_png(spec, args.out or f"out/gripper/{spec.name}.png")
+    print(f"{spec.name} ({spec.kind}): opening {spec.max_width * 1000:g} mm, finger depth "
+          f"{spec.finger_depth * 1000:.1f} mm, pads {spec.pad_width * 1000:g} mm wide, "
+          f"{spec.grip_force:g} N; picture: {path}")  # fmt: skip
 
 
 # -- data ---------------------------------------------------------------------------------
@@ -833,8 +884,8 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
     _add_shared(
         declutter,
         "gripper",
-        "refuse to run unless --model was trained for this gripper (the model's gripper is the "
-        "one simulated)",
+        "refuse to run unless --model was trained for this gripper, a built-in's name or a spec "
+        "file (the model's gripper, stored in it, is the one simulated)",
     )
     declutter.set_defaults(run=_run_declutter)
     compare = actions.add_parser(
@@ -868,13 +919,20 @@ def _run_declutter(args: argparse.Namespace) -> None:
     config = dataclasses.replace(config_from_args(BenchmarkConfig, args), options=options)
     check_out(config, args.out, args.resume)  # before the model loads
     if args.representation is not None or args.gripper is not None:
+        from symgrasp.sim.grippers import get_gripper, same_name_note
+
         detector = GraspDetector.from_pretrained(args.model, device="cpu")
-        for option, wanted, actual in (
-            ("--rep", args.representation, detector.representation.name),
-            ("--gripper", args.gripper, detector.gripper.name),
-        ):
-            if wanted is not None and wanted != actual:
-                raise SystemExit(f"error: {option} {wanted}, but --model {args.model} is {actual}")
+        rep = detector.representation.name
+        if args.representation not in (None, rep):
+            raise SystemExit(
+                f"error: --rep {args.representation}, but --model {args.model} is {rep}"
+            )
+        hand = detector.gripper
+        if args.gripper is not None and get_gripper(args.gripper) != hand:
+            note = same_name_note(hand, get_gripper(args.gripper))
+            raise SystemExit(
+                f"error: --gripper {args.gripper}, but --model {args.model} is {hand.name}{note}"
+            )
     summary = run_benchmark(config, args.out, args.workers, args.resume)
     print(markdown_table(summary, config), end="")
     print(f"outcomes {summary['outcomes']}")
@@ -903,6 +961,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_demo(subparsers)
     _add_objects(subparsers)
     _add_sim(subparsers)
+    _add_gripper(subparsers)
     _add_data(subparsers)
     _add_figures(subparsers)
     _add_train(subparsers)

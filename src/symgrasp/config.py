@@ -136,7 +136,8 @@ class SceneConfig:
     """Length unit of bare mesh files: m, cm, mm, or auto (millimetres when a mesh is longer
     than 2 units, else metres)."""
     gripper: str = "robotiq-2f85"
-    """The gripper whose grasps are labelled."""
+    """The gripper whose grasps are labelled: a built-in's name or a .toml spec file (the
+    dataset stores the whole spec)."""
     pool_size: int = 16
     """Objects in the pool the scenes draw from (one grasp database each)."""
     pool_seed: int = 0
@@ -178,7 +179,7 @@ class SceneConfig:
 
     @property
     def hand(self) -> GripperSpec:
-        """The spec of the gripper named ``gripper``."""
+        """The spec of the gripper ``gripper`` names (read from its file, for a spec file)."""
         from symgrasp.sim.grippers import get_gripper
 
         return get_gripper(self.gripper)
@@ -242,7 +243,8 @@ class TrainConfig:
     representation: str = "bingham2d"
     """Rotation representation of the rotation head."""
     gripper: str = "robotiq-2f85"
-    """The gripper the dataset must have been produced for."""
+    """The gripper the dataset must have been produced for: a built-in's name or a .toml spec
+    file (the checkpoint stores the whole spec)."""
     epochs: int = 10
     """Epochs to train."""
     batch_size: int = 4

@@ -22,6 +22,7 @@ from symgrasp.benchmark.declutter import Attempt, Round, run_round, save_attempt
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.objects.sets import resolve
 from symgrasp.sim import World
+from symgrasp.sim.grippers import is_spec_file
 
 
 def run_demo(
@@ -34,10 +35,16 @@ def run_demo(
     mesh_unit: str = "auto",
 ) -> Round:
     """Play one declutter round and write its pictures, ``demo.html`` and ``summary.json``
-    (bare meshes of ``objects`` read in ``mesh_unit``)."""
+    (bare meshes of ``objects`` read in ``mesh_unit``). ``gripper``: a built-in's name, whose
+    shipped model plays unless ``model`` is given, or a spec file (then ``model`` is needed)."""
     start = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    if model is None and is_spec_file(gripper):
+        raise ValueError(
+            f"gripper {gripper} is a spec file: no model is shipped for it; pass a model "
+            "trained for it (--model)"
+        )
     name = model or f"bingham2d-{gripper}"
     detector = GraspDetector.from_pretrained(name, device="cpu", gripper=gripper)
     pictures: list[Path] = []

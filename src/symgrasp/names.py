@@ -12,6 +12,9 @@ REPRESENTATIONS = ("bingham2d", "rotmat6d", "rotmat6d_naive", "quaternion", "bin
 GRIPPERS = ("franka", "robotiq-2f85")
 """Built-in grippers (`symgrasp.sim.grippers`)."""
 
+GRIPPER_SPEC_SUFFIX = ".toml"
+"""A gripper is also given by a spec file whose name ends so (`symgrasp.sim.grippers`)."""
+
 PROCEDURAL_OBJECT_SETS = ("household-train", "household-test", "large-box", "blocks")
 """Object sets built in code (`symgrasp.sim.objects`); they need no files."""
 

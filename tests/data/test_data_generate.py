@@ -12,6 +12,7 @@ from symgrasp.cli import main
 from symgrasp.config import SceneConfig
 from symgrasp.data.dataset import GraspDataset, collate_scenes
 from symgrasp.data.generate import generate
+from symgrasp.sim import FRANKA
 from symgrasp.workspace import VOXEL_SIZE
 
 TINY = ["--objects", "blocks", "--gripper", "franka", "--pool-size", "2", "--grasps", "40"]
@@ -31,7 +32,7 @@ def dataset(tmp_path_factory):
 
 def test_items_follow_the_contract(dataset):
     data = GraspDataset(dataset, split="all")
-    assert len(data) == 4 and data.gripper == "franka" and data.object_set == "blocks"
+    assert len(data) == 4 and data.gripper == FRANKA and data.object_set == "blocks"
     for key in ("gripper", "object_set", "k_max", "resolution", "voxel_size", "num_scenes"):
         assert key in data.manifest
     assert data.manifest["voxel_size"] == pytest.approx(0.0075)
@@ -117,3 +118,13 @@ def test_inspect_writes_the_card_and_show_a_picture(dataset, capsys):
     main(["data", "show", str(dataset), "--scene", "1"])
     assert (dataset / "scene_000001.png").exists()
     assert "scene_000001.png" in capsys.readouterr().out
+
+
+def test_the_manifest_holds_the_whole_gripper_spec_and_an_old_name_still_reads(dataset, tmp_path):
+    manifest = json.loads((dataset / "manifest.json").read_text())
+    assert manifest["gripper"] == FRANKA.to_dict()
+    assert GraspDataset(dataset).gripper == FRANKA
+    old = tmp_path / "old"
+    shutil.copytree(dataset, old)
+    (old / "manifest.json").write_text(json.dumps({**manifest, "gripper": "franka"}))
+    assert GraspDataset(old).gripper == FRANKA  # datasets made before spec files hold a name

@@ -124,6 +124,8 @@ def test_same_seed_same_database_and_the_cache_is_keyed_by_object(database, tmp_
 
 
 def test_bad_gripper_lists_the_known_ones():
-    with pytest.raises(ValueError, match="franka, robotiq-2f85, got 'shadow-hand'"):
+    with pytest.raises(
+        ValueError, match=r"franka, robotiq-2f85 or a \.toml spec file, got 'shadow"
+    ):
         get_gripper("shadow-hand")
     assert get_gripper("franka").max_width == 0.08

@@ -10,6 +10,7 @@ from symgrasp.model import GraspNet, NetworkConfig, TrainConfig, grasp_losses, l
 from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
 from symgrasp.model.metrics import MetricAccumulator
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
+from symgrasp.sim import ROBOTIQ_2F85
 
 SMALL = (2, 2, 4, 4)  # widths of a tiny network: these tests check the loop, not learning
 
@@ -49,7 +50,8 @@ def test_training_writes_checkpoints_metrics_and_a_curve(tmp_path):
         assert key in rows[0]
     assert (out / "learning_curve.png").stat().st_size > 1000
     state = load_checkpoint(out / "last.pt")
-    assert state["representation"] == "bingham2d" and state["gripper"] == "robotiq-2f85"
+    assert state["representation"] == "bingham2d"
+    assert state["gripper"] == ROBOTIQ_2F85.to_dict()  # the whole spec, not a name
     assert state["dataset_hash"] == SyntheticGraspDataset(3).manifest["dataset_hash"]
     assert state["symgrasp_version"] and state["config"]["epochs"] == 2
     assert (out / "best.pt").exists()

@@ -84,7 +84,7 @@ def _yaw_tolerance(gripper: str, box_width: float) -> float:
     """Largest yaw [rad] at which the open pads' inner corners still clear a box of
     ``box_width`` centred between them (paper Appx. D: 22.6° for the 2F-85 and 70 mm)."""
     spec = get_gripper(gripper)
-    half_open, half_pad = spec.max_width / 2, spec.finger_width / 2
+    half_open, half_pad = spec.max_width / 2, spec.pad_width / 2
     corner = np.hypot(half_open, half_pad)
     return np.arccos(box_width / 2 / corner) - np.arctan2(half_pad, half_open)
 

@@ -72,7 +72,7 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
     if validate > 0 and len(data):
         cfg = config_from_dict(data.manifest["config"])
         ids = [int(p.stem.split("_")[1]) for p in data.paths]
-        result = validate_labels(root, cfg, ids, validate, seed)
+        result = validate_labels(root, cfg, data.gripper, ids, validate, seed)
         card["label_validation"] = dataclasses.asdict(result)
     write_atomic(root / "card.json", lambda f: json.dump(card, f, indent=1), mode="w")
 
@@ -86,7 +86,7 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
         [card["targets_per_voxel"][str(k)] for k in range(1, data.k_max + 1)],
     )
     ax[2].set(xlabel="rotation targets per voxel", ylabel="voxels")
-    fig.suptitle(f"{root.name}: {len(data)} scenes, {data.gripper}, {data.object_set}")
+    fig.suptitle(f"{root.name}: {len(data)} scenes, {data.gripper.name}, {data.object_set}")
     fig.tight_layout()
     fig.savefig(root / "card.png", dpi=100)
     plt.close(fig)

@@ -25,6 +25,7 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
+from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.workspace import RESOLUTION
 
 SPLITS = ("train", "val", "all")
@@ -168,7 +169,7 @@ class GraspDataset(Dataset):
                 f"{len(self.manifest['scene_ids'])} in its manifest; finish it with "
                 "`symgrasp data generate ... --resume` (same options)"
             )
-        self.gripper: str = self.manifest["gripper"]
+        self.gripper: GripperSpec = get_gripper(self.manifest["gripper"])  # old: a name
         self.object_set: str = self.manifest["object_set"]
         self.k_max: int = int(self.manifest["k_max"])
         self.augment, self.seed = augment, seed

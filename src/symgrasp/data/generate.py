@@ -2,7 +2,8 @@
 
 Layout of a dataset folder::
 
-    manifest.json          configuration, scene ids, hash, version (written atomically)
+    manifest.json          configuration, the gripper's whole spec, scene ids, hash, version
+                           (written atomically)
     db/<object>_<gripper>_<key>.npz   per-object grasp databases (cache, reusable)
     scenes/scene_000123.npz           one compressed shard per scene
 
@@ -50,7 +51,7 @@ def config_from_dict(d: dict[str, Any]) -> SceneConfig:
 def _manifest(cfg: SceneConfig, seed: int, scene_ids: list[int], root: Path) -> dict[str, Any]:
     """The manifest of ``root`` holding ``scene_ids`` (an empty list while generating)."""
     return {
-        "gripper": cfg.gripper,
+        "gripper": cfg.hand.to_dict(),
         "object_set": cfg.object_set,
         "k_max": cfg.k_max,
         "resolution": RESOLUTION,
@@ -140,7 +141,8 @@ def _of_a_dataset(name: str) -> bool:
 
 
 def check_names(object_set: str, gripper: str) -> None:
-    """Raise ValueError listing the known names if either is unknown."""
+    """Raise ValueError listing the known names if either is unknown (or naming the bad key of
+    a gripper spec file)."""
     resolve(object_set)
     get_gripper(gripper)
 

@@ -257,9 +257,9 @@ def build_database(
 
 def database_key(obj: ObjectSpec, gripper: GripperSpec, cfg: DatabaseConfig, seed: int) -> str:
     """Cache key: a hash of the object's parameters (a convex part's vertices included), the
-    gripper's name, the configuration, seed."""
+    gripper's whole spec (an edited spec file is a new gripper), the configuration, seed."""
     text = json.dumps(
-        [dataclasses.asdict(obj), gripper.name, dataclasses.asdict(cfg), seed],
+        [dataclasses.asdict(obj), gripper.to_dict(), dataclasses.asdict(cfg), seed],
         sort_keys=True,
         default=lambda array: array.round(7).tolist(),
     )

@@ -18,6 +18,7 @@ from tqdm import tqdm
 from symgrasp.config import SceneConfig
 from symgrasp.data.dataset import load_scene, scene_path
 from symgrasp.sim import World, execute_grasp
+from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.objects import surface_samples
 
 
@@ -31,9 +32,15 @@ class ValidationResult:
 
 
 def validate_labels(
-    root: str | Path, cfg: SceneConfig, scene_ids: list[int], trials: int, seed: int = 0
+    root: str | Path,
+    cfg: SceneConfig,
+    gripper: GripperSpec,
+    scene_ids: list[int],
+    trials: int,
+    seed: int = 0,
 ) -> ValidationResult:
-    """Run ``trials`` labelled and random grasps on scenes drawn from ``scene_ids``."""
+    """Run ``trials`` labelled and random grasps with ``gripper`` (the dataset's, as its
+    manifest holds it) on scenes drawn from ``scene_ids``."""
     if trials < 1 or not scene_ids:
         raise ValueError("trials must be ≥ 1 and scene_ids non-empty")
     rng = np.random.default_rng(seed)
@@ -46,14 +53,14 @@ def validate_labels(
         objects = [pool[k] for k in record["object_pool_index"]]
         poses = record["object_poses"]
         g = int(rng.integers(len(record["grasp_pose"])))
-        world = World(objects, poses, gripper=cfg.hand)
+        world = World(objects, poses, gripper=gripper)
         labelled += execute_grasp(world, record["grasp_pose"][g].astype(float)).success
         i = int(rng.integers(len(objects)))
         p, _ = surface_samples(objects[i], 16, rng)
         T = np.eye(4)
         T[:3, :3] = Rotation.random(random_state=int(rng.integers(2**31))).as_matrix()
         T[:3, 3] = poses[i][:3, :3] @ p[0] + poses[i][:3, 3]
-        world = World(objects, poses, gripper=cfg.hand)
+        world = World(objects, poses, gripper=gripper)
         random += execute_grasp(world, T).success
         done += 1
     return ValidationResult(done, labelled / max(done, 1), random / max(done, 1))

@@ -28,7 +28,7 @@ from symgrasp.device import resolve_device
 from symgrasp.model.checkpoint import load_model
 from symgrasp.model.network import GraspNet
 from symgrasp.perception import CameraIntrinsic, TSDFVolume
-from symgrasp.sim.grippers import GripperSpec, get_gripper
+from symgrasp.sim.grippers import GripperSpec, get_gripper, same_name_note
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 Tensor = torch.Tensor
@@ -148,7 +148,8 @@ class GraspDetector:
         if used != trained_for:
             warnings.warn(
                 f"model {name_or_path} was trained for the {trained_for.name!r} gripper, not "
-                f"{used.name!r}: its grasps fit {trained_for.name!r}'s geometry",
+                f"{used.name!r}{same_name_note(trained_for, used)}: its grasps fit "
+                f"{trained_for.name!r}'s geometry",
                 stacklevel=2,
             )
         info = {k: v for k, v in state.items() if k not in ("model", "optimizer")}

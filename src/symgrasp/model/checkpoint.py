@@ -1,7 +1,8 @@
 """Checkpoints: the weights with everything needed to trust and rebuild them.
 
 A checkpoint is a ``torch.save`` dict holding ``format``, ``symgrasp_version``,
-``representation``, ``gripper``, ``object_set``, ``dataset_hash``, ``network`` (the
+``representation``, ``gripper`` (the spec's `GripperSpec.to_dict`; a built-in's name in older
+checkpoints), ``object_set``, ``dataset_hash``, ``network`` (the
 `NetworkConfig` as a dict), ``config`` (the `TrainConfig` as a dict), ``epoch`` (epochs done),
 ``history`` (one metrics dict per epoch), ``best_val_loss``, ``model`` and ``optimizer`` state.
 It loads with ``weights_only=True``: plain data and tensors only.

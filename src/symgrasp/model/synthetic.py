@@ -29,6 +29,7 @@ import torch
 from torch.utils.data import Dataset
 
 from symgrasp.perception.tsdf import TRUNCATION_VOXELS
+from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, VOXEL_SIZE
 
 Tensor = torch.Tensor
@@ -50,7 +51,8 @@ class SyntheticGraspDataset(Dataset):
 
     Args:
         num_scenes: number of scenes.
-        gripper: the gripper name the labels claim to be for.
+        gripper: the gripper the labels claim to be for (a spec, a built-in's name or a spec
+            file, as `symgrasp.sim.get_gripper` takes it).
         k_max: targets per voxel kept (the first ``k_max`` grasps of a voxel).
         seed: scene generator seed.
     """
@@ -58,15 +60,20 @@ class SyntheticGraspDataset(Dataset):
     object_set = "synthetic-boxes"
 
     def __init__(
-        self, num_scenes: int, gripper: str = "robotiq-2f85", k_max: int = 8, seed: int = 0
+        self,
+        num_scenes: int,
+        gripper: GripperSpec | str = "robotiq-2f85",
+        k_max: int = 8,
+        seed: int = 0,
     ) -> None:
         if num_scenes < 1:
             raise ValueError(f"num_scenes must be ≥ 1, got {num_scenes}")
         if k_max < 1:
             raise ValueError(f"k_max must be ≥ 1, got {k_max}")
-        self.num_scenes, self.gripper, self.k_max, self.seed = num_scenes, gripper, k_max, seed
+        self.num_scenes, self.k_max, self.seed = num_scenes, k_max, seed
+        self.gripper = get_gripper(gripper)
         self.manifest = {
-            "gripper": gripper,
+            "gripper": self.gripper.to_dict(),
             "object_set": self.object_set,
             "k_max": k_max,
             "resolution": RESOLUTION,

@@ -38,6 +38,7 @@ from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
 from symgrasp.model.loss import grasp_losses
 from symgrasp.model.metrics import MetricAccumulator
 from symgrasp.model.network import GraspNet
+from symgrasp.sim.grippers import get_gripper, same_name_note
 
 Tensor = torch.Tensor
 Collate = Callable[[list[dict[str, Tensor]]], dict[str, Tensor]]
@@ -64,11 +65,12 @@ def open_dataset(config: TrainConfig) -> tuple[Dataset, Dataset, Collate]:
 
 
 def check_dataset(dataset: Any, config: TrainConfig) -> None:
-    """Raise ValueError unless ``dataset`` was produced for ``config.gripper``."""
-    if dataset.gripper != config.gripper:
+    """Raise ValueError unless ``dataset`` was produced for ``config.gripper`` (the same spec)."""
+    asked = get_gripper(config.gripper)
+    if dataset.gripper != asked:
         raise ValueError(
-            f"dataset {config.data!r} was produced for the gripper {dataset.gripper!r}, "
-            f"but gripper {config.gripper!r} was asked for"
+            f"dataset {config.data!r} was produced for the gripper {dataset.gripper.name!r}, "
+            f"but gripper {config.gripper!r} was asked for{same_name_note(dataset.gripper, asked)}"
         )
 
 
@@ -143,7 +145,7 @@ def train(
         state = {
             "symgrasp_version": symgrasp.__version__,
             "representation": config.representation,
-            "gripper": train_set.gripper,
+            "gripper": train_set.gripper.to_dict(),
             "object_set": train_set.manifest.get("object_set"),
             "dataset_hash": train_set.manifest.get("dataset_hash"),
             "network": asdict(config.network),
@@ -180,10 +182,12 @@ def _check_finite(loss: Tensor, what: str, config: TrainConfig) -> None:
 
 
 def _check_resume(state: dict[str, Any], train_set: Any, config: TrainConfig) -> None:
-    if state["gripper"] != train_set.gripper:
+    trained_for = get_gripper(state["gripper"])
+    if trained_for != train_set.gripper:
         raise ValueError(
-            f"cannot resume: the checkpoint was trained for the gripper {state['gripper']!r}, "
-            f"the dataset is for {train_set.gripper!r}"
+            f"cannot resume: the checkpoint was trained for the gripper {trained_for.name!r}, "
+            f"the dataset is for {train_set.gripper.name!r}"
+            f"{same_name_note(trained_for, train_set.gripper)}"
         )
     if state["dataset_hash"] != train_set.manifest.get("dataset_hash"):
         raise ValueError(

@@ -1,4 +1,4 @@
-"""The MuJoCo simulation world: procedural objects, the two grippers, scenes, grasp trials.
+"""The MuJoCo simulation world: procedural objects, grippers from spec files, scenes, grasp trials.
 
 The gripper specs (`grippers`), contact settings (`physics`) and the grasp protocol
 (`protocol`) are plain data that perception and detection read on a robot, so this package
@@ -8,7 +8,7 @@ loads MuJoCo (and trimesh) only when one of the simulator's names below is first
 from importlib import import_module
 from typing import Any
 
-from symgrasp.sim.grippers import FRANKA, ROBOTIQ_2F85, GripperSpec, get_gripper
+from symgrasp.sim.grippers import FRANKA, ROBOTIQ_2F85, GripperSpec, get_gripper, load_gripper
 
 _LAZY = {
     "GraspResult": "symgrasp.sim.execute",
@@ -34,5 +34,6 @@ __all__ = [
     "ROBOTIQ_2F85",
     "GripperSpec",
     "get_gripper",
+    "load_gripper",
     *_LAZY,
 ]

@@ -327,10 +327,19 @@ class World:
         self._require_hand()
         m, d = self.model, self.data
         T = np.linalg.inv(self.hand_pose())
-        ids = np.flatnonzero(self._hand_geom & (m.geom_type == mujoco.mjtGeom.mjGEOM_BOX))
+        ids = self._hand_box_ids()
         centre = np.array([T[:3, :3] @ d.geom_xpos[g] + T[:3, 3] for g in ids])
         rotation = np.array([T[:3, :3] @ d.geom_xmat[g].reshape(3, 3) for g in ids])
         return centre, rotation, np.array([m.geom_size[g] for g in ids])
+
+    def hand_box_names(self) -> list[str]:
+        """The names of the boxes `hand_boxes` returns, in its order (``hand_palm``,
+        ``hand_pad_left``, …)."""
+        return [self.model.geom(g).name for g in self._hand_box_ids()]
+
+    def _hand_box_ids(self) -> np.ndarray:
+        self._require_hand()
+        return np.flatnonzero(self._hand_geom & (self.model.geom_type == mujoco.mjtGeom.mjGEOM_BOX))
 
     def finger_opening(self) -> float:
         """Distance between the inner faces of the two pads along the closing axis [m]."""
