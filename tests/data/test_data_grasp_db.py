@@ -81,8 +81,12 @@ def test_settled_grasps_hold_the_box_across_one_of_its_sides(database):
 
 def test_rejection_force_out_of_the_hand_is_friction_limited(database):
     """Pulling the box out along the approach is resisted by pad friction only: at most
-    2 μ × squeeze (MuJoCo uses the pair's larger μ: the box's 0.5, fingers 0.1)."""
+    2 μ × squeeze (MuJoCo uses the pair's larger μ: the box's 0.5, fingers 0.1), plus what the
+    ramp adds while the box slides to the slip distance: a net force rising at rate r moves a
+    mass m by r t³ / 6m, so it has grown by r (6 m slip / r)^(1/3) when the ramp stops."""
     bound = 2 * FRICTION * SQUEEZE
+    rate = CFG.score_clip * MASS * GRAVITY / CFG.ramp_time
+    overshoot = rate * (6 * MASS * CFG.slip / rate) ** (1 / 3)
     out = []
     for T, force in zip(
         database.T_object_tcp[database.held], database.resisted_force[database.held], strict=True
@@ -93,7 +97,7 @@ def test_rejection_force_out_of_the_hand_is_friction_limited(database):
         out.extend(force[pulling])
     assert len(out) > 0
     out = np.array(out)
-    assert np.all(out < 1.3 * bound)
+    assert np.all(out < 1.05 * (bound + overshoot))  # 5 %: soft contacts
     assert np.median(out) > 0.4 * bound
     assert np.all(out < CFG.score_clip * MASS * GRAVITY)  # not clipped: the bound was measured
 
