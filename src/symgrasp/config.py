@@ -336,8 +336,8 @@ class ParallelConfig:
     """Tasks run at once: local processes (default 1: in this process), or with ray the tasks in
     flight (default: every CPU of the cluster)."""
     ray_address: str | None = None
-    """Ray cluster to run on, host:port of its head (default: $RAY_ADDRESS, else a local Ray
-    instance with one CPU per worker)."""
+    """The Ray cluster to run on: host:port of its head, or "auto" for the one this machine
+    belongs to (default: $RAY_ADDRESS, else a local Ray instance with one CPU per worker)."""
 
     def __post_init__(self) -> None:
         if self.backend not in BACKENDS:

@@ -1,0 +1,20 @@
+"""Fixtures shared by several test modules."""
+
+import pytest
+
+
+@pytest.fixture(scope="session")
+def ray_cluster():
+    """A one-node Ray cluster of 2 CPUs (``.address`` is its host:port), started once per session
+    (several seconds) and stopped at its end; skips the tests that use it when Ray, the
+    optional extra 'cluster', is not installed."""
+    pytest.importorskip("ray")
+    from ray.cluster_utils import Cluster
+
+    cluster = Cluster(
+        initialize_head=True, head_node_args={"num_cpus": 2, "include_dashboard": False}
+    )
+    try:
+        yield cluster
+    finally:
+        cluster.shutdown()
