@@ -93,6 +93,8 @@ CLI = {
     "data generate --camera-distance 0.7 0.4": (lambda d: ["data", "generate", "--out", str(d / "g"), "--camera-distance", "0.7", "0.4"], "camera_distance"),
     "train --lr inf": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--lr", "inf"], "lr"),
     "train --epochs 0": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--epochs", "0"], "epochs"),
+    "train --nproc 2 --batch-size 3": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--nproc", "2", "--batch-size", "3"], "batch_size 3 must be a multiple of the 2"),
+    "train --nproc 0": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--nproc", "0"], "--nproc"),
     "train --widths 0 1 2 3": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--widths", "0", "1", "2", "3"], "widths"),
     "detect --samples-per-voxel 10**6": (lambda d: _detect(d, "--samples-per-voxel", str(10**6)), "--samples-per-voxel"),
     "detect --top-k 0": (lambda d: _detect(d, "--top-k", "0"), "--top-k"),

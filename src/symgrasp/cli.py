@@ -793,6 +793,12 @@ def _add_train(subparsers: argparse._SubParsersAction) -> None:
         "Every field of the run's configuration (symgrasp.config.TrainConfig) is an option.",
     )
     add_config_options(parser, TrainConfig, prefixes=_TRAIN_PREFIXES)
+    parser.add_argument(
+        "--nproc", type=_integer(1, 1024), default=1,
+        help="training processes on this machine, data-parallel (DistributedDataParallel: gloo "
+        "on CPU, NCCL on GPU; as torchrun --nproc-per-node N -m symgrasp train does); "
+        "--batch-size is the global batch, split evenly (default: 1)",
+    )  # fmt: skip
     parser.set_defaults(run=_run_train)
 
 
@@ -800,6 +806,14 @@ def _run_train(args: argparse.Namespace) -> None:
     from symgrasp.model.train import train
 
     config = config_from_args(TrainConfig, args, prefixes=_TRAIN_PREFIXES)
+    if args.nproc > 1:
+        from symgrasp.model.distributed import check_global_batch, launch
+
+        check_global_batch(config.batch_size, args.nproc)  # before the processes start
+        launch(train, (config,), args.nproc)
+        print(f"{config.epochs} epochs on {args.nproc} processes; checkpoints and metrics in "
+              f"{config.out}")  # fmt: skip
+        return
     history = train(config)
     print(f"{len(history)} epochs; checkpoints and metrics in {config.out}")
 
