@@ -25,6 +25,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "scene_physics": ("scene_physics.json", "cells"),
     "decomposition": ("decomposition.json", "summary"),
     "grasp_db": ("grasp_db.json", "cells"),
+    "scale": ("scale.json", "one_million_scenes"),
 }
 NEEDS_VGN = {"scene_physics", "grasp_db"}  # reads VGN's meshes from the data folder
 SHARED = ROOT.parent / "shared"
