@@ -18,3 +18,18 @@ def ray_cluster():
         yield cluster
     finally:
         cluster.shutdown()
+
+
+def _without_timings(value):
+    """``value`` (a round record, a summary, lists of them) without its planning times."""
+    if isinstance(value, dict):
+        return {k: _without_timings(v) for k, v in value.items() if not k.startswith("planning_s")}
+    if isinstance(value, list):
+        return [_without_timings(v) for v in value]
+    return value
+
+
+@pytest.fixture
+def without_timings():
+    """Benchmark records and summaries without their planning times, which no run repeats."""
+    return _without_timings

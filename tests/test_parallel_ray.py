@@ -104,15 +104,7 @@ def test_a_worker_killed_mid_task_is_run_again_and_the_dataset_is_unchanged(
     assert _files(tmp_path / "data") == _files(reference)
 
 
-def _without_timings(value):
-    if isinstance(value, dict):
-        return {k: _without_timings(v) for k, v in value.items() if not k.startswith("planning_s")}
-    if isinstance(value, list):
-        return [_without_timings(v) for v in value]
-    return value
-
-
-def test_a_benchmark_played_on_ray_is_the_process_pools(ray_cluster, tmp_path):
+def test_a_benchmark_played_on_ray_is_the_process_pools(ray_cluster, tmp_path, without_timings):
     argv = ["bench", "declutter", "--rounds", "3", "--num-objects", "1", "--seed", "7"]
     main([*argv, "--workers", "2", "--out", str(tmp_path / "pool")])
     main([*argv, *_ray(ray_cluster), "--out", str(tmp_path / "ray")])
@@ -121,11 +113,11 @@ def test_a_benchmark_played_on_ray_is_the_process_pools(ray_cluster, tmp_path):
         for run in ("pool", "ray")
     )
     assert [r["seed"] for r in ray] == [7, 8, 9] and "error" not in str(ray)
-    assert _without_timings(ray) == _without_timings(pool)
+    assert without_timings(ray) == without_timings(pool)
     pool, ray = (
         json.loads((tmp_path / run / "results.json").read_text()) for run in ("pool", "ray")
     )
-    assert _without_timings(ray) == _without_timings(pool)
+    assert without_timings(ray) == without_timings(pool)
     assert (tmp_path / "ray" / "config.json").read_bytes() == (
         tmp_path / "pool" / "config.json"
     ).read_bytes()

@@ -298,6 +298,7 @@ def run_benchmark(
     path = out / "rounds.jsonl"
     done = read_rounds(path)
     missing = [seed for seed in round_seeds(config) if seed not in done]
+    # a cluster is joined (or refused) before anything is written, and not at all for no rounds
     with open_executor(parallel if missing else ParallelConfig()) as executor:
         if not (out / "config.json").exists():
             _write_text(out / "config.json", json.dumps(asdict(config), indent=1) + "\n")
