@@ -47,14 +47,13 @@ def test_two_processes_follow_the_one_process_loss_curve_and_resume(tmp_path):
     launch(train, (TrainConfig(out=two, epochs=2, resume=True, **config), data), 2)
 
     one, two = _rows(tmp_path / "one"), _rows(tmp_path / "two")
-    assert [r["world_size"] for r in one] == ["1", "1"] and [r["world_size"] for r in two] == [
-        "2",
-        "2",
-    ]
+    assert [r["world_size"] for r in one + two] == ["1", "1", "2", "2"]
     assert all(r["global_batch_size"] == "4" and float(r["lr"]) == 3e-3 for r in one + two)
     for a, b in zip(one, two, strict=True):
-        for key in ("train_total", "train_validity", "train_rotation", "val_total", "validity_ap"):
-            assert float(b[key]) == pytest.approx(float(a[key]), rel=1e-5), key  # float noise: 1e-7
+        for key in ("train_total", "train_validity", "train_rotation", "val_total", "val_score"):
+            assert float(b[key]) == pytest.approx(float(a[key]), rel=1e-5), key  # noise: 1e-7
+        # a ranking: float noise may swap nearly tied voxels, a step of ≈ 1e-4 relative
+        assert float(b["validity_ap"]) == pytest.approx(float(a["validity_ap"]), rel=1e-2)
     assert float(one[1]["train_total"]) != pytest.approx(float(one[0]["train_total"]), rel=1e-4)
     states = [load_checkpoint(tmp_path / run / "last.pt") for run in ("one", "two")]
     assert states[1]["world_size"] == 2 and states[1]["config"]["batch_size"] == 4
