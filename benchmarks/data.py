@@ -35,7 +35,7 @@ from pathlib import Path
 import torch
 from common import parse_args
 
-from symgrasp.config import DatabaseConfig, SceneConfig
+from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
 from symgrasp.data.card import dataset_card
 from symgrasp.data.generate import generate
 from symgrasp.data.grasp_db import cached_database
@@ -100,7 +100,9 @@ def main() -> None:
             "franka": _databases(franka, tmp / "franka", args.franka),
         }
         start = time.perf_counter()
-        generate(tmp / "robotiq", robotiq, args.scenes, args.workers, seed=0, resume=True)
+        generate(
+            tmp / "robotiq", robotiq, args.scenes, 0, True, ParallelConfig(workers=args.workers)
+        )
         wall = time.perf_counter() - start
         card = dataset_card(tmp / "robotiq", validate=args.validate, seed=0)
         per_scene = wall / args.scenes

@@ -1,7 +1,7 @@
 """The paper's Table 1 on symgrasp's simulator → benchmarks/results/declutter.{json,md}.
 
     PYTHONPATH=src python benchmarks/declutter_table.py [--runs runs] [--out out/bench]
-        [--rounds 100] [--num-objects 5] [--workers 2] [--collate-only] [--quick [DIR]]
+        [--rounds 100] [--num-objects 5] [--workers 2] [--backend ray [--ray-address HOST:PORT]] [--collate-only] [--quick [DIR]]
 
 Runs `symgrasp bench declutter` (`symgrasp.benchmark.runner.run_benchmark`, failure modes
 on) for every representation × gripper × object set, plus ``bingham2d`` without
@@ -36,6 +36,8 @@ from symgrasp.benchmark.runner import (
     saved_rounds,
     summarise,
 )
+from symgrasp.cli import add_parallel_options, parallel_from_args
+from symgrasp.config import ParallelConfig
 
 GRIPPERS = {"robotiq-2f85": "robotiq", "franka": "franka"}
 OBJECTS = ("household-test", "large-box")
@@ -72,11 +74,13 @@ def model_for(gripper: str, rep: str, runs: Path) -> str | None:
     return str(run / "best.pt") if last["epoch"] >= last["config"]["epochs"] else None
 
 
-def cell(config: BenchmarkConfig, out: Path, workers: int, collate_only: bool) -> dict | None:
+def cell(
+    config: BenchmarkConfig, out: Path, parallel: ParallelConfig, collate_only: bool
+) -> dict | None:
     """The summary of one cell: read when ``out`` holds it, else run (unless collating)."""
     rounds = saved_rounds(config, out)
     if rounds is None and not collate_only:
-        rounds = run_or_reuse(config, out, workers)
+        rounds = run_or_reuse(config, out, parallel)
     return None if rounds is None else summarise(rounds, config.seed)
 
 
@@ -204,7 +208,8 @@ def main() -> None:
     parser.add_argument("--out", default="out/bench", help="folder of the per-cell benchmark runs")
     parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
     parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
-    parser.add_argument("--workers", type=int, default=2, help="round processes (default: 2)")
+    add_parallel_options(parser, "rounds")
+    parser.set_defaults(workers=2)
     parser.add_argument(
         "--collate-only", action="store_true", help="tabulate the cells already run; run none"
     )
@@ -247,7 +252,7 @@ def main() -> None:
                 )
                 folder = Path(args.out) / short / (rep + ("" if threshold else "-noconf")) / objects
                 print(f"{gripper} {rep}{'' if threshold else ' (no threshold)'} on {objects}")
-                summary = cell(config, folder, args.workers, args.collate_only)
+                summary = cell(config, folder, parallel_from_args(args), args.collate_only)
                 rows.append({"key": key, "objects": objects, "model": model, "summary": summary})
 
     table = markdown(rows)

@@ -1,6 +1,6 @@
 """Training-seed variation of the Robotiq comparison → benchmarks/results/seed_check.json.
 
-    PYTHONPATH=src python benchmarks/seed_check.py [--workers 2] [--quick [DIR]]
+    PYTHONPATH=src python benchmarks/seed_check.py [--workers 2] [--backend ray [--ray-address HOST:PORT]] [--quick [DIR]]
 
 The comparison (`declutter_table.py`) trains every detector once (``--seed 0``). This script
 benchmarks the second runs of the Robotiq ``bingham2d`` and ``rotmat6d``, trained with
@@ -26,6 +26,7 @@ from common import parse_args, write_result
 
 from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
+from symgrasp.cli import add_parallel_options, parallel_from_args
 
 REPS = ("bingham2d", "rotmat6d")
 SHIPPED = "bingham2d-robotiq-2f85"
@@ -38,7 +39,8 @@ def main() -> None:
     parser.add_argument("--out", default="out/bench", help="folder of the benchmark cells")
     parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
     parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
-    parser.add_argument("--workers", type=int, default=2, help="round processes (default: 2)")
+    add_parallel_options(parser, "rounds")
+    parser.set_defaults(workers=2)
     parser.add_argument("--result", default="benchmarks/results/seed_check", help="stem")
     args = parse_args(
         parser,
@@ -60,12 +62,12 @@ def main() -> None:
             )
             seed0 = Path(args.out) / "robotiq" / rep / objects / "rounds.jsonl"
             if args.quick:  # the seed-0 cell that declutter_table.py would have played
-                run_or_reuse(config, seed0.parent, args.workers)
+                run_or_reuse(config, seed0.parent, parallel_from_args(args))
             if not seed0.exists():
                 raise SystemExit(f"error: {seed0} is missing; run declutter_table.py first")
             rounds[rep, 0, objects] = [json.loads(x) for x in seed0.read_text().splitlines()]
             folder = Path(args.out) / "seed1" / "robotiq" / rep / objects
-            rounds[rep, 1, objects] = run_or_reuse(config, folder, args.workers)
+            rounds[rep, 1, objects] = run_or_reuse(config, folder, parallel_from_args(args))
 
     cells = [{"rep": rep, "training_seed": seed, "objects": objects,
               "summary": summarise(rounds[rep, seed, objects], 0)}

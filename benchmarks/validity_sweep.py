@@ -1,7 +1,7 @@
 """Declutter results per validity threshold → benchmarks/results/validity_sweep.{json,md}.
 
     PYTHONPATH=src python benchmarks/validity_sweep.py [--rounds 100] [--num-objects 5]
-        [--workers 2] [--quick [DIR]]
+        [--workers 2] [--backend ray [--ray-address HOST:PORT]] [--quick [DIR]]
 
 The detector keeps voxels whose validity is at least a threshold (`DEFAULT_VALIDITY`). This
 script plays 100 declutter rounds (`symgrasp bench declutter --validity V`) of each shipped
@@ -29,6 +29,7 @@ from symgrasp.benchmark.runner import (
     run_or_reuse,
     summarise,
 )
+from symgrasp.cli import add_parallel_options, parallel_from_args
 from symgrasp.config import DEFAULT_VALIDITY
 
 MODELS = ("bingham2d-robotiq-2f85", "bingham2d-franka")
@@ -67,7 +68,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
     parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
-    parser.add_argument("--workers", type=int, default=2, help="round processes (default: 2)")
+    add_parallel_options(parser, "rounds")
+    parser.set_defaults(workers=2)
     parser.add_argument("--out", default="out/validity_sweep", help="per-cell benchmark folders")
     parser.add_argument("--result", default="benchmarks/results/validity_sweep", help="stem")
     args = parse_args(
@@ -93,7 +95,7 @@ def main() -> None:
                     options=options,
                 )
                 folder = Path(args.out) / model / objects / str(validity)
-                played[validity] = run_or_reuse(config, folder, args.workers)
+                played[validity] = run_or_reuse(config, folder, parallel_from_args(args))
             for validity, rounds in played.items():
                 rows.append({"model": model, "objects": objects, "seed": seed,
                              "purpose": purpose, "validity": validity,

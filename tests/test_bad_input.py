@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import shutil
+import sys
 
 import numpy as np
 import pytest
@@ -94,6 +95,8 @@ BAD_SPECS = (
 CLI = {
     # argument ranges and names, refused by the parser
     "bench --workers 0": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--workers", "0"], "--workers"),
+    "bench --backend spark": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--backend", "spark"], "--backend"),
+    "data generate --ray-address without --backend ray": (lambda d: ["data", "generate", "--out", str(d / "g"), "--ray-address", "10.0.0.1:6379"], "ray_address"),
     "bench --num-objects 1000": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--num-objects", "1000"], "num_objects"),
     "bench --objects bogus": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--objects", "bogus"], "--objects"),
     "bench --confidence nan": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--confidence", "nan"], "--confidence"),
@@ -108,6 +111,8 @@ CLI = {
     "data generate --camera-distance 0.7 0.4": (lambda d: ["data", "generate", "--out", str(d / "g"), "--camera-distance", "0.7", "0.4"], "camera_distance"),
     "train --lr inf": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--lr", "inf"], "lr"),
     "train --epochs 0": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--epochs", "0"], "epochs"),
+    "train --nproc 2 --batch-size 3": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--nproc", "2", "--batch-size", "3"], "batch_size 3 must be a multiple of the 2"),
+    "train --nproc 0": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--nproc", "0"], "--nproc"),
     "train --widths 0 1 2 3": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--widths", "0", "1", "2", "3"], "widths"),
     "detect --samples-per-voxel 10**6": (lambda d: _detect(d, "--samples-per-voxel", str(10**6)), "--samples-per-voxel"),
     "detect --top-k 0": (lambda d: _detect(d, "--top-k", "0"), "--top-k"),
@@ -155,9 +160,38 @@ CLI = {
 }  # fmt: skip
 
 
+RAY_CLI = {
+    "--ray-address unreachable": (lambda d: ["data", "generate", "--out", str(d / "g"), "--backend", "ray", "--ray-address", "127.0.0.1:1"], "ray_address 127.0.0.1:1: no Ray cluster answers there"),
+    "--ray-address not host:port": (lambda d: ["bench", "declutter", "--out", str(d / "g"), "--backend", "ray", "--ray-address", "headnode"], "ray_address must be host:port"),
+    "RAY_ADDRESS unreachable": (lambda d: ["bench", "declutter", "--out", str(d / "g"), "--backend", "ray"], "ray_address 127.0.0.1:1"),
+}  # fmt: skip
+"""Ray's bad input, where Ray is installed (the extra 'cluster'): one line, nothing written."""
+
+
 @pytest.mark.parametrize("case", CLI)
 def test_command_line(case, files, capsys):
-    argv, named = CLI[case]
+    _refused(CLI[case], files, capsys)
+
+
+@pytest.mark.parametrize("case", RAY_CLI)
+def test_command_line_with_ray(case, files, capsys, monkeypatch):
+    pytest.importorskip("ray")
+    monkeypatch.setenv("RAY_ADDRESS", "127.0.0.1:1")  # read when --ray-address is not given
+    _refused(RAY_CLI[case], files, capsys)
+    assert not (files / "g").exists()
+
+
+def test_backend_ray_without_ray_installed(files, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` fails as if not installed
+    argv = ["data", "generate", "--out", str(files / "g"), "--backend", "ray"]
+    _refused((lambda d: argv, "pip install 'symgrasp[cluster]'"), files, capsys)
+    assert not (files / "g").exists()
+
+
+def _refused(case, files, capsys):
+    """Run the command of ``case`` = (argv of the files folder, text its message names) and
+    check it fails in one line naming that text, leaving no temporary file."""
+    argv, named = case
     with pytest.raises(SystemExit) as exit_:
         main(argv(files))
     code = exit_.value.code

@@ -21,13 +21,16 @@ from typing import Any, NoReturn
 from symgrasp.config import (
     DEFAULT_VALIDITY,
     MAX_OBJECTS,
+    MAX_WORKERS,
     SEED_MAX,
     BenchmarkConfig,
+    ParallelConfig,
     SceneConfig,
     TrainConfig,
     field_docs,
 )
 from symgrasp.names import (
+    BACKENDS,
     GRIPPER_SPEC_SUFFIX,
     GRIPPERS,
     MESH_OBJECT_SETS,
@@ -37,6 +40,7 @@ from symgrasp.names import (
     SCENES,
 )
 from symgrasp.objects.folder import data_folder
+from symgrasp.parallel import TasksFailed
 from symgrasp.workspace import WORKSPACE_SIZE
 
 # -- options shared between commands ------------------------------------------------------
@@ -147,8 +151,29 @@ def _number(lo: float, hi: float) -> Callable[[str], float]:
 
 
 SEED = _integer(0, SEED_MAX)
-WORKERS = _integer(1, 256)
 PROBABILITY = _number(0.0, 1.0)
+
+
+def add_parallel_options(parser: argparse.ArgumentParser, tasks: str) -> None:
+    """``--backend``, ``--workers`` and ``--ray-address`` (`ParallelConfig`) for a command whose
+    pure tasks are ``tasks`` (e.g. "rounds")."""
+    docs = field_docs(ParallelConfig)
+    parser.add_argument(
+        "--backend", choices=BACKENDS, default="process",
+        help=f"where the {tasks} run: {_sentence(docs['backend'])} (default: process)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--workers", type=_integer(1, MAX_WORKERS), default=None,
+        help=f"{_sentence(docs['workers'])}",
+    )  # fmt: skip
+    parser.add_argument(
+        "--ray-address", default=None, metavar="HOST:PORT", help=_sentence(docs["ray_address"])
+    )
+
+
+def parallel_from_args(args: argparse.Namespace) -> ParallelConfig:
+    """The `ParallelConfig` of `add_parallel_options`' options."""
+    return ParallelConfig(args.backend, args.workers, args.ray_address)
 
 
 # -- options from a configuration's fields ------------------------------------------------
@@ -584,7 +609,7 @@ def _add_data(subparsers: argparse._SubParsersAction) -> None:
         "--scenes", type=_integer(1, 10**7), default=2000, help="number of scenes (default: 2000)"
     )
     gen.add_argument("--seed", type=SEED, default=0, help="dataset seed (default: 0)")
-    gen.add_argument("--workers", type=WORKERS, default=1, help="worker processes (default: 1)")
+    add_parallel_options(gen, "databases and scenes")
     gen.add_argument(
         "--resume", action="store_true", help="continue a run in --out, skipping written scenes"
     )
@@ -622,7 +647,9 @@ def _run_data_generate(args: argparse.Namespace) -> None:
     from symgrasp.data.generate import generate
 
     config = config_from_args(SceneConfig, args)
-    manifest = generate(args.out, config, args.scenes, args.workers, args.seed, args.resume)
+    manifest = generate(
+        args.out, config, args.scenes, args.seed, args.resume, parallel_from_args(args)
+    )
     print(f"{manifest['num_scenes']} scenes in {args.out} (hash {manifest['dataset_hash']})")
 
 
@@ -819,6 +846,12 @@ def _add_train(subparsers: argparse._SubParsersAction) -> None:
         "Every field of the run's configuration (symgrasp.config.TrainConfig) is an option.",
     )
     add_config_options(parser, TrainConfig, prefixes=_TRAIN_PREFIXES)
+    parser.add_argument(
+        "--nproc", type=_integer(1, 1024), default=1,
+        help="training processes on this machine, data-parallel (DistributedDataParallel: gloo "
+        "on CPU, NCCL on GPU; as torchrun --nproc-per-node N -m symgrasp train does); "
+        "--batch-size is the global batch, split evenly (default: 1)",
+    )  # fmt: skip
     parser.set_defaults(run=_run_train)
 
 
@@ -826,6 +859,14 @@ def _run_train(args: argparse.Namespace) -> None:
     from symgrasp.model.train import train
 
     config = config_from_args(TrainConfig, args, prefixes=_TRAIN_PREFIXES)
+    if args.nproc > 1:
+        from symgrasp.model.distributed import check_global_batch, launch
+
+        check_global_batch(config.batch_size, args.nproc)  # before the processes start
+        launch(train, (config,), args.nproc)
+        print(f"{config.epochs} epochs on {args.nproc} processes; checkpoints and metrics in "
+              f"{config.out}")  # fmt: skip
+        return
     history = train(config)
     print(f"{len(history)} epochs; checkpoints and metrics in {config.out}")
 
@@ -864,9 +905,7 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
         help="finish the run in --out: play only the rounds missing from its rounds.jsonl "
         "(refused if --out holds a run of another configuration)",
     )
-    declutter.add_argument(
-        "--workers", type=WORKERS, default=1, help="rounds run in parallel processes (default: 1)"
-    )
+    add_parallel_options(declutter, "rounds")
     add_config_options(declutter, BenchmarkConfig, skip=("options",))
     _add_confidence_options(declutter)
     declutter.add_argument(
@@ -917,6 +956,7 @@ def _run_declutter(args: argparse.Namespace) -> None:
     if args.validity is not None:
         options += (("validity_threshold", args.validity),)
     config = dataclasses.replace(config_from_args(BenchmarkConfig, args), options=options)
+    parallel = parallel_from_args(args)
     check_out(config, args.out, args.resume)  # before the model loads
     if args.representation is not None or args.gripper is not None:
         from symgrasp.sim.grippers import get_gripper, same_name_note
@@ -933,7 +973,7 @@ def _run_declutter(args: argparse.Namespace) -> None:
             raise SystemExit(
                 f"error: --gripper {args.gripper}, but --model {args.model} is {hand.name}{note}"
             )
-    summary = run_benchmark(config, args.out, args.workers, args.resume)
+    summary = run_benchmark(config, args.out, args.resume, parallel)
     print(markdown_table(summary, config), end="")
     print(f"outcomes {summary['outcomes']}")
     print(f"failure modes {summary['modes']}; results in {args.out}")
@@ -976,6 +1016,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     try:
         args.run(args)
     except ValueError as error:  # bad input: the message names the argument, no traceback needed
+        raise SystemExit(f"error: {error}") from error
+    except TasksFailed as error:  # the message says which tasks failed and where the tracebacks are
         raise SystemExit(f"error: {error}") from error
     except ModuleNotFoundError as error:  # an optional extra not installed: its message says which
         raise SystemExit(f"error: {error}") from error

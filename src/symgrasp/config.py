@@ -19,7 +19,7 @@ import textwrap
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from symgrasp.names import MESH_UNITS, REPRESENTATIONS, SCENES
+from symgrasp.names import BACKENDS, MESH_UNITS, REPRESENTATIONS, SCENES
 
 if TYPE_CHECKING:
     from symgrasp.sim.grippers import GripperSpec
@@ -321,3 +321,32 @@ class BenchmarkConfig:
         check_range("num_objects", self.num_objects, 1, MAX_OBJECTS)
         check_range("rounds", self.rounds, 1, 100_000)
         check_range("seed", self.seed, 0, SEED_MAX - self.rounds)
+
+
+MAX_WORKERS = 4096
+"""Most tasks a job runs at once."""
+
+
+@dataclass(frozen=True)
+class ParallelConfig:
+    """Where the pure tasks of a job run (`symgrasp.parallel`). Not part of what a job makes:
+    the same seed gives the same bytes on every backend and any number of workers."""
+
+    backend: str = "process"
+    """"process" (local processes) or "ray" (a Ray cluster; pip install 'symgrasp[cluster]')."""
+    workers: int | None = None
+    """Tasks run at once: local processes (default 1: in this process), or with ray the tasks in
+    flight (default: every CPU of the cluster)."""
+    ray_address: str | None = None
+    """The Ray cluster to run on: host:port of its head, or "auto" for the one this machine
+    belongs to (default: $RAY_ADDRESS, else a local Ray instance with one CPU per worker)."""
+
+    def __post_init__(self) -> None:
+        if self.backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {BACKENDS}, got {self.backend!r}")
+        if self.workers is not None:
+            check_range("workers", self.workers, 1, MAX_WORKERS)
+        if self.ray_address is not None and self.backend != "ray":
+            raise ValueError(
+                f"ray_address {self.ray_address!r} needs backend 'ray' (--backend ray)"
+            )

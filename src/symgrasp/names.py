@@ -33,3 +33,7 @@ SCENES = ("pile", "packed")
 
 PRETRAINED = ("bingham2d-robotiq-2f85", "bingham2d-franka")
 """Models shipped with the package (`symgrasp.detect.pretrained`)."""
+
+BACKENDS = ("process", "ray")
+"""Where the tasks of data generation and benchmarks run (`symgrasp.parallel`): a pool of
+local processes, or a Ray cluster (the optional extra ``cluster``)."""

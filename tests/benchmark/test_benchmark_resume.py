@@ -110,15 +110,6 @@ def test_an_existing_folder_needs_resume_and_the_same_configuration(played, tmp_
         runner.run_benchmark(BenchmarkConfig(rounds=2, seed=3), tmp_path, resume=True)
 
 
-def _without_timings(value):
-    """``value`` (a round record or summary) without its planning times."""
-    if isinstance(value, dict):
-        return {k: _without_timings(v) for k, v in value.items() if not k.startswith("planning_s")}
-    if isinstance(value, list):
-        return [_without_timings(v) for v in value]
-    return value
-
-
 def _run_and_kill(argv, out, delay):
     """Run ``argv`` in a process and SIGKILL it ``delay`` s after one more round than ``out``
     held at the start is in its rounds.jsonl (unless it finished first); return the text the
@@ -142,7 +133,7 @@ def _run_and_kill(argv, out, delay):
     return rounds.read_text()
 
 
-def test_killed_benchmarks_resume_to_the_uninterrupted_result(tmp_path):
+def test_killed_benchmarks_resume_to_the_uninterrupted_result(tmp_path, without_timings):
     argv = ["bench", "declutter", "--rounds", "4", "--num-objects", "1", "--seed", "3"]
     out, delays = tmp_path / "killed", random.Random(0)
     saved = []
@@ -154,6 +145,6 @@ def test_killed_benchmarks_resume_to_the_uninterrupted_result(tmp_path):
     main([*argv, "--out", str(tmp_path / "whole")])
     resumed, whole = (_lines(tmp_path / name / "rounds.jsonl") for name in ("killed", "whole"))
     assert all(r in resumed for r in saved)  # kept as they were (timings too), not replayed
-    assert _without_timings(resumed) == _without_timings(whole)
+    assert without_timings(resumed) == without_timings(whole)
     results = [json.loads((tmp_path / n / "results.json").read_text()) for n in ("killed", "whole")]
-    assert _without_timings(results[0]) == _without_timings(results[1])
+    assert without_timings(results[0]) == without_timings(results[1])

@@ -1,9 +1,9 @@
 """The declutter benchmark: many independent rounds, pooled ratios with confidence intervals.
 
 Round ``r`` of a benchmark with seed ``s`` is `run_round` with seed ``s + r``: a pure task, so
-rounds run in any number of processes (or on a cluster engine) and a round can be rerun alone.
-A round that raises is recorded as an error with its seed and the message; the benchmark goes
-on. Ratios pool all rounds, as the paper and VGN do (SR = successes / executed grasps,
+rounds run on any executor (`symgrasp.parallel`: this process, local processes, a Ray
+cluster) and a round can be rerun alone. A round that raises is recorded as an error with its
+seed, the message and the traceback; the benchmark goes on. Ratios pool all rounds, as the paper and VGN do (SR = successes / executed grasps,
 CR = successes / objects presented); their 95 % intervals come from a bootstrap over rounds
 (rounds are the independent units; attempts within a round are not).
 
@@ -21,24 +21,21 @@ missing from ``rounds.jsonl`` and refuses a folder of another configuration.
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
-import traceback
 from collections import Counter
 from collections.abc import Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
-from tqdm import tqdm
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.declutter import Round, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES
-from symgrasp.config import BenchmarkConfig
+from symgrasp.config import BenchmarkConfig, ParallelConfig
 from symgrasp.objects.sets import resolve
+from symgrasp.parallel import Executor, Failure, Job, open_executor
 
 BOOTSTRAP = 2000
 """Bootstrap resamples of the rounds for the confidence intervals."""
@@ -91,15 +88,11 @@ def _round_task(seed: int) -> dict[str, Any]:
     if config.pictures:
         folder = _WORKER["out"] / "pictures" / f"seed_{seed:04d}"
         observer = picture_observer(folder, detector.gripper, f"seed {seed}, ")
-    try:
-        record = run_round(
-            detector, resolve(config.objects, config.mesh_unit), config.num_objects, seed,
-            scene=config.scene, observer=observer, diagnose=config.diagnose,
-        )  # fmt: skip
-        return round_record(record)
-    except Exception as error:  # a crashed round is data, not the end of the benchmark
-        return {"seed": seed, "error": f"{type(error).__name__}: {error}",
-                "traceback": traceback.format_exc()}  # fmt: skip
+    record = run_round(
+        detector, resolve(config.objects, config.mesh_unit), config.num_objects, seed,
+        scene=config.scene, observer=observer, diagnose=config.diagnose,
+    )  # fmt: skip
+    return round_record(record)
 
 
 def round_seeds(config: BenchmarkConfig) -> list[int]:
@@ -109,29 +102,21 @@ def round_seeds(config: BenchmarkConfig) -> list[int]:
 
 def run_rounds(
     config: BenchmarkConfig,
-    workers: int = 1,
+    executor: Executor,
     out: str | Path = ".",
     seeds: Iterable[int] | None = None,
 ) -> Iterator[dict[str, Any]]:
-    """The round records of ``seeds`` (default: all of ``config``'s) as they finish, with a
-    progress bar: in seed order with one worker, in any order with more (pictures, if asked
-    for, go under ``out``)."""
+    """The round records of ``seeds`` (default: all of ``config``'s) as ``executor`` finishes
+    them, with a progress bar: in seed order in process, in any order otherwise. A round that
+    raised is ``{"seed", "error", "traceback"}`` (pictures, if asked for, go under ``out`` on
+    the machine that plays the round)."""
     seeds = round_seeds(config) if seeds is None else list(seeds)
-    bar = tqdm(total=len(seeds), desc="declutter rounds", unit="round")
-    if workers <= 1:
-        _init_worker(config, max(1, min(2, os.cpu_count() or 1)), Path(out))
-        results: Iterator[dict[str, Any]] = map(_round_task, seeds)
-        for result in results:
-            bar.update()
-            yield result
-    else:
-        spawn = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(workers, spawn, initializer=_init_worker,
-                                 initargs=(config, 1, Path(out))) as pool:  # fmt: skip
-            for future in as_completed([pool.submit(_round_task, seed) for seed in seeds]):
-                bar.update()
-                yield future.result()
-    bar.close()
+    threads = max(1, min(2, os.cpu_count() or 1)) if executor.in_process else 1
+    job = Job(_round_task, _init_worker, (config, threads, Path(out)))
+    for seed, result in executor.map(job, seeds, "declutter rounds"):
+        if isinstance(result, Failure):  # a crashed round is data, not the end of the benchmark
+            result = {"seed": seed, "error": result.error, "traceback": result.traceback}
+        yield result
 
 
 def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
@@ -294,28 +279,35 @@ def _append_round(lines: TextIO, record: dict[str, Any]) -> None:
 
 
 def run_benchmark(
-    config: BenchmarkConfig, out: str | Path, workers: int = 1, resume: bool = False
+    config: BenchmarkConfig,
+    out: str | Path,
+    resume: bool = False,
+    parallel: ParallelConfig = ParallelConfig(),
 ) -> dict[str, Any]:
-    """Play ``config``'s rounds into the folder ``out`` and return their summary.
+    """Play ``config``'s rounds into the folder ``out`` on the executor ``parallel`` describes
+    and return their summary.
 
     ``config.json`` records the configuration before any round runs; each round is appended
     to ``rounds.jsonl`` as it finishes (in any order with several workers). At the end
     ``rounds.jsonl`` is rewritten in seed order, and ``results.json`` and ``results.md`` are
     derived from it. With ``resume``, only the rounds missing from ``out`` are played.
-    Raises ValueError as `check_out` does, before anything is played or written."""
+    Raises ValueError as `check_out` and `open_executor` do, before anything is played or
+    written."""
     out = Path(out)
     check_out(config, out, resume)
-    if not (out / "config.json").exists():
-        _write_text(out / "config.json", json.dumps(asdict(config), indent=1) + "\n")
     path = out / "rounds.jsonl"
     done = read_rounds(path)
-    _write_rounds(path, done.values())  # without a torn last line, so appends start afresh
     missing = [seed for seed in round_seeds(config) if seed not in done]
-    if missing:
-        with open(path, "a") as lines:
-            for record in run_rounds(config, workers, out, missing):
-                _append_round(lines, record)
-                done[record["seed"]] = record
+    # a cluster is joined (or refused) before anything is written, and not at all for no rounds
+    with open_executor(parallel if missing else ParallelConfig()) as executor:
+        if not (out / "config.json").exists():
+            _write_text(out / "config.json", json.dumps(asdict(config), indent=1) + "\n")
+        _write_rounds(path, done.values())  # without a torn last line, so appends start afresh
+        if missing:
+            with open(path, "a") as lines:
+                for record in run_rounds(config, executor, out, missing):
+                    _append_round(lines, record)
+                    done[record["seed"]] = record
     rounds = [done[seed] for seed in round_seeds(config)]  # seed order: the bootstrap's order
     _write_rounds(path, rounds)
     summary = summarise(rounds, config.seed)
@@ -336,7 +328,7 @@ def saved_rounds(config: BenchmarkConfig, out: str | Path) -> list[dict[str, Any
 
 
 def run_or_reuse(
-    config: BenchmarkConfig, out: str | Path, workers: int = 1
+    config: BenchmarkConfig, out: str | Path, parallel: ParallelConfig = ParallelConfig()
 ) -> list[dict[str, Any]]:
     """The round records of ``config``: those in ``out`` when it holds them all
     (`saved_rounds`), else `run_benchmark`'s resuming ``out``, so scripts over many benchmarks
@@ -344,6 +336,6 @@ def run_or_reuse(
     another configuration's benchmark."""
     rounds = saved_rounds(config, out)
     if rounds is None:
-        run_benchmark(config, out, workers, resume=True)
+        run_benchmark(config, out, resume=True, parallel=parallel)
         rounds = saved_rounds(config, out)
     return rounds

@@ -7,33 +7,35 @@ Layout of a dataset folder::
     db/<object>_<gripper>_<key>.npz   per-object grasp databases (cache, reusable)
     scenes/scene_000123.npz           one compressed shard per scene
 
-Every file is written to a temporary name and renamed, so an interrupted run loses only the
-scenes in flight; ``resume=True`` skips the scenes already on disk. Work is split into pure
-tasks — one per object database, one per scene id — run by a process pool of ``workers``;
-any engine that maps a function over task arguments (e.g. Ray) could run them unchanged.
+Work is split into pure tasks — one per missing object database, one per scene id — that an
+executor (`symgrasp.parallel`: this process, local processes or a Ray cluster) runs; each
+task returns what it made and this process writes it, to a temporary name renamed into
+place, so the folder is the same bytes on every backend, an interrupted run loses only the
+scenes in flight, and ``resume=True`` skips the scenes already on disk. A scene whose task
+raises is recorded in the manifest (``failed``: its id, seed, error and traceback) and the
+others are written; `generate` then raises `TasksFailed`, and a resumed run tries it again.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import hashlib
+import io
 import json
-import multiprocessing
-from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Iterable
 from importlib.metadata import version
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
 from symgrasp.atomic import check_folder, write_atomic
-from symgrasp.config import SEED_MAX, DatabaseConfig, SceneConfig, check_range
+from symgrasp.config import SEED_MAX, DatabaseConfig, ParallelConfig, SceneConfig, check_range
 from symgrasp.data.dataset import load_scene, scene_path
-from symgrasp.data.grasp_db import GraspDatabase, cached_database
+from symgrasp.data.grasp_db import GraspDatabase, build_database, database_path, read_cached
 from symgrasp.data.scenes import make_scene_record
 from symgrasp.objects.sets import resolve
+from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
@@ -79,53 +81,53 @@ def dataset_hash(root: Path, scene_ids: Iterable[int]) -> str:
 _WORKER: dict[str, Any] = {}
 
 
-def _init_worker(cfg: SceneConfig, root: str, seed: int) -> None:
+def _setup(cfg: SceneConfig, seed: int, databases: list[GraspDatabase] | None) -> None:
     import torch
 
-    torch.set_num_threads(1)  # one core per worker: fusion threads would oversubscribe
-    _WORKER.update(cfg=cfg, root=Path(root), seed=seed, dbs=None)
+    torch.set_num_threads(1)  # one core per task: fusion threads would oversubscribe
+    _WORKER.update(cfg=cfg, seed=seed, databases=databases)
 
 
-def _database_task(k: int) -> int:
+def _database_task(k: int) -> GraspDatabase:
     cfg: SceneConfig = _WORKER["cfg"]
-    db = cached_database(cfg.pool()[k], cfg.hand, _WORKER["root"] / "db", cfg.database, seed=k)
-    return len(db)
+    return build_database(cfg.pool()[k], cfg.hand, cfg.database, seed=k)
 
 
-def _scene_task(scene_id: int) -> int:
-    cfg: SceneConfig = _WORKER["cfg"]
-    if _WORKER["dbs"] is None:
-        _WORKER["dbs"] = load_databases(cfg, _WORKER["root"] / "db")
-    record = make_scene_record(scene_id, cfg, _WORKER["dbs"], _WORKER["seed"])
-    write_atomic(scene_path(_WORKER["root"], scene_id), lambda f: np.savez_compressed(f, **record))
-    return len(record["voxel_index"])
+def _scene_task(scene_id: int) -> bytes:
+    """Scene ``scene_id`` as the bytes of its compressed file (written by the caller)."""
+    record = make_scene_record(scene_id, _WORKER["cfg"], _WORKER["databases"], _WORKER["seed"])
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **record)
+    return buffer.getvalue()
 
 
-def load_databases(cfg: SceneConfig, db_dir: str | Path) -> list[GraspDatabase]:
-    """The pool's databases (built and cached where missing), in pool order."""
-    return [
-        cached_database(obj, cfg.hand, db_dir, cfg.database, seed=k)
-        for k, obj in enumerate(cfg.pool())
-    ]
+def _write_bytes(path: Path, data: bytes) -> None:
+    write_atomic(path, lambda f: f.write(data))
 
 
-def _run(
-    task: Callable[[int], int], args: list[int], workers: int, init: tuple, desc: str
-) -> Iterator[int]:
-    bar = tqdm(total=len(args), desc=desc, unit="task", smoothing=0.1)
-    if workers <= 1:
-        _init_worker(*init)
-        for a in args:
-            yield task(a)
-            bar.update()
-    else:
-        # spawn, not fork: a forked child inherits torch's thread pools and can deadlock
-        spawn = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(workers, spawn, initializer=_init_worker, initargs=init) as pool:
-            for value in pool.map(task, args, chunksize=1):
-                yield value
-                bar.update()
-    bar.close()
+def _failure(what: str, arg: int, seed: int, failure: Failure) -> dict[str, Any]:
+    """A failed task as JSON data: which ``what`` (object or scene), its seed, why."""
+    return {what: arg, "seed": seed, "error": failure.error, "traceback": failure.traceback}
+
+
+def _databases(
+    cfg: SceneConfig, db_dir: Path, executor: Executor
+) -> tuple[list[GraspDatabase], list[dict[str, Any]]]:
+    """The pool's databases, in pool order: read from ``db_dir``, the missing ones built by
+    ``executor`` and written there; and the failed builds (object index ``k``, seed ``k``)."""
+    pool = cfg.pool()
+    paths = [database_path(db_dir, obj, cfg.hand, cfg.database, k) for k, obj in enumerate(pool)]
+    found = [read_cached(path) for path in paths]
+    missing = [k for k, db in enumerate(found) if db is None]
+    failed = []
+    job = Job(_database_task, _setup, (cfg, 0, None))
+    for k, result in executor.map(job, missing, "object databases"):
+        if isinstance(result, Failure):
+            failed.append(_failure("object", k, k, result))
+        else:
+            result.save(paths[k])
+            found[k] = result
+    return found, failed
 
 
 MAX_SCENES = 10_000_000
@@ -151,18 +153,20 @@ def generate(
     out: str | Path,
     cfg: SceneConfig,
     scenes: int,
-    workers: int = 1,
     seed: int = 0,
     resume: bool = False,
+    parallel: ParallelConfig = ParallelConfig(),
 ) -> dict[str, Any]:
-    """Write ``scenes`` labelled scenes (ids 0 … scenes − 1) to ``out``; returns the manifest.
+    """Write ``scenes`` labelled scenes (ids 0 … scenes − 1) to ``out`` with the executor
+    ``parallel`` describes; returns the manifest.
 
-    Raises ValueError if ``out`` already holds scenes and ``resume`` is False, or if it holds
-    a dataset of another configuration or seed.
+    Raises:
+        ValueError: ``out`` already holds scenes and ``resume`` is False, or holds a dataset
+            of another configuration or seed; or `open_executor`'s bad input.
+        TasksFailed: some tasks raised (the other scenes are written).
     """
     check_names(cfg.object_set, cfg.gripper)
     check_range("scenes", scenes, 1, MAX_SCENES)
-    check_range("workers", workers, 1, 256)
     check_range("seed", seed, 0, SEED_MAX)
     root = check_folder(out)
     manifest_path = root / "manifest.json"
@@ -182,27 +186,44 @@ def generate(
             raise ValueError(f"out {root} holds a dataset of another configuration or seed")
     elif any((root / "scenes").glob("*.npz")) and not resume:
         raise ValueError(f"out {root} already holds scenes; pass resume=True (--resume)")
-    root.mkdir(parents=True, exist_ok=True)
-    if not manifest_path.exists():  # records the configuration that --resume must match
-        started = _manifest(cfg, seed, [], root)
-        write_atomic(manifest_path, lambda f: json.dump(started, f, indent=1), mode="w")
-    init = (cfg, str(root), seed)
-
-    list(_run(_database_task, list(range(cfg.pool_size)), workers, init, "object databases"))
-
-    todo = []
-    for i in range(scenes):
-        path = scene_path(root, i)
-        if resume and path.exists():
-            try:
-                load_scene(path)
-                continue
-            except ValueError as err:
-                print(f"regenerating {path}: {err}")
-        todo.append(i)
-    list(_run(_scene_task, todo, workers, init, "scenes"))
+    with open_executor(parallel) as executor:  # a cluster is joined before anything is written
+        root.mkdir(parents=True, exist_ok=True)
+        if not manifest_path.exists():  # records the configuration that --resume must match
+            started = _manifest(cfg, seed, [], root)
+            write_atomic(manifest_path, lambda f: json.dump(started, f, indent=1), mode="w")
+        databases, failed = _databases(cfg, root / "db", executor)
+        if failed:
+            raise TasksFailed(
+                f"{len(failed)} of {cfg.pool_size} object databases failed, so no scene was "
+                f"made (object {failed[0]['object']}: {failed[0]['error']})\n"
+                + failed[0]["traceback"]
+            )
+        todo = []
+        for i in range(scenes):
+            path = scene_path(root, i)
+            if resume and path.exists():
+                try:
+                    load_scene(path)
+                    continue
+                except ValueError as err:
+                    print(f"regenerating {path}: {err}")
+            todo.append(i)
+        job = Job(_scene_task, _setup, (cfg, seed, databases))
+        for i, result in executor.map(job, todo, "scenes"):
+            if isinstance(result, Failure):
+                failed.append(_failure("scene", i, seed, result))
+            else:
+                _write_bytes(scene_path(root, i), result)
 
     done = [i for i in range(scenes) if scene_path(root, i).exists()]
     manifest = _manifest(cfg, seed, done, root)
+    if failed:
+        manifest["failed"] = failed
     write_atomic(manifest_path, lambda f: json.dump(manifest, f, indent=1), mode="w")
+    if failed:
+        raise TasksFailed(
+            f"{len(failed)} of {len(todo)} scenes failed (scene {failed[0]['scene']}: "
+            f"{failed[0]['error']}); the others are written, the failures and their tracebacks "
+            f"are under 'failed' in {manifest_path}, --resume runs them again"
+        )
     return manifest

@@ -266,6 +266,27 @@ def database_key(obj: ObjectSpec, gripper: GripperSpec, cfg: DatabaseConfig, see
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+def database_path(
+    cache_dir: str | Path, obj: ObjectSpec, gripper: GripperSpec, cfg: DatabaseConfig, seed: int
+) -> Path:
+    """Where the database of ``obj`` and ``gripper`` is cached in ``cache_dir``."""
+    return (
+        Path(cache_dir) / f"{obj.name}_{gripper.name}_{database_key(obj, gripper, cfg, seed)}.npz"
+    )
+
+
+def read_cached(path: str | Path) -> GraspDatabase | None:
+    """The database cached at ``path``; None (with a warning if the file is corrupted) when
+    it must be built."""
+    path = Path(path)
+    if path.exists():
+        try:
+            return GraspDatabase.load(path)
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
+            warnings.warn(f"recomputing the corrupted grasp database {path} ({err})", stacklevel=2)
+    return None
+
+
 def cached_database(
     obj: ObjectSpec,
     gripper: GripperSpec,
@@ -274,13 +295,9 @@ def cached_database(
     seed: int = 0,
 ) -> GraspDatabase:
     """The database of ``obj`` and ``gripper`` from ``cache_dir``, built on the first call."""
-    key = database_key(obj, gripper, cfg, seed)
-    path = Path(cache_dir) / f"{obj.name}_{gripper.name}_{key}.npz"
-    if path.exists():
-        try:
-            return GraspDatabase.load(path)
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
-            warnings.warn(f"recomputing the corrupted grasp database {path} ({err})", stacklevel=2)
-    db = build_database(obj, gripper, cfg, seed)
-    db.save(path)
+    path = database_path(cache_dir, obj, gripper, cfg, seed)
+    db = read_cached(path)
+    if db is None:
+        db = build_database(obj, gripper, cfg, seed)
+        db.save(path)
     return db

@@ -14,6 +14,13 @@ a generator seeded from (seed, e) and selects the dataset's augmentation draws o
 had not stopped. CUDA is used when available (``device="auto"``),
 with bfloat16 autocast for the network only; the losses run in float32 (float64 inside the
 Bingham normaliser).
+
+The same loop runs data-parallel when started by torchrun or ``symgrasp train --nproc N``
+(`symgrasp.model.distributed`): ``batch_size`` is the global batch, each rank trains on its
+slice of it, and the run is the one-process run up to float rounding. Rank 0 alone validates
+(on the whole val split, so validity AP, a ranking over every voxel, is exactly the one
+process's) and writes the checkpoints and metrics; ``metrics.csv`` and the checkpoints record
+the world size, the global batch and the learning rate.
 """
 
 from __future__ import annotations
@@ -27,13 +34,15 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from torch.utils.data import DataLoader, Dataset, RandomSampler
+from torch.nn.parallel import DistributedDataParallel
+from torch.utils.data import DataLoader, Dataset
 from tqdm import tqdm
 
 import symgrasp
 from symgrasp.atomic import write_atomic
 from symgrasp.config import LossWeights, TrainConfig
 from symgrasp.device import resolve_device
+from symgrasp.model import distributed
 from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
 from symgrasp.model.loss import grasp_losses
 from symgrasp.model.metrics import MetricAccumulator
@@ -78,7 +87,8 @@ def train(
     config: TrainConfig,
     datasets: tuple[Dataset, Dataset, Collate] | None = None,
 ) -> list[dict[str, float]]:
-    """Train (or resume) the run ``config`` describes; returns the per-epoch history.
+    """Train (or resume) the run ``config`` describes; returns the per-epoch history (on rank 0;
+    other ranks return what they resumed from).
 
     ``datasets`` = (train split, val split, collate function) replaces `open_dataset` (tests
     pass the synthetic dataset); each split needs the contract's ``gripper`` and ``manifest``.
@@ -86,7 +96,9 @@ def train(
     train_set, val_set, collate = datasets or open_dataset(config)
     for dataset in (train_set, val_set):
         check_dataset(dataset, config)
-    device = resolve_device(config.device)
+    rank, world, device = distributed.start(resolve_device(config.device))
+    generator = torch.Generator()  # seeded per epoch: the same shuffle on every rank
+    batches = distributed.ShardedBatches(len(train_set), config.batch_size, generator, rank, world)
     out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
 
@@ -94,51 +106,53 @@ def train(
     if device.type == "cuda":
         torch.backends.cudnn.benchmark = False
         torch.use_deterministic_algorithms(True, warn_only=True)
-    model = GraspNet(config.network).to(device)
-    optimizer = torch.optim.Adam(model.parameters(), lr=config.lr)
+    net = GraspNet(config.network).to(device)
+    optimizer = torch.optim.Adam(net.parameters(), lr=config.lr)
     history: list[dict[str, float]] = []
     best_val_loss = math.inf
     if config.resume:
         state = load_checkpoint(out / "last.pt", config.representation, device)
         _check_resume(state, train_set, config)
-        model.load_state_dict(state["model"])
+        net.load_state_dict(state["model"])
         optimizer.load_state_dict(state["optimizer"])
         history, best_val_loss = state["history"], state["best_val_loss"]
     elif (out / "last.pt").exists():
         raise ValueError(f"out {str(out)!r} already holds a run; resume it or choose another out")
+    model = net if world == 1 else DistributedDataParallel(net)  # averages the ranks' gradients
 
+    train_loader = DataLoader(
+        train_set, batch_sampler=batches, collate_fn=collate, num_workers=config.workers
+    )
     val_loader = DataLoader(
         val_set, batch_size=config.batch_size, collate_fn=collate, num_workers=config.workers
     )
-    steps_per_epoch = math.ceil(len(train_set) / config.batch_size)
     bar = tqdm(
-        total=config.epochs * steps_per_epoch,
-        initial=len(history) * steps_per_epoch,
+        total=config.epochs * len(batches),
+        initial=len(history) * len(batches),
         desc="train",
         unit="step",
         dynamic_ncols=True,
+        disable=rank > 0,
     )
     for epoch in range(len(history), config.epochs):
         start = time.perf_counter()
-        generator = torch.Generator().manual_seed(config.seed * 1_000_003 + epoch)
+        generator.manual_seed(config.seed * 1_000_003 + epoch)
         if hasattr(train_set, "set_epoch"):  # the dataset's augmentation draws of this epoch
             train_set.set_epoch(epoch)
-        train_loader = DataLoader(
-            train_set,
-            batch_size=config.batch_size,
-            sampler=RandomSampler(train_set, generator=generator),
-            collate_fn=collate,
-            num_workers=config.workers,
-        )
         bar.set_description(f"epoch {epoch + 1}/{config.epochs}")
-        train_losses = _train_epoch(model, optimizer, train_loader, config, device, bar)
-        val_losses, metrics = evaluate(model, val_loader, config.loss_weights, device)
+        train_losses = _train_epoch(model, net, optimizer, train_loader, config, world, bar)
+        if rank > 0:  # validation, checkpoints and metrics are rank 0's
+            continue
+        val_losses, metrics = evaluate(net, val_loader, config.loss_weights, device)
         _check_finite(torch.tensor(val_losses["total"]), "validation loss", config)
         row = {
             "epoch": epoch + 1,
             **{f"train_{k}": v for k, v in train_losses.items()},
             **{f"val_{k}": v for k, v in val_losses.items()},
             **metrics,
+            "world_size": world,
+            "global_batch_size": config.batch_size,
+            "lr": config.lr,
             "seconds": time.perf_counter() - start,
         }
         history.append(row)
@@ -151,9 +165,10 @@ def train(
             "network": asdict(config.network),
             "config": asdict(config),
             "epoch": epoch + 1,
+            "world_size": world,
             "history": history,
             "best_val_loss": min(best_val_loss, val_losses["total"]),
-            "model": model.state_dict(),
+            "model": net.state_dict(),
             "optimizer": optimizer.state_dict(),
         }
         save_checkpoint(out / "last.pt", state)
@@ -167,6 +182,7 @@ def train(
             + "  ".join(f"{k} {v:.4g}" for k, v in metrics.items())
         )
     bar.close()
+    distributed.stop()
     return history
 
 
@@ -213,29 +229,36 @@ def _to(batch: dict[str, Tensor], device: torch.device) -> dict[str, Tensor]:
 
 
 def _train_epoch(
-    model: GraspNet,
+    model: torch.nn.Module,
+    net: GraspNet,
     optimizer: torch.optim.Optimizer,
     loader: DataLoader,
     config: TrainConfig,
-    device: torch.device,
+    world: int,
     bar: tqdm,
 ) -> dict[str, float]:
-    """One pass over ``loader``; the mean of each loss over its batches."""
+    """One pass over ``loader`` (this rank's slices of the global batches); the mean of each
+    loss over the global batches. ``model`` is ``net`` or its DistributedDataParallel wrapper."""
     model.train()
+    device = next(net.parameters()).device
     sums: dict[str, float] = {}
+    shown = 0.0  # this rank's running mean, for the progress bar
     for step, batch in enumerate(loader, start=1):
         batch = _to(batch, device)
         with _autocast(device):
             output = model(batch["tsdf"])
-        losses = grasp_losses(output, batch, model.representation, config.loss_weights)
+        losses = grasp_losses(output, batch, net.representation, config.loss_weights)
         _check_finite(losses["total"], f"training loss at step {step}", config)
+        share = distributed.pooled_share(len(batch["voxel_index"]), device)  # 1 alone
         optimizer.zero_grad(set_to_none=True)
-        losses["total"].backward()
+        (losses["total"] * (share * world)).backward()  # DDP divides the gradient sum by world
         optimizer.step()
         for key, value in losses.items():
-            sums[key] = sums.get(key, 0.0) + value.item()
-        bar.set_postfix(loss=f"{sums['total'] / step:.4f}")
+            sums[key] = sums.get(key, 0.0) + value.item() * share
+        shown += (losses["total"].item() - shown) / step
+        bar.set_postfix(loss=f"{shown:.4f}")
         bar.update()
+    sums = distributed.sum_over_ranks(sums, device)
     return {key: value / max(len(loader), 1) for key, value in sums.items()}
 
 

@@ -1,0 +1,126 @@
+"""Data-parallel training over processes (`torch.distributed`, DistributedDataParallel).
+
+``torchrun --nproc-per-node N -m symgrasp train …`` or ``symgrasp train --nproc N`` (`launch`)
+runs N ranks of the one training loop (`symgrasp.model.train`). ``batch_size`` stays the
+global batch: every rank draws the same seeded shuffle of the epoch and takes its disjoint
+slice of each global batch (`ShardedBatches`), and each rank's loss is weighted by its share of
+the batch's labelled voxels (`pooled_share`), so the averaged gradient is the one process's
+gradient of the whole batch and the run is the same, up to float rounding, for any N.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import torch
+import torch.distributed as dist
+from torch.utils.data import Sampler
+
+
+def start(device: torch.device) -> tuple[int, int, torch.device]:
+    """Join the process group torchrun's environment describes (``RANK``, ``WORLD_SIZE``,
+    ``MASTER_ADDR``/``PORT``; gloo on CPU, NCCL on GPU); returns (rank, world size, this
+    rank's device: ``cuda:LOCAL_RANK`` for CUDA). Alone (no ``WORLD_SIZE``): (0, 1, device)."""
+    world = int(os.environ.get("WORLD_SIZE", "1"))
+    if world == 1:
+        return 0, 1, device
+    if device.type == "cuda" and device.index is None:
+        device = torch.device("cuda", int(os.environ.get("LOCAL_RANK", "0")))
+        torch.cuda.set_device(device)
+    if not dist.is_initialized():
+        dist.init_process_group("nccl" if device.type == "cuda" else "gloo")
+    return dist.get_rank(), world, device
+
+
+def stop() -> None:
+    """Leave the process group, once every rank is done (a no-op alone)."""
+    if dist.is_initialized():
+        dist.barrier()
+        dist.destroy_process_group()
+
+
+def check_global_batch(batch_size: int, world: int) -> None:
+    """Raise ValueError unless ``world`` ranks can split the global batch evenly."""
+    if batch_size % world:
+        raise ValueError(
+            f"batch_size {batch_size} must be a multiple of the {world} training processes: "
+            "it is the global batch, split evenly between them"
+        )
+
+
+class ShardedBatches(Sampler[list[int]]):
+    """Rank ``rank``'s slice of every global batch of ``batch_size`` indices of a shuffle of
+    ``range(size)`` drawn from ``generator`` (the same on every rank): the ranks' slices are
+    disjoint and together the global batch. A short last batch is padded with its own first
+    indices so that every rank takes the same number; alone, exactly the batches of a
+    ``RandomSampler`` with ``generator``."""
+
+    def __init__(
+        self, size: int, batch_size: int, generator: torch.Generator, rank: int, world: int
+    ) -> None:
+        check_global_batch(batch_size, world)
+        self.size, self.batch_size, self.generator = size, batch_size, generator
+        self.rank, self.world = rank, world
+
+    def __iter__(self) -> Iterator[list[int]]:
+        order = torch.randperm(self.size, generator=self.generator).tolist()
+        for start in range(0, self.size, self.batch_size):
+            batch = order[start : start + self.batch_size]
+            per_rank = math.ceil(len(batch) / self.world)
+            batch = (batch * self.world)[: per_rank * self.world]
+            yield batch[self.rank * per_rank : (self.rank + 1) * per_rank]
+
+    def __len__(self) -> int:
+        return math.ceil(self.size / self.batch_size)
+
+
+def pooled_share(voxels: int, device: torch.device) -> float:
+    """This rank's share of its global batch's loss: max(n, 1) / max(N, 1) for n labelled
+    voxels here and N over all ranks (1 alone). The losses are means over a batch's labelled
+    voxels (the validity sum divided by their number), so Σ over ranks of loss × share is the
+    loss of the whole batch."""
+    if not dist.is_initialized():
+        return 1.0
+    total = torch.tensor([voxels], dtype=torch.float64, device=device)
+    dist.all_reduce(total)
+    return max(voxels, 1) / max(total.item(), 1.0)
+
+
+def sum_over_ranks(values: dict[str, float], device: torch.device) -> dict[str, float]:
+    """``values`` summed over all ranks (as they are alone)."""
+    if not dist.is_initialized():
+        return values
+    stacked = torch.tensor(list(values.values()), dtype=torch.float64, device=device)
+    dist.all_reduce(stacked)
+    return dict(zip(values, stacked.tolist(), strict=True))
+
+
+def launch(function: Callable[..., Any], args: tuple[Any, ...], processes: int) -> None:
+    """Run ``function(*args)`` in ``processes`` ranks on this machine, as torchrun would: each
+    rank gets torchrun's environment and an equal share of the CPU's threads. Raises the
+    ValueError a rank raised (bad input), else torch's error naming the failed rank."""
+    from torch.multiprocessing import ProcessRaisedException, spawn
+
+    with socket.socket() as free:  # a port for the ranks' rendezvous
+        free.bind(("127.0.0.1", 0))
+        port = free.getsockname()[1]
+    try:
+        spawn(_rank, (processes, port, function, args), nprocs=processes)
+    except ProcessRaisedException as error:
+        last = str(error).strip().splitlines()[-1]
+        if last.startswith("ValueError: "):
+            raise ValueError(last.removeprefix("ValueError: ")) from None
+        raise
+
+
+def _rank(rank: int, world: int, port: int, function: Callable[..., Any], args: tuple) -> None:
+    os.environ.update(
+        MASTER_ADDR="127.0.0.1", MASTER_PORT=str(port), RANK=str(rank), LOCAL_RANK=str(rank),
+        WORLD_SIZE=str(world), LOCAL_WORLD_SIZE=str(world),
+    )  # fmt: skip
+    torch.set_num_threads(max(1, (os.cpu_count() or 1) // world))
+    function(*args)

@@ -1,0 +1,99 @@
+"""Data-parallel training: two CPU processes (gloo) follow the one-process run with the same
+global batch, resume, and shard every global batch into disjoint slices."""
+
+import csv
+
+import pytest
+import torch
+
+from symgrasp.model import TrainConfig, train
+from symgrasp.model.checkpoint import load_checkpoint, load_model
+from symgrasp.model.distributed import ShardedBatches, launch
+from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
+
+SMALL = (2, 2, 4, 4)
+
+
+def test_ranks_take_disjoint_slices_that_make_up_the_one_process_batches():
+    def batches(rank, world, size=11, batch=4):
+        generator = torch.Generator().manual_seed(7)
+        return list(ShardedBatches(size, batch, generator, rank, world))
+
+    alone = batches(0, 1)
+    expected = torch.randperm(11, generator=torch.Generator().manual_seed(7)).tolist()
+    assert [i for b in alone for i in b] == expected  # a RandomSampler's batches
+    halves = [batches(0, 2), batches(1, 2)]
+    assert len(halves[0]) == len(halves[1]) == len(alone) == 3
+    for step, whole in enumerate(alone[:-1]):  # full batches: split exactly
+        assert halves[0][step] + halves[1][step] == whole
+        assert not set(halves[0][step]) & set(halves[1][step])
+    last = halves[0][-1] + halves[1][-1]  # 3 scenes for 2 ranks: padded with its first
+    assert last == [*alone[-1], alone[-1][0]]
+    with pytest.raises(ValueError, match="batch_size 3 must be a multiple of the 2"):
+        ShardedBatches(11, 3, torch.Generator(), 0, 2)
+
+
+def _rows(run):
+    with open(run / "metrics.csv") as file:
+        return list(csv.DictReader(file))
+
+
+def test_two_processes_follow_the_one_process_loss_curve_and_resume(tmp_path):
+    data = (SyntheticGraspDataset(8), SyntheticGraspDataset(2, seed=9), collate_scenes)
+    config = dict(data="synthetic", batch_size=4, widths=SMALL, features=4, lr=3e-3)
+    train(TrainConfig(out=str(tmp_path / "one"), epochs=2, **config), data)
+    two = str(tmp_path / "two")
+    launch(train, (TrainConfig(out=two, epochs=1, **config), data), 2)
+    launch(train, (TrainConfig(out=two, epochs=2, resume=True, **config), data), 2)
+
+    one, two = _rows(tmp_path / "one"), _rows(tmp_path / "two")
+    assert [r["world_size"] for r in one + two] == ["1", "1", "2", "2"]
+    assert all(r["global_batch_size"] == "4" and float(r["lr"]) == 3e-3 for r in one + two)
+    for a, b in zip(one, two, strict=True):
+        for key in ("train_total", "train_validity", "train_rotation", "val_total", "val_score"):
+            assert float(b[key]) == pytest.approx(float(a[key]), rel=1e-5), key  # noise: 1e-7
+        # a ranking: float noise may swap nearly tied voxels, a step of ≈ 1e-4 relative
+        assert float(b["validity_ap"]) == pytest.approx(float(a["validity_ap"]), rel=1e-2)
+    assert float(one[1]["train_total"]) != pytest.approx(float(one[0]["train_total"]), rel=1e-4)
+    states = [load_checkpoint(tmp_path / run / "last.pt") for run in ("one", "two")]
+    assert states[1]["world_size"] == 2 and states[1]["config"]["batch_size"] == 4
+    # the same network: its outputs agree (conv biases before a GroupNorm get no gradient but
+    # float noise, which Adam turns into steps of ±lr, so weights are not compared one by one)
+    tsdf = SyntheticGraspDataset(1, seed=5)[0]["tsdf"][None]
+    one, two = (load_model(tmp_path / run / "last.pt")[0](tsdf) for run in ("one", "two"))
+    for name in ("validity", "score", "rotation"):
+        torch.testing.assert_close(getattr(two, name), getattr(one, name), rtol=1e-3, atol=1e-4)
+
+
+def test_a_ranks_bad_input_is_a_value_error(tmp_path):
+    data = (SyntheticGraspDataset(4), SyntheticGraspDataset(1, seed=9), collate_scenes)
+    config = TrainConfig(data="synthetic", out=str(tmp_path), epochs=1, batch_size=2,
+                         widths=SMALL, features=4, gripper="franka")  # fmt: skip
+    with pytest.raises(ValueError, match="produced for the gripper 'robotiq-2f85'"):
+        launch(train, (config, data), 2)
+
+
+@pytest.mark.slow
+def test_torchrun_and_nproc_train_a_dataset_folder_alike(tmp_path):
+    """``torchrun --nproc-per-node 2 -m symgrasp train`` and ``symgrasp train --nproc 2`` on a
+    generated dataset: the same run."""
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from symgrasp.cli import main
+
+    data = str(tmp_path / "data")
+    main(["data", "generate", "--objects", "blocks", "--gripper", "franka", "--pool-size", "2",
+          "--grasps", "40", "--directions", "8", "--scenes", "12", "--out", data])  # fmt: skip
+    argv = ["train", "--data", data, "--gripper", "franka", "--epochs", "2", "--batch-size", "2",
+            "--widths", "2", "2", "4", "4", "--features", "4"]  # fmt: skip
+    torchrun = shutil.which("torchrun", path=str(Path(sys.executable).parent))
+    subprocess.run([torchrun, "--nproc-per-node", "2", "-m", "symgrasp", *argv, "--out",
+                    str(tmp_path / "torchrun")], check=True)  # fmt: skip
+    main([*argv, "--nproc", "2", "--out", str(tmp_path / "nproc")])
+    by_torchrun, by_nproc = _rows(tmp_path / "torchrun"), _rows(tmp_path / "nproc")
+    assert [r["world_size"] for r in by_torchrun + by_nproc] == ["2"] * 4
+    for a, b in zip(by_torchrun, by_nproc, strict=True):
+        assert float(a["train_total"]) == pytest.approx(float(b["train_total"]), rel=1e-5)
