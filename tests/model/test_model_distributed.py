@@ -49,20 +49,25 @@ def test_two_processes_follow_the_one_process_loss_curve_and_resume(tmp_path):
     one, two = _rows(tmp_path / "one"), _rows(tmp_path / "two")
     assert [r["world_size"] for r in one + two] == ["1", "1", "2", "2"]
     assert all(r["global_batch_size"] == "4" and float(r["lr"]) == 3e-3 for r in one + two)
+    # Seen: the training losses agree to 1e-7; Adam turns float noise in near-zero gradients
+    # into steps of ±lr, which moved the validation losses by up to 1.3e-4 and validity AP, a
+    # ranking of nearly tied voxels, by 2e-4. Plain DDP (each rank's mean loss, no voxel
+    # share) is 2e-2 off in training and 1e-1 in the validation score loss.
     for a, b in zip(one, two, strict=True):
-        for key in ("train_total", "train_validity", "train_rotation", "val_total", "val_score"):
-            assert float(b[key]) == pytest.approx(float(a[key]), rel=1e-5), key  # noise: 1e-7
-        # a ranking: float noise may swap nearly tied voxels, a step of ≈ 1e-4 relative
-        assert float(b["validity_ap"]) == pytest.approx(float(a["validity_ap"]), rel=1e-2)
+        for key in ("train_total", "train_validity", "train_score", "train_rotation"):
+            assert float(b[key]) == pytest.approx(float(a[key]), rel=1e-4), key
+        for key in ("val_total", "val_score", "val_rotation", "validity_ap"):
+            assert float(b[key]) == pytest.approx(float(a[key]), rel=2e-3), key
     assert float(one[1]["train_total"]) != pytest.approx(float(one[0]["train_total"]), rel=1e-4)
     states = [load_checkpoint(tmp_path / run / "last.pt") for run in ("one", "two")]
     assert states[1]["world_size"] == 2 and states[1]["config"]["batch_size"] == 4
     # the same network: its outputs agree (conv biases before a GroupNorm get no gradient but
-    # float noise, which Adam turns into steps of ±lr, so weights are not compared one by one)
+    # float noise, which Adam turns into steps of ±lr, so weights are not compared one by one);
+    # seen: up to 2.6e-4 apart, against 0.1–0.23 for plain DDP
     tsdf = SyntheticGraspDataset(1, seed=5)[0]["tsdf"][None]
     one, two = (load_model(tmp_path / run / "last.pt")[0](tsdf) for run in ("one", "two"))
     for name in ("validity", "score", "rotation"):
-        torch.testing.assert_close(getattr(two, name), getattr(one, name), rtol=1e-3, atol=1e-4)
+        torch.testing.assert_close(getattr(two, name), getattr(one, name), rtol=0, atol=2e-3)
 
 
 def test_a_ranks_bad_input_is_a_value_error(tmp_path):
