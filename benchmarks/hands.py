@@ -495,9 +495,6 @@ def silhouettes(build) -> dict[str, np.ndarray]:
     rig.reset()
     xs = np.arange(-0.02, 0.26, 0.002)
     zs = np.arange(-0.09, 0.09, 0.002)
-    groups = np.zeros(6, np.uint8)
-    groups[list(GROUPS.values())] = 1
-    hit = np.zeros(1, np.int32)
     masks = {}
     for name, axis, across in (("side", 1, 2), ("front", 2, 1)):
         mask = np.zeros((len(xs), len(zs)), bool)
@@ -507,11 +504,7 @@ def silhouettes(build) -> dict[str, np.ndarray]:
             for j, z in enumerate(zs):
                 origin = np.zeros(3)
                 origin[0], origin[across], origin[axis] = x, z, -0.3
-                d = mujoco.mj_ray(
-                    rig.model, rig.data, rig.to_world(origin),
-                    rig.T_world_hand[:3, :3] @ direction, groups, 1, -1, hit,
-                )  # fmt: skip
-                mask[i, j] = 0 <= d < 0.6
+                mask[i, j] = _ray(rig, origin, direction, *GROUPS) < 0.6  # NaN: a miss
         masks[name] = mask
     masks["extent"] = np.array([xs[0], xs[-1], zs[0], zs[-1]])
     return masks

@@ -43,6 +43,16 @@ def test_only_the_shared_rounds_are_paired(tmp_path):
     assert "+0.0 [+0.0, +0.0]" in compare_table(a, a)
 
 
+def test_a_round_that_crashed_in_either_is_left_out(tmp_path):
+    a = _bench(tmp_path / "a", {s: (1, 2, 5) for s in range(4)})
+    (tmp_path / "a" / "rounds.jsonl").open("a").write(
+        json.dumps({"seed": 4, "error": "boom"}) + "\n"
+    )
+    b = _bench(tmp_path / "b", {s: (2, 2, 5) for s in range(5)})
+    rounds_a, _ = paired_rounds(a, b)
+    assert [r["seed"] for r in rounds_a] == [0, 1, 2, 3]
+
+
 def test_different_worlds_are_refused(tmp_path, capsys):
     a = _bench(tmp_path / "a", {0: (1, 1, 5)})
     b = _bench(tmp_path / "b", {0: (1, 1, 5)}, objects="large-box")

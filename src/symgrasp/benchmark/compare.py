@@ -44,9 +44,9 @@ def paired_change(
 
 
 def paired_rounds(a: str | Path, b: str | Path) -> tuple[list[dict], list[dict]]:
-    """The rounds that benchmark folders ``a`` and ``b`` both finished, in seed order; refused
-    (ValueError naming the folder or field) when a folder holds no benchmark, their rounds
-    play different worlds, or they share no seed."""
+    """The rounds that benchmark folders ``a`` and ``b`` both finished without an error, in
+    seed order; refused (ValueError naming the folder or field) when a folder holds no
+    benchmark, their rounds play different worlds, or they share no seed."""
     configs = {}
     for folder in (a, b):
         configs[folder] = recorded_config(folder)
@@ -56,7 +56,14 @@ def paired_rounds(a: str | Path, b: str | Path) -> tuple[list[dict], list[dict]]
     if differ:
         fields = ", ".join(f"{k}: {configs[a].get(k)!r} vs {configs[b].get(k)!r}" for k in differ)
         raise ValueError(f"{a} and {b} play different rounds ({fields})")
-    done = [read_rounds(Path(folder) / "rounds.jsonl") for folder in (a, b)]
+    done = [
+        {
+            seed: r
+            for seed, r in read_rounds(Path(folder) / "rounds.jsonl").items()
+            if "error" not in r
+        }
+        for folder in (a, b)
+    ]  # a round that crashed in either has nothing to pair
     seeds = sorted(set(done[0]) & set(done[1]))
     if not seeds:
         raise ValueError(f"{a} and {b} share no finished round")
