@@ -1,14 +1,20 @@
 """Cost of the grasp detection network per representation, and the reference run's metrics.
 
-    python benchmarks/model.py [--threads 2] [--repeats 5] [--batch 4] [--run runs/NAME]
-        [--quick [DIR]]
+    python benchmarks/model.py [--threads 2] [--repeats 5] [--batch 4] [--data DIR]
+        [--run runs/NAME] [--quick [DIR]]
 
 For every rotation representation: trainable parameters, forward FLOPs per 40³ volume
 (`symgrasp.model.count_flops`), forward latency at batch 1 on the CPU (eval mode, no grad) and
 training throughput on the CPU (scenes per second of forward + loss + backward + Adam step on
 a batch of synthetic scenes, `symgrasp.model.synthetic`). With ``--run``, the last epoch of that
 training run's ``metrics.csv`` and its command are added. Writes ``benchmarks/results/model.json``.
-``--quick`` times each call once on one scene, with one thread.
+
+Where the time of a training step goes: each representation's step is also timed stage by
+stage (forward, the validity, score and rotation losses, backward, Adam), median of the
+repeats; with ``--data``, loading and augmenting a batch of that dataset folder's training
+split (`symgrasp.data.dataset.GraspDataset`, as `symgrasp train` does with ``--workers 0``)
+and a whole step on those real batches are timed too. ``--quick`` times each call once on one
+scene, with one thread.
 """
 
 from __future__ import annotations
@@ -18,15 +24,19 @@ import csv
 import json
 import os
 import platform
+import statistics
 import sys
+import time
 from pathlib import Path
 
 import torch
+import torch.nn.functional as F
 from common import best_seconds, cpu_model, parse_args
 
 from symgrasp import rotation
 from symgrasp.model import GraspNet, NetworkConfig, count_flops, count_parameters, grasp_losses
 from symgrasp.model.checkpoint import load_checkpoint
+from symgrasp.model.loss import at_voxels
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 
 RESULTS = Path(__file__).parent / "results" / "model.json"
@@ -61,6 +71,73 @@ def bench(name: str, batch: dict[str, torch.Tensor], repeats: int) -> dict[str, 
     }
 
 
+def stages(name: str, batch: dict[str, torch.Tensor], repeats: int) -> dict[str, float]:
+    """Median milliseconds of each stage of a training step on ``batch``."""
+    torch.manual_seed(0)
+    model = GraspNet(NetworkConfig(name)).train()
+    optimizer = torch.optim.Adam(model.parameters(), lr=1e-4)
+    index = batch["voxel_index"]
+    times: dict[str, list[float]] = {}
+    for repeat in range(repeats + 1):  # the first is a warm-up
+        clock = [time.perf_counter()]
+
+        def lap(stage: str, clock: list[float] = clock, repeat: int = repeat) -> None:
+            clock.append(time.perf_counter())
+            if repeat:
+                times.setdefault(stage, []).append(1e3 * (clock[-1] - clock[-2]))
+
+        output = model(batch["tsdf"])
+        lap("forward")
+        validity = F.binary_cross_entropy_with_logits(
+            output.validity, batch["valid"], reduction="sum"
+        ) / len(index)
+        lap("loss_validity")
+        score = (at_voxels(output.score, index) - at_voxels(batch["score"], index)).square().mean()
+        lap("loss_score")
+        pred = at_voxels(output.rotation, index)
+        rotation_loss = model.representation.loss(
+            pred, batch["rotations"], batch["rotation_mask"]
+        ).mean()
+        lap("loss_rotation")
+        optimizer.zero_grad(set_to_none=True)
+        (validity + score + rotation_loss).backward()
+        lap("backward")
+        optimizer.step()
+        lap("optimizer")
+    return {stage: statistics.median(values) for stage, values in times.items()}
+
+
+def real_batches(data: Path, batch: int, repeats: int) -> dict[str, object]:
+    """Loading + augmenting ``batch`` scenes of ``data``'s training split, and a whole
+    ``bingham2d`` step on them: medians over ``repeats`` batches [ms]."""
+    from symgrasp.data.dataset import GraspDataset, collate_scenes
+
+    dataset = GraspDataset(data, split="train", augment=True, seed=0)
+    model = GraspNet(NetworkConfig("bingham2d")).train()
+    optimizer = torch.optim.Adam(model.parameters(), lr=1e-4)
+    load, step, voxels = [], [], []
+    for repeat in range(repeats + 1):
+        start = time.perf_counter()
+        scenes = collate_scenes(
+            [dataset[(repeat * batch + i) % len(dataset)] for i in range(batch)]
+        )
+        loaded = time.perf_counter()
+        losses = grasp_losses(model(scenes["tsdf"]), scenes, model.representation)
+        optimizer.zero_grad(set_to_none=True)
+        losses["total"].backward()
+        optimizer.step()
+        if repeat:  # the first is a warm-up
+            load.append(1e3 * (loaded - start))
+            step.append(1e3 * (time.perf_counter() - loaded))
+            voxels.append(len(scenes["voxel_index"]))
+    return {
+        "dataset": str(data),
+        "load_and_augment_ms": statistics.median(load),
+        "bingham2d_step_ms": statistics.median(step),
+        "valid_voxels_per_batch": statistics.median(voxels),
+    }
+
+
 def reference_run(run: Path) -> dict[str, object]:
     """The last epoch of a training run folder and the command that reproduces it."""
     with open(run / "metrics.csv") as file:
@@ -81,6 +158,9 @@ def main() -> None:
     parser.add_argument(
         "--batch", type=int, default=4, help="scenes per training step (default: 4)"
     )
+    parser.add_argument(
+        "--data", type=Path, help="a dataset folder: time loading its batches and steps on them"
+    )
     parser.add_argument("--run", type=Path, help="a finished training run folder to tabulate")
     parser.add_argument("--output", type=Path, default=RESULTS, help="where to write the JSON")
     args = parse_args(parser, outputs=("output",), quick={"threads": 1, "repeats": 1, "batch": 1})
@@ -93,6 +173,11 @@ def main() -> None:
     for name in rotation.NAMES:
         results[name] = bench(name, batch, args.repeats)
         print(f"  {name:15s} " + "  ".join(f"{k} {v:,.4g}" for k, v in results[name].items()))
+        results[name]["train_step_stages_ms"] = stages(name, batch, args.repeats)
+        print(
+            " " * 18
+            + "  ".join(f"{k} {v:.3g}" for k, v in results[name]["train_step_stages_ms"].items())
+        )
     report = {
         "benchmark": "grasp detection network: size, CPU latency and training throughput",
         "command": " ".join(["python", *sys.argv]),
@@ -110,6 +195,7 @@ def main() -> None:
         "repeats": args.repeats,
         "statistic": "best of repeats after a warm-up (the machine is shared)",
         "representations": results,
+        "real_batches": real_batches(args.data, args.batch, args.repeats) if args.data else None,
         "reference_run": reference_run(args.run) if args.run else None,
     }
     args.output.parent.mkdir(parents=True, exist_ok=True)
