@@ -103,6 +103,24 @@ def test_non_maximum_suppression_keeps_the_best_of_each_neighbourhood():
     assert len(_detector(voxels, nms_radius=0, top_k=2).detect_tsdf(np.ones((R,) * 3))) == 2
 
 
+@pytest.mark.parametrize("radius", [1, 2, 3])
+def test_non_maximum_suppression_equals_a_brute_force_search_of_each_box(radius):
+    """Random scores on random candidate voxels, some at the grid's border, ties included: a
+    candidate stays iff no candidate within ``radius`` voxels (Chebyshev) scores higher."""
+    rng = np.random.default_rng(radius)
+    index = np.unique(rng.integers(0, R, size=(400, 3)), axis=0)
+    index[:5] = [[0, 0, 0], [0, 0, 1], [39, 39, 39], [38, 39, 39], [20, 20, 20]]
+    index = np.unique(index, axis=0)
+    value = rng.choice([0.1, 0.2, 0.3, 0.5], size=len(index))  # coarse: many ties
+    score = torch.zeros(R, R, R, dtype=torch.float64)
+    score[tuple(torch.as_tensor(index).T)] = torch.as_tensor(value)
+    near = np.abs(index[:, None] - index[None]).max(-1) <= radius
+    expected = [value[m] >= value[near[m]].max() for m in range(len(index))]
+    kept = _detector({}, nms_radius=radius)._local_maxima(score, torch.as_tensor(index))
+    assert kept.tolist() == expected
+    assert 0 < sum(expected) < len(index)
+
+
 def test_bounds_keep_only_grasps_inside_the_box():
     voxels = {(5, 5, 5): (0.5, 0.9, _bingham2d(ROT_A)), (30, 30, 30): (0.6, 0.9, _bingham2d(ROT_A))}
     detector = _detector(voxels, bounds=(np.zeros(3), np.full(3, 0.1)))

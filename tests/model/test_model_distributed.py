@@ -62,12 +62,14 @@ def test_two_processes_follow_the_one_process_loss_curve_and_resume(tmp_path):
     states = [load_checkpoint(tmp_path / run / "last.pt") for run in ("one", "two")]
     assert states[1]["world_size"] == 2 and states[1]["config"]["batch_size"] == 4
     # the same network: its outputs agree (conv biases before a GroupNorm get no gradient but
-    # float noise, which Adam turns into steps of ±lr, so weights are not compared one by one);
-    # seen: up to 2.6e-4 apart, against 0.1–0.23 for plain DDP
+    # float noise, which Adam turns into steps of ±lr, so weights are not compared one by one).
+    # Seen: float summation order alone moved them by up to 2.6e-4 in the default memory layout
+    # and 3.6e-3 in channels-last; plain DDP moves them by 0.1–0.23. 2e-2 is a factor ≥ 5 from
+    # both.
     tsdf = SyntheticGraspDataset(1, seed=5)[0]["tsdf"][None]
     one, two = (load_model(tmp_path / run / "last.pt")[0](tsdf) for run in ("one", "two"))
     for name in ("validity", "score", "rotation"):
-        torch.testing.assert_close(getattr(two, name), getattr(one, name), rtol=0, atol=2e-3)
+        torch.testing.assert_close(getattr(two, name), getattr(one, name), rtol=0, atol=2e-2)
 
 
 def test_a_ranks_bad_input_is_a_value_error(tmp_path):

@@ -1,5 +1,7 @@
 """GraspNet shapes for every representation, its cost against a closed form, bad input."""
 
+import copy
+
 import pytest
 import torch
 from torch import nn
@@ -78,3 +80,20 @@ def test_bad_input_raises():
         NetworkConfig("euler")
     with pytest.raises(ValueError, match="widths"):
         NetworkConfig(widths=(8, 16, 32))
+
+
+def test_channels_last_float32_outputs_match_a_float64_pass_of_the_same_weights():
+    """The layout is an implementation detail: outputs equal a float64 evaluation (another code
+    path: oneDNN has no float64 convolutions) to float32 rounding, in the default layout."""
+    torch.manual_seed(0)
+    net = GraspNet(NetworkConfig("bingham2d")).eval()
+    assert net.enc0.weight.is_contiguous(memory_format=torch.channels_last_3d)
+    tsdf = torch.rand(2, 1, 40, 40, 40) * 2 - 1
+    with torch.no_grad():
+        single = net(tsdf)
+        double = copy.deepcopy(net).double()(tsdf.double())
+    for name in ("score", "validity", "rotation"):
+        assert getattr(single, name).is_contiguous()
+        torch.testing.assert_close(
+            getattr(single, name).double(), getattr(double, name), rtol=1e-5, atol=1e-5
+        )

@@ -44,6 +44,11 @@ VALID_PRIOR = 0.01
 BINGHAM_BOUND = 20.0
 """Bingham parameter channels pass through ``BINGHAM_BOUND · tanh(a / BINGHAM_BOUND)``."""
 
+MEMORY_FORMAT = torch.channels_last_3d
+"""Layout of the weights and activations. oneDNN's 3D convolutions run channels-last natively:
+in the default layout every convolution reorders its input and output, and a CPU training step
+took 1.6× as long (`benchmarks/model.py`, docs/model.md)."""
+
 
 class GraspOutput(NamedTuple):
     """Per-voxel outputs of `GraspNet` for a batch of B volumes of D × H × W voxels."""
@@ -85,6 +90,11 @@ class GraspNet(nn.Module):
         # Valid voxels are rare (≈ 1 %): starting at that prior keeps the first steps from being
         # spent on the bias (the prior initialisation of Lin et al. 2017, "Focal Loss").
         nn.init.constant_(self.validity_head.bias, math.log(VALID_PRIOR / (1 - VALID_PRIOR)))
+        for conv in self.modules():  # loading a state dict keeps the layout (copy_)
+            if isinstance(conv, nn.Conv3d) and conv.weight[0, 0].numel() > 1:
+                # a 1×1×1 kernel is laid out alike either way; converted, its strides would
+                # differ from its gradient's and DDP's buckets would warn on every step
+                conv.weight.data = conv.weight.data.contiguous(memory_format=MEMORY_FORMAT)
 
     def features(self, tsdf: Tensor) -> Tensor:
         """``[B, 1, D, H, W]`` → the ``[B, features, D, H, W]`` feature volume."""
@@ -93,7 +103,7 @@ class GraspNet(nn.Module):
                 "tsdf must be [B, 1, D, H, W] with D, H, W divisible by 8, "
                 f"got shape {tuple(tsdf.shape)}"
             )
-        e0 = F.relu(self.norm0(self.enc0(tsdf)))
+        e0 = F.relu(self.norm0(self.enc0(tsdf.contiguous(memory_format=MEMORY_FORMAT))))
         e1 = F.relu(self.norm1(self.enc1(e0)))
         e2 = F.relu(self.norm2(self.enc2(e1)))
         x = F.relu(self.norm3(self.enc3(e2)))
@@ -104,10 +114,10 @@ class GraspNet(nn.Module):
 
     def forward(self, tsdf: Tensor) -> GraspOutput:
         x = self.features(tsdf)
-        return GraspOutput(
-            score=self.score_head(x).squeeze(1),
-            validity=self.validity_head(x).squeeze(1),
-            rotation=self._bound(self.rotation_head(x)),
+        return GraspOutput(  # in the default layout, which callers index and view
+            score=self.score_head(x).squeeze(1).contiguous(),
+            validity=self.validity_head(x).squeeze(1).contiguous(),
+            rotation=self._bound(self.rotation_head(x)).contiguous(),
         )
 
     def _bound(self, rotation: Tensor) -> Tensor:
