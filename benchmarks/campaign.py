@@ -1,0 +1,229 @@
+"""Run a plan of long commands (datasets, training runs, benchmarks) that outlives any session.
+
+    PYTHONPATH=src python benchmarks/campaign.py run PLAN.toml [--root DIR] [--cores 2]
+    PYTHONPATH=src python benchmarks/campaign.py status PLAN.toml [--root DIR]
+    PYTHONPATH=src python benchmarks/campaign.py run --quick [DIR]
+
+A plan is a TOML file of steps, each a shell command with the cores it uses and the steps it
+needs (``benchmarks/campaigns/*.toml``)::
+
+    [vars]                      # {name} in a command; --root sets {root}
+    data = "{root}/data/vgn-robotiq"
+
+    [[step]]
+    name = "data-robotiq"
+    cores = 2
+    run = "symgrasp data generate ... --out {data} --resume"
+
+    [[step]]
+    name = "lc-900-s0"
+    needs = ["data-robotiq"]
+    cores = 1                   # OMP_NUM_THREADS of the command
+    run = "symgrasp train --data {data} ... --resume"
+
+``run`` starts every step whose needs are done, in the plan's order, as long as their cores fit
+in ``--cores``, and returns when nothing more can start. A step is done when it exited 0 with
+the same command: ``ROOT/done/NAME`` holds the command it finished, so an edited command runs
+again. Every command must resume its own work (symgrasp's ``--resume``), because a session's
+end kills whatever runs: the next ``run`` starts those steps again and they continue where they
+stopped. A failed step is recorded in ``ROOT/failed/NAME`` (exit code, time) and run again by the
+next ``run``; the steps needing it wait. Output goes to ``ROOT/logs/NAME.log``. ``--quick``
+runs a three-step plan of Python one-liners (one failing) twice and writes ``campaign.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import shlex
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from common import parse_args, write_result
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+
+POLL_SECONDS = 1.0
+
+
+@dataclass(frozen=True)
+class Step:
+    """One command of a plan."""
+
+    name: str
+    run: str
+    cores: int = 1
+    needs: tuple[str, ...] = field(default=())
+
+
+def read_plan(path: Path, root: Path) -> list[Step]:
+    """The steps of the plan file ``path`` with ``{root}`` and its ``[vars]`` filled in."""
+    try:
+        plan = tomllib.loads(path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as error:
+        raise SystemExit(f"error: plan {path}: {error}") from None
+    values = {"root": str(root)}
+    for key, value in plan.get("vars", {}).items():
+        values[key] = str(value).format(**values)
+    steps = []
+    for entry in plan.get("step", []):
+        unknown = set(entry) - {"name", "run", "cores", "needs"}
+        if unknown or not {"name", "run"} <= set(entry):
+            raise SystemExit(
+                f"error: plan {path}: step {entry.get('name', '?')!r} needs 'name' and 'run' "
+                f"and may have 'cores', 'needs'; got {sorted(entry)}"
+            )
+        try:
+            run = " ".join(entry["run"].split()).format(**values)
+        except KeyError as error:
+            raise SystemExit(f"error: plan {path}: step {entry['name']!r} uses {error}, "
+                             f"which [vars] does not define") from None  # fmt: skip
+        steps.append(
+            Step(entry["name"], run, int(entry.get("cores", 1)), tuple(entry.get("needs", ())))
+        )
+    names = [step.name for step in steps]
+    for step in steps:
+        missing = [need for need in step.needs if need not in names[: names.index(step.name)]]
+        if missing:
+            raise SystemExit(
+                f"error: plan {path}: step {step.name!r} needs {missing}, which are not "
+                "steps listed before it"
+            )
+    if len(set(names)) != len(names):
+        raise SystemExit(f"error: plan {path}: step names repeat")
+    return steps
+
+
+def is_done(step: Step, root: Path) -> bool:
+    marker = root / "done" / step.name
+    return marker.exists() and marker.read_text() == step.run
+
+
+def _mark(folder: Path, name: str, text: str) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    temporary = folder / f".{name}.tmp"
+    temporary.write_text(text)
+    os.replace(temporary, folder / name)
+
+
+def run(steps: list[Step], root: Path, cores: int) -> dict[str, str]:
+    """Run the plan's missing steps (see the module docstring); each step's outcome."""
+    outcome = {step.name: "done" for step in steps if is_done(step, root)}
+    running: dict[str, tuple[Step, subprocess.Popen]] = {}
+    (root / "logs").mkdir(parents=True, exist_ok=True)
+    while True:
+        for name, (step, process) in list(running.items()):
+            if process.poll() is None:
+                continue
+            del running[name]
+            stamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+            if process.returncode == 0:
+                _mark(root / "done", name, step.run)
+                (root / "failed" / name).unlink(missing_ok=True)
+                outcome[name] = "done"
+            else:
+                _mark(root / "failed", name, f"exit {process.returncode} at {stamp}\n")
+                outcome[name] = f"failed (exit {process.returncode})"
+            print(f"{stamp} {name}: {outcome[name]}", flush=True)
+        free = cores - sum(step.cores for step, _ in running.values())
+        for step in steps:
+            ready = all(outcome.get(need) == "done" for need in step.needs)
+            if step.name in outcome or step.name in running or not ready or step.cores > free:
+                continue
+            log = open(root / "logs" / f"{step.name}.log", "a")  # the child's output
+            log.write(f"\n$ {step.run}\n")
+            log.flush()
+            environment = {**os.environ, "OMP_NUM_THREADS": str(step.cores)}
+            process = subprocess.Popen(step.run, shell=True, stdout=log, stderr=subprocess.STDOUT,
+                                       env=environment, start_new_session=True)  # fmt: skip
+            log.close()
+            running[step.name] = (step, process)
+            free -= step.cores
+            print(f"started {step.name} ({step.cores} cores): {step.run}", flush=True)
+        if not running:
+            break
+        time.sleep(POLL_SECONDS)
+    for step in steps:
+        outcome.setdefault(step.name, "waiting (a step it needs failed)")
+    return outcome
+
+
+def status(steps: list[Step], root: Path) -> dict[str, str]:
+    """Each step's state on disk: done, failed, or not yet."""
+    states = {}
+    for step in steps:
+        failed = root / "failed" / step.name
+        if is_done(step, root):
+            states[step.name] = "done"
+        elif failed.exists():
+            states[step.name] = "failed: " + failed.read_text().strip()
+        else:
+            states[step.name] = "to do"
+    return states
+
+
+QUICK_PLAN = """
+[vars]
+py = "{python}"
+[[step]]
+name = "first"
+run = "{{py}} -c 'open(\\"{{root}}/first.txt\\", \\"w\\").write(\\"1\\")'"
+[[step]]
+name = "second"
+needs = ["first"]
+cores = 2
+run = "{{py}} -c 'print(open(\\"{{root}}/first.txt\\").read())'"
+[[step]]
+name = "broken"
+run = "{{py}} -c 'raise SystemExit(3)'"
+[[step]]
+name = "after-broken"
+needs = ["broken"]
+run = "{{py}} -c 'print(1)'"
+"""
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("action", nargs="?", default="run", choices=("run", "status"),
+                        help="run the plan (default), or list its steps' state")  # fmt: skip
+    parser.add_argument("plan", nargs="?", type=Path, help="the plan's TOML file")
+    parser.add_argument("--root", type=Path, default=Path("out/campaign"),
+                        help="folder of the plan's outputs, logs and markers ({root} in commands; "
+                        "default: out/campaign)")  # fmt: skip
+    parser.add_argument("--cores", type=int, default=os.cpu_count() or 1,
+                        help="cores the running steps may use together (default: all)")  # fmt: skip
+    parser.add_argument("--result", default="benchmarks/results/campaign", help="stem")
+    args = parse_args(parser, outputs=("root", "result"), quick={})
+    if args.quick:
+        args.plan = args.quick / "plan.toml"
+        args.plan.write_text(QUICK_PLAN.format(python=shlex.quote(sys.executable)))
+    elif args.plan is None:
+        parser.error("the plan's TOML file is needed")
+    root = args.root.resolve()
+    steps = read_plan(args.plan, root)
+    if args.action == "status":
+        for name, state in status(steps, root).items():
+            print(f"{name:30s} {state}")
+        return
+    outcome = run(steps, root, args.cores)
+    if args.quick:  # again: only what failed runs
+        again = run(steps, root, args.cores)
+        command = " ".join(["python", *sys.argv])
+        write_result(args.result, "campaign driver, quick plan", command, [],
+                     steps={"first run": outcome, "second run": again})  # fmt: skip
+        return
+    failed = [name for name, state in status(steps, root).items() if state != "done"]
+    if failed:
+        raise SystemExit(f"not done: {', '.join(failed)} (logs in {root / 'logs'})")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,71 @@
+"""benchmarks/campaign.py: a plan's steps run in dependency order within the cores, resume by
+their done markers, run again when their command changes, and a bad plan is one clear line."""
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import campaign
+
+
+def _plan(tmp_path, text):
+    path = tmp_path / "plan.toml"
+    path.write_text(text)
+    return path
+
+
+def _step(name, code, needs=(), cores=1):
+    run = f"{sys.executable} -c '{code}'"  # a TOML multi-line literal string: quotes as they are
+    return (f'[[step]]\nname = "{name}"\ncores = {cores}\nneeds = {list(needs)!r}\n'
+            f"run = '''{run}'''\n")  # fmt: skip
+
+
+def test_steps_run_after_their_needs_and_a_changed_command_runs_again(tmp_path):
+    log = tmp_path / "order.txt"
+    append = 'import time; time.sleep({}); open("{{root}}/order.txt", "a").write("{}")'
+    text = "".join([
+        _step("slow", append.format(0.5, "s")),
+        _step("fast", append.format(0, "f")),
+        _step("last", append.format(0, "l"), needs=["slow", "fast"], cores=2),
+    ])  # fmt: skip
+    steps = campaign.read_plan(_plan(tmp_path, text), tmp_path)
+    assert campaign.run(steps, tmp_path, cores=2) == {n: "done" for n in ("fast", "slow", "last")}
+    assert log.read_text() == "fsl"  # slow and fast side by side, last after both
+    assert campaign.run(steps, tmp_path, cores=2) == {n: "done" for n in ("slow", "fast", "last")}
+    assert log.read_text() == "fsl"  # done: nothing ran again
+    changed = campaign.read_plan(_plan(tmp_path, text.replace('"l"', '"L"')), tmp_path)
+    campaign.run(changed, tmp_path, cores=2)
+    assert log.read_text() == "fslL"
+
+
+def test_one_core_runs_steps_one_at_a_time_and_a_failure_holds_its_dependants(tmp_path):
+    text = "".join([
+        _step("broken", "raise SystemExit(2)"),
+        _step("after", 'open("{root}/after.txt", "w")', needs=["broken"]),
+        _step("other", 'open("{root}/other.txt", "w")'),
+        _step("big", "pass", cores=2),
+    ])  # fmt: skip
+    outcome = campaign.run(campaign.read_plan(_plan(tmp_path, text), tmp_path), tmp_path, cores=1)
+    assert outcome["broken"] == "failed (exit 2)" and outcome["other"] == "done"
+    assert outcome["after"].startswith("waiting") and not (tmp_path / "after.txt").exists()
+    assert outcome["big"].startswith("waiting")  # never fits in one core
+    assert (tmp_path / "failed" / "broken").read_text().startswith("exit 2")
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ('[[step]]\nname = "a"\n', "needs 'name' and 'run'"),
+        ('[[step]]\nname = "a"\nrun = "x"\nwhen = 1\n', "may have 'cores', 'needs'"),
+        ('[[step]]\nname = "a"\nrun = "{nowhere}"\n', "uses 'nowhere', which \\[vars\\]"),
+        ('[[step]]\nname = "a"\nrun = "x"\nneeds = ["b"]\n[[step]]\nname = "b"\nrun = "x"\n',
+         "needs \\['b'\\], which are not steps listed before it"),
+        ('[[step]]\nname = "a"\nrun = "x"\n[[step]]\nname = "a"\nrun = "y"\n', "names repeat"),
+        ("[[step]\n", "plan .*plan.toml"),
+    ],
+)  # fmt: skip
+def test_a_bad_plan_is_one_line_naming_the_file_and_step(tmp_path, text, message):
+    with pytest.raises(SystemExit, match=message):
+        campaign.read_plan(_plan(tmp_path, text), tmp_path)
