@@ -28,6 +28,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "bad_input": ("bad_input.json", "counts"),
     "hands": ("hands.json", "cells"),
     "scale": ("scale.json", "one_million_scenes"),
+    "selection": ("selection.json", "correlations"),
 }
 NEEDS_VGN = {"scene_physics", "grasp_db"}  # reads VGN's meshes from the data folder
 NEEDS_REFERENCE = {"hands"}  # reads MuJoCo Menagerie's hands from ../shared/reference
