@@ -29,6 +29,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "hands": ("hands.json", "cells"),
     "scale": ("scale.json", "one_million_scenes"),
     "campaign": ("campaign.json", "steps"),
+    "selection": ("selection.json", "correlations"),
 }
 NEEDS_VGN = {"scene_physics", "grasp_db"}  # reads VGN's meshes from the data folder
 NEEDS_REFERENCE = {"hands"}  # reads MuJoCo Menagerie's hands from ../shared/reference

@@ -81,6 +81,17 @@ DEFAULT_VALIDITY = 0.08
 grid), so its probabilities are low on unfamiliar piles, and 0.5 left most rounds without a
 grasp."""
 
+TEST_SEED_LIMIT = 10_000
+"""Declutter round seeds below this are reserved for test benchmarks (the docs' tables use
+0…99 and 1000…1099): model selection (`symgrasp.model.selection`) never plays them."""
+
+VALIDATION_SEED = 1_000_000
+"""Round seed 0 of the declutter validation that selects checkpoints, far from every test
+seed."""
+
+VALIDATION_OBJECTS = "vgn-pile-train"
+"""The object set of the declutter validation: training objects."""
+
 
 @dataclass(frozen=True)
 class DatabaseConfig:

@@ -7,6 +7,8 @@ then Gram–Schmidt keeping e_x), drop grasps whose Bingham confidence (λ₃ �
 is below the threshold (15 in the paper), suppress non-maxima of the score, and sort by the
 gravity-rejection score. With ``samples_per_voxel`` the closing axis is instead drawn from
 B(A) several times per voxel (the paper's third decoding mode, Sec. 3.3).
+The steps after the network are `symgrasp.model.ranking.rank_voxels`, which the validation's
+top-k metrics share.
 """
 
 from __future__ import annotations
@@ -19,7 +21,6 @@ from typing import Any
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 
 from symgrasp.config import DEFAULT_VALIDITY, SEED_MAX, check_range
 from symgrasp.detect.grasp import Grasp
@@ -27,6 +28,7 @@ from symgrasp.detect.pretrained import resolve_model
 from symgrasp.device import resolve_device
 from symgrasp.model.checkpoint import load_model
 from symgrasp.model.network import GraspNet
+from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, rank_voxels
 from symgrasp.perception import CameraIntrinsic, TSDFVolume
 from symgrasp.sim.grippers import GripperSpec, get_gripper, same_name_note
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
@@ -73,7 +75,7 @@ class GraspDetector:
         *,
         validity_threshold: float = DEFAULT_VALIDITY,
         confidence_threshold: float | None = None,
-        nms_radius: int = 2,
+        nms_radius: int = DEFAULT_NMS_RADIUS,
         top_k: int | None = None,
         bounds: tuple[np.ndarray, np.ndarray] | None = None,
         samples_per_voxel: int = 0,
@@ -227,36 +229,19 @@ class GraspDetector:
         return grasps
 
     def _decode(self, out: dict[str, Tensor]) -> list[Grasp]:
-        keep = out["validity"] >= self.validity_threshold
-        if self.bounds is not None:
-            keep &= self._inside_bounds()
-        index = keep.nonzero()  # [M, 3]
-        pred = out["rotation"][keep].double()
-        decoded = self.representation.decode(pred)
-        confidence = decoded.confidence
-        if self.confidence_threshold is not None and confidence is not None:
-            confident = confidence >= self.confidence_threshold
-            index, pred, confidence = index[confident], pred[confident], confidence[confident]
-            rotations = decoded.rotation[confident]
-        else:
-            rotations = decoded.rotation
-        if self.nms_radius and len(index):
-            local_max = self._local_maxima(out["score"], index)
-            index, pred, rotations = index[local_max], pred[local_max], rotations[local_max]
-            confidence = None if confidence is None else confidence[local_max]
-        score = out["score"][tuple(index.T)]
-        order = torch.argsort(score, descending=True, stable=True)
-        if self.top_k is not None:
-            order = order[: self.top_k]
-        index, score, pred, rotations = index[order], score[order], pred[order], rotations[order]
-        confidence = None if confidence is None else confidence[order]
-        validity = out["validity"][tuple(index.T)]
+        ranked = rank_voxels(
+            out["score"], out["validity"], out["rotation"], self.representation,
+            validity_threshold=self.validity_threshold,
+            confidence_threshold=self.confidence_threshold, nms_radius=self.nms_radius,
+            top_k=self.top_k, keep=None if self.bounds is None else self._inside_bounds(),
+        )  # fmt: skip
+        validity = out["validity"][tuple(ranked.index.T)]
         if self.samples_per_voxel:
             generator = torch.Generator(self.device).manual_seed(self.seed)
-            rotations = self.representation.sample(pred, self.samples_per_voxel, generator)
+            rotations = self.representation.sample(ranked.pred, self.samples_per_voxel, generator)
         else:
-            rotations = rotations[:, None]
-        return self._grasps(index, rotations, score, validity, confidence)
+            rotations = ranked.rotation[:, None]
+        return self._grasps(ranked.index, rotations, ranked.score, validity, ranked.confidence)
 
     def _inside_bounds(self) -> Tensor:
         lo, hi = (torch.as_tensor(b, device=self.device) for b in self.bounds)
@@ -264,19 +249,6 @@ class GraspDetector:
         axes = [self.origin[a] + (idx + 0.5) * self.voxel_size for a in range(3)]
         inside = [(axes[a] >= lo[a]) & (axes[a] <= hi[a]) for a in range(3)]
         return inside[0][:, None, None] & inside[1][None, :, None] & inside[2][None, None, :]
-
-    def _local_maxima(self, score: Tensor, index: Tensor) -> Tensor:
-        """Which of the candidate voxels ``index`` [M, 3] hold the highest score among the
-        candidates within ``nms_radius`` voxels."""
-        at = tuple(index.T)
-        candidates = torch.full_like(score, -torch.inf)
-        candidates[at] = score[at]
-        pooled = candidates[None, None]
-        for axis in range(3):  # a box's maximum, one axis at a time: 3·(2r+1) reads, not (2r+1)³
-            kernel, padding = [1, 1, 1], [0, 0, 0]
-            kernel[axis], padding[axis] = 2 * self.nms_radius + 1, self.nms_radius
-            pooled = F.max_pool3d(pooled, kernel, stride=1, padding=padding)
-        return candidates[at] >= pooled[0, 0][at]
 
     def _grasps(
         self,

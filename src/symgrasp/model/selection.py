@@ -1,0 +1,488 @@
+"""Model selection: which checkpoint of a training run becomes ``best.pt``.
+
+Validation loss and the all-voxel metrics could not tell apart two training seeds whose
+detectors clear piles very differently (declutter SR 81.7 vs 58.7 on the test objects), so a
+run can instead be selected by a measure closer to grasping:
+
+- `declutter_validation`: the real declutter benchmark (`symgrasp.benchmark.runner`) of a
+  checkpoint on **training** objects (default `VALIDATION_OBJECTS`, vgn-pile-train) with round
+  seeds from `VALIDATION_SEED` (1 000 000 on): never a test object set, never a seed below
+  `TEST_SEED_LIMIT` (the test tables use 0…99 and 1000…1099); both are refused;
+- any column of the run's ``metrics.csv`` (validation loss, validity AP, the top-k metrics of
+  `symgrasp.model.metrics`, …), with the direction `direction` gives it.
+
+`select_checkpoint` (``symgrasp select RUN_DIR --by MEASURE``) evaluates every kept checkpoint
+of a run (``epoch_NNN.pt``, and ``last.pt`` when its epoch has no file of its own), caches each
+result in ``RUN_DIR/selection/`` (atomically, keyed by the checkpoint's hash, so a rerun skips
+what is done and a killed declutter validation resumes round by round), writes
+``selection.csv`` and ``selection.json`` (every measure of every checkpoint, the choice) and
+copies the chosen checkpoint to ``best.pt``, recording the choice in it (``"selection"``).
+
+The simulator is imported only when a declutter validation runs: training does not load it.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import math
+import re
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from symgrasp.atomic import write_atomic
+from symgrasp.config import (
+    TEST_SEED_LIMIT,
+    VALIDATION_OBJECTS,
+    VALIDATION_SEED,
+    BenchmarkConfig,
+    ParallelConfig,
+)
+from symgrasp.names import OBJECT_SETS
+
+__all__ = [
+    "TEST_SEED_LIMIT",
+    "VALIDATION_OBJECTS",
+    "VALIDATION_ROUNDS",
+    "VALIDATION_SEED",
+    "check_validation_rounds",
+    "checkpoint_id",
+    "checkpoint_measures",
+    "declutter_validation",
+    "direction",
+    "find_checkpoints",
+    "select_checkpoint",
+    "validation_metrics",
+]
+
+VALIDATION_ROUNDS = 50
+"""Rounds of a declutter validation (≈ 150 executed grasps, a ±7-point SR interval)."""
+
+ALIASES = {"declutter": "declutter_sr", "val_loss": "val_total"}
+"""Measure names ``--by`` also takes."""
+
+DECLUTTER_MEASURES = ("declutter_sr", "declutter_cr")
+"""Success and clear ratio of the declutter validation."""
+
+BOOKKEEPING = ("epoch", "world_size", "global_batch_size", "lr", "seconds")
+"""metrics.csv columns that describe a run rather than measure it."""
+
+CHECKPOINT = re.compile(r"epoch_(\d+)\.pt")
+"""The file name of a kept per-epoch checkpoint (``symgrasp train --keep-every N``)."""
+
+
+def direction(measure: str) -> int:
+    """+1 when a higher ``measure`` is better (AP, shares, SR, CR), −1 when lower is (losses,
+    angles, score error, ``top_empty``); ValueError naming ``--by`` for a column that is no
+    measure of quality (bookkeeping, confidences)."""
+    name = ALIASES.get(measure, measure)
+    higher = ("_valid", "_correct", "_valid_near", "_correct_near")
+    if name in DECLUTTER_MEASURES or name == "validity_ap":
+        return 1
+    if name.startswith("top") and name.endswith(higher):
+        return 1
+    if name.startswith(("val_", "train_")) or name.endswith("_deg"):
+        return -1
+    if name in ("score_mae", "top_empty"):
+        return -1
+    raise ValueError(
+        f"--by: {measure!r} is not a measure to select by (no better direction); use declutter, "
+        "declutter_cr, val_loss, a loss (val_*), validity_ap, score_mae, an angle (*_deg) or a "
+        "top-k share (top1_valid, top5_correct, …)"
+    )
+
+
+def check_validation_rounds(objects: str, rounds: int, seed: int) -> None:
+    """Raise ValueError unless the rounds ``seed … seed + rounds − 1`` on ``objects`` stay off
+    the test sets: no seed below `TEST_SEED_LIMIT`, no named test object set."""
+    if isinstance(seed, int) and isinstance(rounds, int) and seed < TEST_SEED_LIMIT:
+        raise ValueError(
+            f"seed: declutter validation rounds play seeds {seed}…{seed + rounds - 1}, which "
+            f"overlap the test seeds 0…{TEST_SEED_LIMIT - 1} (reserved for test benchmarks); "
+            f"use a seed ≥ {TEST_SEED_LIMIT} (default {VALIDATION_SEED})"
+        )
+    tests = [p for p in str(objects).split(",") if p in OBJECT_SETS and p.endswith("-test")]
+    if tests:
+        raise ValueError(
+            f"objects: {', '.join(tests)} is a test object set; declutter validation plays "
+            f"training objects (default {VALIDATION_OBJECTS}, or household-train)"
+        )
+
+
+def declutter_validation(
+    checkpoint: str | Path,
+    out: str | Path,
+    objects: str = VALIDATION_OBJECTS,
+    rounds: int = VALIDATION_ROUNDS,
+    seed: int = VALIDATION_SEED,
+    *,
+    num_objects: int = 5,
+    scene: str = "pile",
+    mesh_unit: str = "auto",
+    options: tuple[tuple[str, Any], ...] = (),
+    workers: int | None = None,
+    parallel: ParallelConfig | None = None,
+) -> dict[str, Any]:
+    """The declutter benchmark of ``checkpoint`` on training objects, played into (or read back
+    from, or resumed in) the benchmark folder ``out`` (`symgrasp.benchmark.runner.run_or_reuse`).
+
+    Rounds use seeds ``seed … seed + rounds − 1`` (refused when they reach the test seeds,
+    `check_validation_rounds`), ``num_objects`` objects of ``objects`` as a ``scene``, the
+    detector's default thresholds unless ``options`` (keyword arguments of
+    `GraspDetector.from_pretrained`) say otherwise, and no failure diagnosis (its replays cost
+    time and change no ratio). ``workers`` local processes, or the executor ``parallel``.
+
+    Returns the pooled ``success_ratio`` and ``clear_ratio`` with their bootstrap 95 %
+    intervals (``*_ci95``), the counts (``rounds``, ``objects``, ``executed``, ``successes``,
+    ``errors``) and the benchmark's ``config``.
+    """
+    check_validation_rounds(objects, rounds, seed)
+    config = BenchmarkConfig(
+        model=str(checkpoint), objects=objects, mesh_unit=mesh_unit, scene=scene,
+        num_objects=num_objects, rounds=rounds, seed=seed, options=tuple(options),
+        diagnose=False,
+    )  # fmt: skip
+    if parallel is None:
+        parallel = ParallelConfig(workers=workers)
+    elif workers is not None:
+        raise ValueError("workers: give workers or parallel, not both")
+
+    from symgrasp.benchmark.runner import run_or_reuse, summarise
+
+    summary = summarise(run_or_reuse(config, out, parallel), seed)
+    keys = ("rounds", "objects", "executed", "successes", "success_ratio", "success_ratio_ci95",
+            "clear_ratio", "clear_ratio_ci95")  # fmt: skip
+    return {
+        **{key: summary[key] for key in keys},
+        "errors": len(summary["errors"]),
+        "config": json.loads(json.dumps(asdict(config))),
+    }
+
+
+def validation_metrics(
+    checkpoint: str | Path,
+    data: str | None = None,
+    *,
+    datasets: tuple[Any, Any] | None = None,
+    batch_size: int = 4,
+    device: str = "cpu",
+) -> dict[str, float]:
+    """Validation losses (``val_*``) and `MetricAccumulator` metrics of ``checkpoint`` on the
+    validation split of ``data`` (default: the dataset it was trained on), computed anew: for
+    a run trained before a metric existed (the top-k ones). ``datasets`` = (val split, collate
+    function) replaces the dataset folder (tests pass the synthetic one)."""
+    from torch.utils.data import DataLoader
+
+    from symgrasp.config import LossWeights
+    from symgrasp.device import resolve_device
+    from symgrasp.model.checkpoint import load_model
+    from symgrasp.model.train import evaluate
+
+    model, state = load_model(checkpoint)
+    if datasets is None:
+        from symgrasp.data.dataset import GraspDataset, collate_scenes
+        from symgrasp.sim.grippers import get_gripper, same_name_note
+
+        folder = data or state["config"]["data"]
+        val_set = GraspDataset(folder, split="val", augment=False)
+        trained_for = get_gripper(state["gripper"])
+        if val_set.gripper != trained_for:
+            raise ValueError(
+                f"data: {folder} was produced for the gripper {val_set.gripper.name!r}, "
+                f"{checkpoint} was trained for {trained_for.name!r}"
+                f"{same_name_note(val_set.gripper, trained_for)}"
+            )
+        datasets = (val_set, collate_scenes)
+    val_set, collate = datasets
+    if not len(val_set):
+        raise ValueError(f"data: {data or state['config']['data']} has no validation scene")
+    device = resolve_device(device)
+    loader = DataLoader(val_set, batch_size=batch_size, collate_fn=collate)
+    weights = LossWeights(**state["config"].get("loss_weights", {}))
+    losses, metrics = evaluate(model.to(device), loader, weights, device)
+    return {**{f"val_{k}": v for k, v in losses.items()}, **metrics}
+
+
+def find_checkpoints(run_dir: str | Path) -> list[tuple[int, Path]]:
+    """(epoch, path) of every kept checkpoint of the run ``run_dir``, by epoch: its
+    ``epoch_NNN.pt`` files and ``last.pt`` when no ``epoch_NNN.pt`` holds its epoch.
+    ValueError naming RUN_DIR when the folder or its checkpoints are missing."""
+    run = Path(run_dir)
+    if not run.is_dir():
+        raise ValueError(f"RUN_DIR {run}: no such folder")
+    kept = {
+        int(match.group(1)): path
+        for path in run.iterdir()
+        if (match := CHECKPOINT.fullmatch(path.name)) and path.is_file()
+    }
+    if not kept:
+        raise ValueError(
+            f"RUN_DIR {run} holds no epoch_NNN.pt checkpoint to select from (train with "
+            "--keep-every N to keep them)"
+        )
+    if (run / "last.pt").is_file():
+        from symgrasp.model.checkpoint import load_checkpoint
+
+        last = load_checkpoint(run / "last.pt")["epoch"]
+        kept.setdefault(int(last), run / "last.pt")
+    return sorted(kept.items())
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as file:
+        for block in iter(lambda: file.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _number(text: Any) -> Any:
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return text
+
+
+def _metric_rows(run: Path, checkpoints: list[tuple[int, Path]]) -> dict[int, dict[str, Any]]:
+    """The metrics.csv row of each epoch (numbers as floats); from the last checkpoint's
+    history when the run has no metrics.csv."""
+    path = run / "metrics.csv"
+    if path.is_file():
+        with open(path, newline="") as file:
+            rows = list(csv.DictReader(file))
+    else:
+        from symgrasp.model.checkpoint import load_checkpoint
+
+        rows = load_checkpoint(checkpoints[-1][1]).get("history", [])
+    return {int(float(row["epoch"])): {k: _number(v) for k, v in row.items()} for row in rows}
+
+
+def _slug(settings: dict[str, Any]) -> str:
+    """A folder name for declutter validation ``settings``: readable, and unique by a hash."""
+    digest = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:8]
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", Path(str(settings["objects"])).name)[:40]
+    return (f"{name}-{settings['scene']}{settings['num_objects']}-r{settings['rounds']}"
+            f"-s{settings['seed']}-{digest}")  # fmt: skip
+
+
+class _Cache:
+    """What is known of one checkpoint, in ``RUN_DIR/selection/<stem>-<hash>.json``, rewritten
+    atomically after each new piece."""
+
+    def __init__(self, folder: Path, path: Path, epoch: int) -> None:
+        self.sha = _sha256(path)
+        self.id = f"{path.stem}-{self.sha[:12]}"  # as checkpoint_id
+        self.file = folder / f"{self.id}.json"
+        self.data = {"checkpoint": path.name, "epoch": epoch, "sha256": self.sha}
+        if self.file.is_file():
+            self.data = {**self.data, **json.loads(self.file.read_text())}
+
+    def get(self, part: str, key: str) -> Any:
+        return self.data.get(part, {}).get(key)
+
+    def put(self, part: str, key: str, value: Any) -> None:
+        self.data.setdefault(part, {})[key] = value
+        text = json.dumps(self.data, indent=1) + "\n"
+        write_atomic(self.file, lambda file: file.write(text), mode="w")
+
+
+def checkpoint_measures(
+    run_dir: str | Path,
+    *,
+    declutter: bool = False,
+    objects: str = VALIDATION_OBJECTS,
+    rounds: int = VALIDATION_ROUNDS,
+    seed: int = VALIDATION_SEED,
+    num_objects: int = 5,
+    scene: str = "pile",
+    mesh_unit: str = "auto",
+    parallel: ParallelConfig | None = None,
+    revalidate: bool = False,
+    data: str | None = None,
+    datasets: tuple[Any, Any] | None = None,
+    batch_size: int = 4,
+    device: str = "cpu",
+) -> list[dict[str, Any]]:
+    """One row per kept checkpoint of ``run_dir`` (`find_checkpoints`, by epoch):
+    ``checkpoint`` (file name), ``epoch``, ``sha256``, its metrics.csv row (recomputed by
+    `validation_metrics` with ``revalidate``), and the declutter validation's numbers
+    (``declutter_sr``, ``declutter_cr``, their ``_low``/``_high`` bounds, ``declutter_grasps``
+    …) when ``declutter`` is set or they are cached for these settings. Every result is cached
+    in ``run_dir/selection/`` (`select_checkpoint`)."""
+    run = Path(run_dir)
+    checkpoints = find_checkpoints(run)
+    settings = {
+        "objects": objects, "mesh_unit": mesh_unit, "scene": scene,
+        "num_objects": num_objects, "rounds": rounds, "seed": seed,
+    }  # fmt: skip
+    check_validation_rounds(objects, rounds, seed)
+    BenchmarkConfig(**settings)  # checks the numbers before any work
+    rows = _metric_rows(run, checkpoints)
+    folder = run / "selection"
+    slug = _slug(settings)
+    data_key = data or ("given datasets" if datasets is not None else "trained on")
+    table = []
+    for epoch, path in checkpoints:
+        cache = _Cache(folder, path, epoch)
+        row: dict[str, Any] = {"checkpoint": path.name, "epoch": epoch, "sha256": cache.sha}
+        row.update({k: v for k, v in rows.get(epoch, {}).items() if k not in BOOKKEEPING})
+        if revalidate:
+            if cache.get("validation", data_key) is None:
+                fresh = validation_metrics(
+                    path, data, datasets=datasets, batch_size=batch_size, device=device
+                )
+                cache.put("validation", data_key, fresh)
+            row.update(cache.get("validation", data_key))
+        result = cache.get("declutter", slug)
+        if result is None and declutter:
+            out = folder / "declutter" / slug / cache.id
+            result = declutter_validation(path.resolve(), out, parallel=parallel, **settings)
+            cache.put("declutter", slug, result)
+        if result is not None:
+            row.update(_declutter_columns(result))
+        table.append(row)
+    return table
+
+
+def checkpoint_id(path: str | Path) -> str:
+    """A checkpoint's name for caches: its file stem and the start of its SHA-256, so that a
+    file overwritten by other weights is never taken for the old one."""
+    return f"{Path(path).stem}-{_sha256(Path(path))[:12]}"
+
+
+def select_checkpoint(
+    run_dir: str | Path,
+    by: str,
+    *,
+    objects: str = VALIDATION_OBJECTS,
+    rounds: int = VALIDATION_ROUNDS,
+    seed: int = VALIDATION_SEED,
+    num_objects: int = 5,
+    scene: str = "pile",
+    mesh_unit: str = "auto",
+    parallel: ParallelConfig | None = None,
+    revalidate: bool = False,
+    data: str | None = None,
+    datasets: tuple[Any, Any] | None = None,
+    batch_size: int = 4,
+    device: str = "cpu",
+    copy: bool = True,
+) -> dict[str, Any]:
+    """Evaluate every kept checkpoint of ``run_dir`` (`checkpoint_measures`), choose the best by
+    ``by``, write ``run_dir/selection.csv`` and ``selection.json`` and copy the choice to
+    ``best.pt`` (unless ``copy`` is false); returns what ``selection.json`` holds.
+
+    ``by``: ``declutter`` (the declutter validation's SR; ``declutter_cr`` its CR), ``val_loss``
+    or a column of the run's ``metrics.csv`` (`direction` says which way is better). Ties go to
+    the earlier epoch (for ``declutter``, the higher CR first); checkpoints whose measure is
+    NaN are never chosen. The declutter validation (settings as `declutter_validation`'s) runs
+    when ``by`` is a declutter measure; results already cached for these settings are reported
+    either way. ``revalidate`` recomputes each checkpoint's validation metrics
+    (`validation_metrics` on ``data``/``datasets``) instead of reading metrics.csv, for
+    metrics added after the run trained.
+
+    Raises ValueError naming the argument (RUN_DIR, --by, seed, objects) before any
+    evaluation starts.
+    """
+    measure = ALIASES.get(by, by)
+    sign = direction(measure)
+    run = Path(run_dir)
+    checkpoints = find_checkpoints(run)
+    columns = {key for row in _metric_rows(run, checkpoints).values() for key in row}
+    columns -= set(BOOKKEEPING)
+    if measure not in DECLUTTER_MEASURES and not revalidate and measure not in columns:
+        raise ValueError(
+            f"--by: {by!r} is neither declutter, declutter_cr, val_loss nor a column of "
+            f"{run / 'metrics.csv'} or the checkpoints' history "
+            f"({', '.join(sorted(columns)) or 'none'}); --revalidate "
+            "recomputes the validation metrics, the top-k ones included"
+        )
+    settings = {
+        "objects": objects, "mesh_unit": mesh_unit, "scene": scene,
+        "num_objects": num_objects, "rounds": rounds, "seed": seed,
+    }  # fmt: skip
+    table = checkpoint_measures(
+        run, declutter=measure in DECLUTTER_MEASURES, parallel=parallel, revalidate=revalidate,
+        data=data, datasets=datasets, batch_size=batch_size, device=device, **settings,
+    )  # fmt: skip
+    chosen = _choose(table, measure, sign)
+    folder = run / "selection" / "declutter" / _slug(settings)
+    selection = {
+        "by": measure,
+        "better": "higher" if sign > 0 else "lower",
+        "chosen": {
+            "checkpoint": chosen["checkpoint"], "epoch": chosen["epoch"],
+            "value": chosen[measure], "sha256": chosen["sha256"],
+        },
+        "declutter": {**settings, "folder": str(folder)}
+        if measure in DECLUTTER_MEASURES else None,
+        "revalidated": revalidate,
+        "checkpoints": table,
+    }  # fmt: skip
+    _write_table(run / "selection.csv", table)
+    text = json.dumps(selection, indent=1) + "\n"
+    write_atomic(run / "selection.json", lambda file: file.write(text), mode="w")
+    if copy:
+        _install(run, run / chosen["checkpoint"], selection)
+    return selection
+
+
+def _declutter_columns(result: dict[str, Any]) -> dict[str, Any]:
+    """The declutter validation's numbers as flat columns of selection.csv."""
+    columns = {}
+    for short, name in (("sr", "success_ratio"), ("cr", "clear_ratio")):
+        low, high = result[f"{name}_ci95"]
+        columns.update({f"declutter_{short}": result[name], f"declutter_{short}_low": low,
+                        f"declutter_{short}_high": high})  # fmt: skip
+    columns.update(declutter_grasps=result["executed"], declutter_rounds=result["rounds"],
+                   declutter_errors=result["errors"])  # fmt: skip
+    return columns
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, int | float) and math.isfinite(value)
+
+
+def _choose(table: list[dict[str, Any]], measure: str, sign: int) -> dict[str, Any]:
+    """The row with the best finite ``measure``; ties: higher CR (declutter SR), earlier."""
+    candidates = [row for row in table if _finite(row.get(measure))]
+    if not candidates:
+        raise ValueError(
+            f"--by: no checkpoint has a value of {measure} (all missing or NaN, e.g. a "
+            "declutter validation without an executed grasp)"
+        )
+
+    def key(row: dict[str, Any]) -> tuple[float, float, int]:
+        second = row.get("declutter_cr") if measure == "declutter_sr" else None
+        return (sign * row[measure], second if _finite(second) else -math.inf, -row["epoch"])
+
+    return max(candidates, key=key)
+
+
+def _write_table(path: Path, table: list[dict[str, Any]]) -> None:
+    columns = list(dict.fromkeys(key for row in table for key in row))
+
+    def write(file: Any) -> None:
+        writer = csv.DictWriter(file, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(table)
+
+    write_atomic(path, write, "w", newline="")
+
+
+def _install(run: Path, chosen: Path, selection: dict[str, Any]) -> None:
+    """Copy ``chosen`` to ``run/best.pt`` with the choice recorded in it (``"selection"``),
+    atomically. A best.pt that training chose by validation loss is kept once, as
+    ``best_val_loss.pt``."""
+    from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
+
+    best = run / "best.pt"
+    if best.is_file() and not (run / "best_val_loss.pt").exists():
+        previous = load_checkpoint(best)
+        if "selection" not in previous:
+            save_checkpoint(run / "best_val_loss.pt", previous)
+    state = load_checkpoint(chosen)
+    state["selection"] = {key: value for key, value in selection.items() if key != "checkpoints"}
+    save_checkpoint(best, state)

@@ -1,0 +1,232 @@
+"""Model selection: choosing best.pt among a run's kept checkpoints by a metrics.csv column or
+the declutter validation, its cache, and its refusals (test seeds, test objects, bad input)."""
+
+import csv
+import functools
+import json
+import math
+import shutil
+
+import pytest
+from torch.utils.data import Dataset
+
+from symgrasp.cli import main
+from symgrasp.config import TEST_SEED_LIMIT, VALIDATION_SEED
+from symgrasp.model import TrainConfig, train
+from symgrasp.model import selection as sel
+from symgrasp.model.checkpoint import load_checkpoint
+from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
+
+SMALL = (2, 2, 4, 4)
+SHIPPED = "bingham2d-robotiq-2f85"
+
+
+class _Stored(Dataset):
+    """A synthetic dataset's scenes made once (each takes ≈ 0.5 s to make)."""
+
+    def __init__(self, dataset):
+        self.items = [dataset[i] for i in range(len(dataset))]
+        self.gripper, self.manifest = dataset.gripper, dataset.manifest
+
+    def __len__(self):
+        return len(self.items)
+
+    def __getitem__(self, index):
+        return self.items[index]
+
+
+@functools.cache
+def _val_data():
+    return _Stored(SyntheticGraspDataset(2, seed=9)), collate_scenes
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """A tiny synthetic run of 3 epochs that kept epoch_001.pt and epoch_002.pt (as
+    ``--keep-every 1`` would; epoch 3 is last.pt's)."""
+    run = tmp_path_factory.mktemp("trained") / "run"
+    data = (_Stored(SyntheticGraspDataset(2)), *_val_data())
+    for epochs in (1, 2, 3):
+        config = TrainConfig(
+            data="synthetic", out=str(run), epochs=epochs, batch_size=2, widths=SMALL,
+            features=4, lr=3e-3, resume=epochs > 1,
+        )  # fmt: skip
+        train(config, data)
+        if epochs < 3:
+            shutil.copy(run / "last.pt", run / f"epoch_{epochs:03d}.pt")
+    return run
+
+
+@pytest.fixture
+def run(trained, tmp_path):
+    shutil.copytree(trained, tmp_path / "run")
+    return tmp_path / "run"
+
+
+def _metrics(run):
+    with open(run / "metrics.csv") as file:
+        return {int(row["epoch"]): row for row in csv.DictReader(file)}
+
+
+@pytest.mark.parametrize(("by", "column", "sign"), [
+    ("val_loss", "val_total", -1), ("validity_ap", "validity_ap", 1),
+    ("ex_median_deg", "ex_median_deg", -1),
+])  # fmt: skip
+def test_a_metric_column_chooses_its_best_epoch(run, by, column, sign):
+    rows = _metrics(run)
+    expected = max(rows, key=lambda e: (sign * float(rows[e][column]), -e))
+    selection = sel.select_checkpoint(run, by)
+    assert [r["checkpoint"] for r in selection["checkpoints"]] == [
+        "epoch_001.pt", "epoch_002.pt", "last.pt"
+    ]  # fmt: skip
+    assert selection["chosen"]["epoch"] == expected
+    assert selection["by"] == column and selection["better"] == ("higher" if sign > 0 else "lower")
+    best = load_checkpoint(run / "best.pt")
+    assert best["epoch"] == expected and best["selection"]["by"] == column
+    assert (run / "best_val_loss.pt").is_file()  # training's choice, kept once
+    with open(run / "selection.csv") as file:
+        table = list(csv.DictReader(file))
+    assert [int(r["epoch"]) for r in table] == [1, 2, 3]
+    assert float(table[0][column]) == pytest.approx(float(rows[1][column]))
+    assert {"top1_valid", "top5_correct_near", "top_empty"} <= set(table[0])
+    assert json.loads((run / "selection.json").read_text())["chosen"]["epoch"] == expected
+
+
+def test_revalidation_recomputes_the_metrics_csv_values(run):
+    selection = sel.select_checkpoint(run, "top5_valid_near", revalidate=True,
+                                      datasets=_val_data(), copy=False)  # fmt: skip
+    rows = _metrics(run)
+    for row in selection["checkpoints"]:
+        for key in ("val_total", "validity_ap", "top1_valid", "top5_valid_near"):
+            assert row[key] == pytest.approx(float(rows[row["epoch"]][key]), abs=1e-5), key
+    assert not (run / "best_val_loss.pt").exists()  # copy=False: best.pt untouched
+
+
+def _fake_declutter(calls, ratios):
+    def run(path, out, parallel=None, **settings):
+        epoch = load_checkpoint(path)["epoch"]
+        calls.append(path.name)
+        assert settings["seed"] >= TEST_SEED_LIMIT
+        sr, cr = ratios[epoch]
+        return {"success_ratio": sr, "success_ratio_ci95": [sr - 0.1, sr + 0.1],
+                "clear_ratio": cr, "clear_ratio_ci95": [cr - 0.1, cr + 0.1],
+                "rounds": settings["rounds"], "objects": 10, "executed": 8, "successes": 6,
+                "errors": 0, "config": {}}  # fmt: skip
+
+    return run
+
+
+def test_declutter_selection_caches_each_checkpoint_and_breaks_ties_by_clear_ratio(
+    run, monkeypatch
+):
+    calls = []
+    ratios = {1: (0.5, 0.4), 2: (0.8, 0.5), 3: (0.8, 0.6)}
+    monkeypatch.setattr(sel, "declutter_validation", _fake_declutter(calls, ratios))
+    selection = sel.select_checkpoint(run, "declutter", rounds=3)
+    assert calls == ["epoch_001.pt", "epoch_002.pt", "last.pt"]
+    assert selection["chosen"]["checkpoint"] == "last.pt"  # SR tie with epoch 2, higher CR
+    assert selection["declutter"]["seed"] == VALIDATION_SEED
+    assert [r["declutter_sr"] for r in selection["checkpoints"]] == [0.5, 0.8, 0.8]
+    calls.clear()
+    again = sel.select_checkpoint(run, "declutter", rounds=3)  # resumed: all cached
+    assert calls == [] and again["chosen"] == selection["chosen"]
+    by_loss = sel.select_checkpoint(run, "val_loss", rounds=3)  # cached numbers reported
+    assert calls == [] and by_loss["checkpoints"][0]["declutter_sr"] == 0.5
+    sel.select_checkpoint(run, "declutter", rounds=4)  # other settings: evaluated anew
+    assert len(calls) == 3
+    calls.clear()
+    cached = sorted((run / "selection").glob("epoch_001-*.json"))
+    assert len(cached) == 1
+    cached[0].unlink()  # a checkpoint whose result was lost: only it reruns
+    sel.select_checkpoint(run, "declutter", rounds=3)
+    assert calls == ["epoch_001.pt"]
+
+
+def test_a_changed_checkpoint_is_evaluated_again(run, monkeypatch):
+    calls = []
+    monkeypatch.setattr(sel, "declutter_validation", _fake_declutter(calls, {1: (0.1, 0.1),
+                        2: (0.2, 0.2), 3: (0.3, 0.3)}))  # fmt: skip
+    sel.select_checkpoint(run, "declutter")
+    shutil.copy(run / "last.pt", run / "epoch_002.pt")  # epoch_002.pt now holds other weights
+    calls.clear()
+    sel.select_checkpoint(run, "declutter")
+    assert calls == ["epoch_002.pt"]
+
+
+def test_directions():
+    for measure in ("declutter", "declutter_cr", "validity_ap", "top1_valid", "top5_correct",
+                    "top1_valid_near", "top5_correct_near"):  # fmt: skip
+        assert sel.direction(measure) == 1, measure
+    for measure in ("val_loss", "val_total", "val_rotation", "score_mae", "ez_median_deg",
+                    "top1_ex_deg", "top_empty"):  # fmt: skip
+        assert sel.direction(measure) == -1, measure
+    for measure in ("lr", "epoch", "confidence_correct", "bogus"):
+        with pytest.raises(ValueError, match="--by"):
+            sel.direction(measure)
+
+
+@pytest.mark.parametrize(("objects", "rounds", "seed", "word"), [
+    ("household-train", 1, 0, "seed"), ("household-train", 20, 9_990, "seed"),
+    ("household-train", 1, TEST_SEED_LIMIT - 1, "seed"), ("vgn-pile-test", 1, VALIDATION_SEED,
+    "objects"), ("vgn-pile-train,household-test", 1, VALIDATION_SEED, "objects"),
+])  # fmt: skip
+def test_declutter_validation_refuses_test_seeds_and_test_objects(tmp_path, objects, rounds, seed,
+                                                                  word):  # fmt: skip
+    with pytest.raises(ValueError, match=word):
+        sel.declutter_validation(SHIPPED, tmp_path / "b", objects, rounds, seed)
+    assert not (tmp_path / "b").exists()
+
+
+def test_declutter_validation_of_a_shipped_model_runs(tmp_path):
+    result = sel.declutter_validation(
+        SHIPPED, tmp_path / "b", "household-train", rounds=1, num_objects=1
+    )
+    assert result["rounds"] == 1 and result["objects"] == 1 and result["errors"] == 0
+    assert result["config"]["seed"] == VALIDATION_SEED and not result["config"]["diagnose"]
+    assert json.loads((tmp_path / "b" / "rounds.jsonl").read_text())["seed"] == VALIDATION_SEED
+    for name in ("success_ratio", "clear_ratio"):
+        low, high = result[f"{name}_ci95"]
+        assert math.isnan(result[name]) or low <= result[name] <= high
+
+
+@pytest.mark.parametrize(("argv", "word"), [
+    (lambda d: ["select", str(d / "nothing"), "--by", "val_loss"], "RUN_DIR"),
+    (lambda d: ["select", str(d / "empty"), "--by", "val_loss"], "epoch_NNN.pt"),
+    (lambda d: ["select", str(d / "run"), "--by", "bogus"], "--by"),
+    (lambda d: ["select", str(d / "run"), "--by", "lr"], "--by"),
+    (lambda d: ["select", str(d / "run"), "--by", "declutter", "--seed", "5"], "seed"),
+    (lambda d: ["select", str(d / "run"), "--by", "declutter", "--objects", "vgn-pile-test"],
+     "objects"),
+    (lambda d: ["select", str(d / "run"), "--by", "declutter", "--rounds", "0"], "--rounds"),
+    (lambda d: ["select", str(d / "run")], "--by"),
+], ids=["missing", "no checkpoints", "unknown measure", "bookkeeping", "test seed",
+        "test objects", "no rounds", "no measure"])  # fmt: skip
+def test_bad_input_is_one_line_naming_the_argument(tmp_path, trained, capsys, argv, word):
+    shutil.copytree(trained, tmp_path / "run")
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty" / "last.pt").write_bytes(b"")
+    with pytest.raises(SystemExit) as stop:
+        main(argv(tmp_path))
+    message = str(stop.value.code) if stop.value.code != 2 else capsys.readouterr().err
+    assert word in message and message.strip().count("\n") == 0, message
+    assert not (tmp_path / "run" / "selection.json").exists()
+
+
+def test_the_command_line_selects_and_says_what_it_chose(run, capsys):
+    main(["select", str(run), "--by", "val_loss"])
+    out = capsys.readouterr().out
+    chosen = json.loads((run / "selection.json").read_text())["chosen"]
+    assert f"chosen: {chosen['checkpoint']}" in out and "lower is better" in out
+    assert load_checkpoint(run / "best.pt")["epoch"] == chosen["epoch"]
+
+
+def test_training_and_selection_modules_do_not_load_the_simulator():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, symgrasp.model.selection, symgrasp.model.train, symgrasp.model.metrics; "
+        "print(' '.join(m for m in ('torch', 'mujoco') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["torch"]  # the oracle: torch did load
