@@ -10,6 +10,7 @@ from symgrasp.config import (
     NetworkConfig,
     SceneConfig,
     TrainConfig,
+    ValidityLoss,
     field_docs,
 )
 
@@ -72,6 +73,26 @@ def test_train_options_build_the_whole_configuration():
     assert config == expected
 
 
+def test_train_recipe_options_reach_the_configuration():
+    argv = ["train", "--data", "d", "--out", "r", "--schedule", "onecycle", "--warmup", "0.3",
+            "--min-lr", "1e-6", "--ema", "0.999", "--weight-decay", "0.01", "--validity-loss",
+            "focal", "--focal-gamma", "1.5", "--focal-alpha", "0.25", "--train-scenes", "900",
+            "--keep-every", "5"]  # fmt: skip
+    config = config_from_args(
+        TrainConfig, build_parser().parse_args(argv), prefixes=_TRAIN_PREFIXES
+    )
+    expected = TrainConfig(
+        "d", "r", schedule="onecycle", warmup=0.3, min_lr=1e-6, ema=0.999, weight_decay=0.01,
+        validity_loss="focal", focal_gamma=1.5, focal_alpha=0.25, train_scenes=900, keep_every=5,
+    )  # fmt: skip
+    assert config == expected
+    assert config.validity == ValidityLoss("focal", 1.5, 0.25)
+    defaults = config_from_args(
+        TrainConfig, build_parser().parse_args(argv[:5]), prefixes=_TRAIN_PREFIXES
+    )
+    assert defaults == TrainConfig("d", "r")
+
+
 def test_nested_options_reach_the_database_and_its_policy_applies():
     args = build_parser().parse_args(["data", "generate", "--out", "o", "--grasps", "1000"])
     database = config_from_args(SceneConfig, args).database
@@ -80,7 +101,16 @@ def test_nested_options_reach_the_database_and_its_policy_applies():
 
 
 @pytest.mark.parametrize(
-    "cls", [SceneConfig, DatabaseConfig, TrainConfig, LossWeights, NetworkConfig, BenchmarkConfig]
+    "cls",
+    [
+        SceneConfig,
+        DatabaseConfig,
+        TrainConfig,
+        LossWeights,
+        NetworkConfig,
+        ValidityLoss,
+        BenchmarkConfig,
+    ],
 )
 def test_every_configuration_field_is_documented(cls):
     import dataclasses

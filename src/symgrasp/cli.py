@@ -41,6 +41,8 @@ from symgrasp.names import (
     OBJECT_SETS,
     REPRESENTATIONS,
     SCENES,
+    SCHEDULES,
+    VALIDITY_LOSSES,
 )
 from symgrasp.objects.folder import data_folder
 from symgrasp.parallel import TasksFailed
@@ -86,6 +88,8 @@ SHARED = {
     "representation": ("--rep", {"choices": REPRESENTATIONS}),
     "kinds": ("--kinds", {"choices": SCENES}),
     "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),
+    "schedule": ("--schedule", {"choices": SCHEDULES}),
+    "validity_loss": ("--validity-loss", {"choices": VALIDITY_LOSSES}),
 }
 """How a field of these names appears on any command line: its flag and its choices."""
 
@@ -413,7 +417,8 @@ def _add_export(subparsers: argparse._SubParsersAction) -> None:
         "export",
         help="strip a training checkpoint down to a shippable model",
         description="Copy a checkpoint written by `symgrasp train` without its optimizer state "
-        "(what symgrasp ships in symgrasp/detect/models/).",
+        "and, for a run with --ema, its trained weights next to the average (what symgrasp "
+        "ships in symgrasp/detect/models/).",
     )
     parser.add_argument("checkpoint", help="checkpoint path, e.g. runs/NAME/best.pt")
     parser.add_argument("out", help="output .pt path")

@@ -19,7 +19,14 @@ import textwrap
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from symgrasp.names import BACKENDS, MESH_UNITS, REPRESENTATIONS, SCENES
+from symgrasp.names import (
+    BACKENDS,
+    MESH_UNITS,
+    REPRESENTATIONS,
+    SCENES,
+    SCHEDULES,
+    VALIDITY_LOSSES,
+)
 
 if TYPE_CHECKING:
     from symgrasp.sim.grippers import GripperSpec
@@ -57,6 +64,10 @@ def check_range(name: str, value: Any, lo: float, hi: float, integer: bool = Tru
     if not (isinstance(value, kind) and not isinstance(value, bool) and lo <= value <= hi):
         what = "an integer" if integer else "a number"  # NaN fails the comparison too
         raise ValueError(f"{name} must be {what} in [{_number(lo)}, {_number(hi)}], got {value!r}")
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
 def _number(x: float) -> str:
@@ -243,6 +254,37 @@ class LossWeights:
             check_range(f"weight of the {name} loss", getattr(self, name), 0, 1e6, integer=False)
 
 
+def _check_choice(name: str, value: Any, choices: tuple[str, ...]) -> None:
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
+
+
+@dataclass(frozen=True)
+class ValidityLoss:
+    """The loss of the validity head (`symgrasp.model.loss`): binary cross-entropy, or the
+    focal loss of Lin et al. 2017, which scales each voxel's cross-entropy by (1 − p_t)^γ."""
+
+    kind: str = "bce"
+    """"bce" (binary cross-entropy) or "focal"."""
+    focal_gamma: float = 2.0
+    """Focusing exponent γ of the focal loss (0: cross-entropy)."""
+    focal_alpha: float | None = None
+    """Weight α of the valid voxels in the focal loss, 1 − α of the others (None: 1 for
+    both)."""
+
+    def __post_init__(self) -> None:
+        _check_choice("validity_loss", self.kind, VALIDITY_LOSSES)
+        check_range("focal_gamma", self.focal_gamma, 0, 10, integer=False)
+        if self.focal_alpha is not None:
+            check_range("focal_alpha", self.focal_alpha, 0, 1, integer=False)
+        if self.kind == "bce" and (self.focal_gamma != 2.0 or self.focal_alpha is not None):
+            raise ValueError(
+                "focal_gamma and focal_alpha are options of the focal loss (validity_loss "
+                f"'focal'); the validity loss is 'bce', got focal_gamma {self.focal_gamma!r}, "
+                f"focal_alpha {self.focal_alpha!r}"
+            )
+
+
 @dataclass
 class TrainConfig:
     """Everything a training run depends on (stored in every checkpoint)."""
@@ -261,7 +303,7 @@ class TrainConfig:
     batch_size: int = 4
     """Scenes per batch."""
     lr: float = 1e-3
-    """Adam learning rate."""
+    """Adam learning rate (the peak of a schedule)."""
     seed: int = 0
     """Seed of the initial weights, the batches and the augmentation."""
     device: str = "auto"
@@ -278,6 +320,34 @@ class TrainConfig:
     """Channels of the feature volume the heads read."""
     loss_weights: LossWeights = field(default_factory=LossWeights)
     """Weights of the loss terms."""
+    schedule: str = "constant"
+    """Learning-rate schedule over all optimizer steps of the run: "constant", "cosine" (decay
+    to min_lr) or "onecycle" (up from lr/25 over the warmup fraction, then down to min_lr);
+    see docs/model.md."""
+    warmup: float = 0.0
+    """Fraction of all optimizer steps spent warming up: linearly from 0 to lr for constant and
+    cosine, the rising phase of onecycle (which needs it above 0)."""
+    min_lr: float = 0.0
+    """Learning rate at the last step of a cosine or onecycle schedule."""
+    ema: float = 0.0
+    """Decay of the exponential moving average of the weights, updated after every optimizer
+    step, in [0, 1) (0: off); when on, validation, best.pt and the checkpoints' model are the
+    average."""
+    weight_decay: float = 0.0
+    """Decoupled weight decay (AdamW) of every weight (0: plain Adam)."""
+    validity_loss: str = "bce"
+    """Loss of the validity head: "bce" (binary cross-entropy) or "focal" (Lin et al. 2017);
+    both are summed over the voxels and divided by the number of valid voxels."""
+    focal_gamma: float = 2.0
+    """Focusing exponent γ of the focal validity loss (0: cross-entropy)."""
+    focal_alpha: float | None = None
+    """Weight α of the valid voxels in the focal validity loss, 1 − α of the others (default:
+    no weighting)."""
+    train_scenes: int = 0
+    """Train on the first N scenes of the train split by scene id (0: all); the validation split
+    is unchanged."""
+    keep_every: int = 0
+    """Also keep epoch_NNN.pt (what last.pt holds then) every N epochs (0: never)."""
 
     def __post_init__(self) -> None:
         if not self.data or not self.out:
@@ -291,10 +361,34 @@ class TrainConfig:
             self.loss_weights = LossWeights(**self.loss_weights)
         self.widths = tuple(self.widths)
         NetworkConfig(self.representation, self.widths, self.features)  # checks them
+        _check_choice("schedule", self.schedule, SCHEDULES)
+        check_range("warmup", self.warmup, 0, 1, integer=False)
+        if self.schedule == "onecycle" and not 0 < self.warmup < 1:
+            raise ValueError(
+                f"the onecycle schedule needs warmup in (0, 1), the fraction of its rising phase "
+                f"(Smith & Topin use 0.3), got {self.warmup!r}"
+            )
+        check_range("min_lr", self.min_lr, 0, self.lr, integer=False)
+        if self.schedule == "constant" and self.min_lr != 0:
+            raise ValueError(
+                f"min_lr is where a cosine or onecycle schedule ends; the schedule is "
+                f"'constant', got min_lr {self.min_lr!r}"
+            )
+        if not (_is_number(self.ema) and 0 <= self.ema < 1):  # 1 would never leave the start
+            raise ValueError(f"ema must be a number in [0, 1) (0: off), got {self.ema!r}")
+        check_range("weight_decay", self.weight_decay, 0, 1, integer=False)
+        ValidityLoss(self.validity_loss, self.focal_gamma, self.focal_alpha)  # checks them
+        check_range("train_scenes", self.train_scenes, 0, 10**8)
+        check_range("keep_every", self.keep_every, 0, 100_000)
 
     @property
     def network(self) -> NetworkConfig:
         return NetworkConfig(self.representation, self.widths, self.features)
+
+    @property
+    def validity(self) -> ValidityLoss:
+        """The validity loss of ``validity_loss``, ``focal_gamma`` and ``focal_alpha``."""
+        return ValidityLoss(self.validity_loss, self.focal_gamma, self.focal_alpha)
 
 
 @dataclass(frozen=True, kw_only=True)

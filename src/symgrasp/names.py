@@ -31,6 +31,12 @@ millimetres from each mesh's size."""
 SCENES = ("pile", "packed")
 """Scene kinds (`symgrasp.sim.world`)."""
 
+SCHEDULES = ("constant", "cosine", "onecycle")
+"""Learning-rate schedules of training (`symgrasp.model.schedule`)."""
+
+VALIDITY_LOSSES = ("bce", "focal")
+"""Losses of the validity head (`symgrasp.model.loss`)."""
+
 PRETRAINED = ("bingham2d-robotiq-2f85", "bingham2d-franka")
 """Models shipped with the package (`symgrasp.detect.pretrained`)."""
 

@@ -1,6 +1,7 @@
 """Training: checkpoints, resume equivalence, clear errors, the CLI, and a tiny overfit."""
 
 import csv
+import math
 
 import pytest
 import torch
@@ -15,9 +16,27 @@ from symgrasp.sim import ROBOTIQ_2F85
 SMALL = (2, 2, 4, 4)  # widths of a tiny network: these tests check the loop, not learning
 
 
-def _data(gripper="robotiq-2f85", scenes=3):
+class _Stop(Exception):
+    """Stands for a run killed between two epochs."""
+
+
+class _StopsAt(SyntheticGraspDataset):
+    """Synthetic scenes whose run is killed when epoch ``stop`` (0-based) is about to start."""
+
+    def __init__(self, scenes, gripper, stop):
+        super().__init__(scenes, gripper=gripper)
+        self.stop = stop
+
+    def set_epoch(self, epoch):
+        if epoch == self.stop:
+            raise _Stop
+
+
+def _data(gripper="robotiq-2f85", scenes=3, stop_at=None):
     return (
-        SyntheticGraspDataset(scenes, gripper=gripper),
+        SyntheticGraspDataset(scenes, gripper=gripper)
+        if stop_at is None
+        else _StopsAt(scenes, gripper, stop_at),
         SyntheticGraspDataset(1, gripper=gripper, seed=9),
         collate_scenes,
     )
@@ -87,6 +106,58 @@ def test_resume_gives_the_same_weights_as_an_uninterrupted_run(tmp_path):
     assert all(torch.equal(straight[key], resumed[key]) for key in straight)
     with pytest.raises(ValueError, match="already holds a run"):
         train(_config(tmp_path, "straight"), _data())
+
+
+RECIPE = dict(
+    schedule="cosine", warmup=0.3, min_lr=1e-5, ema=0.8, weight_decay=0.01,
+    validity_loss="focal", focal_alpha=0.25,
+)  # fmt: skip
+"""Every option that carries state across epochs: the step count of the schedule, the weight
+average, AdamW's decay."""
+
+
+def test_a_run_stopped_between_epochs_resumes_bit_for_bit(tmp_path):
+    train(_config(tmp_path, "straight", epochs=3, **RECIPE), _data())
+    with pytest.raises(_Stop):
+        train(_config(tmp_path, "stopped", epochs=3, **RECIPE), _data(stop_at=1))
+    assert load_checkpoint(tmp_path / "stopped" / "last.pt")["epoch"] == 1
+    train(_config(tmp_path, "stopped", epochs=3, resume=True, **RECIPE), _data())
+    straight, resumed = (
+        load_checkpoint(tmp_path / run / "last.pt") for run in ("straight", "stopped")
+    )
+    for key in ("model", "model_raw"):  # the weight average and the trained weights
+        assert all(torch.equal(straight[key][name], resumed[key][name]) for name in straight[key])
+    for column in ("lr", "train_total", "val_total"):
+        assert [row[column] for row in straight["history"]] == [
+            row[column] for row in resumed["history"]
+        ]
+    rates = [row["lr"] for row in straight["history"]]
+    # step 1 of 6 warms up (lr / 2), step 3 is past the cosine's peak, step 5 its end: min_lr
+    assert rates == [
+        5e-4,
+        pytest.approx(1e-5 + (1e-3 - 1e-5) * 0.5 * (1 + math.cos(math.pi / 3))),
+        1e-5,
+    ]
+
+
+def test_the_default_recipe_is_adam_at_a_constant_lr(tmp_path):
+    """The oracle: a plain Adam loop over the same batches gives the same weights."""
+    config = _config(tmp_path, epochs=1)
+    train(config, _data())
+    state = load_checkpoint(tmp_path / "run" / "last.pt")
+    torch.manual_seed(config.seed)
+    net = GraspNet(config.network)
+    optimizer = torch.optim.Adam(net.parameters(), lr=config.lr)
+    scenes = _data()[0]
+    order = torch.randperm(3, generator=torch.Generator().manual_seed(config.seed * 1_000_003))
+    for batch in order.split(config.batch_size):
+        batch = collate_scenes([scenes[i] for i in batch.tolist()])
+        loss = grasp_losses(net(batch["tsdf"]), batch, net.representation)["total"]
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+    assert all(torch.equal(state["model"][name], v) for name, v in net.state_dict().items())
+    assert "model_raw" not in state and state["history"][0]["lr"] == config.lr
 
 
 def test_clear_errors_for_another_gripper_or_representation(tmp_path):

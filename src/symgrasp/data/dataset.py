@@ -174,6 +174,7 @@ class GraspDataset(Dataset):
         self.k_max: int = int(self.manifest["k_max"])
         self.augment, self.seed = augment, seed
         self.paths: list[Path] = []
+        self.scene_ids: list[int] = []  # of the items, in the order of paths
         self.skipped: list[Path] = []
         for scene_id in self.manifest["scene_ids"]:
             if not in_split(scene_id, split):
@@ -191,6 +192,7 @@ class GraspDataset(Dataset):
                 self.skipped.append(path)
                 continue
             self.paths.append(path)
+            self.scene_ids.append(int(scene_id))
         self.epoch = 0
 
     def set_epoch(self, epoch: int) -> None:

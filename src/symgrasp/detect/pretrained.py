@@ -37,11 +37,14 @@ def resolve_model(name_or_path: str | Path) -> Path:
 
 
 def export_model(checkpoint: str | Path, out: str | Path) -> Path:
-    """Write ``checkpoint`` without its optimizer state to ``out`` (what gets shipped)."""
+    """Write ``checkpoint`` without its optimizer state (nor, for a run with a weight average,
+    its trained weights ``model_raw``: ``model`` is the average) to ``out`` (what gets
+    shipped)."""
     if Path(out).is_dir():
         raise ValueError(f"out {out} is a folder; give the .pt file to write")
     state = load_checkpoint(checkpoint)
     state.pop("optimizer", None)
+    state.pop("model_raw", None)
     state.pop("format", None)
     save_checkpoint(out, state)
     return Path(out)

@@ -2,12 +2,15 @@
 
 - `network`: `GraspNet` (3D encoder–decoder + score, validity and rotation heads),
   `NetworkConfig`, `count_parameters`, `count_flops`;
-- `loss`: `grasp_losses` (validity BCE + score L2 + the representation's rotation loss);
+- `loss`: `grasp_losses` (validity BCE or focal + score L2 + the representation's rotation
+  loss);
 - `metrics`: validity AP, score MAE, rotation errors up to the flip, Bingham confidence, the
   top-k metrics of the voxels the detector would pick (`ranking.rank_voxels`);
 - `selection`: choosing a run's best.pt by a validation measure or a declutter validation on
   training objects (``symgrasp select``);
 - `checkpoint`: `save_checkpoint`, `load_checkpoint`, `load_model`;
+- `schedule`: `learning_rate`, the lr of every optimizer step;
+- `averaging`: `WeightAverage`, the exponential moving average of the weights;
 - `train`: `TrainConfig` and `train`, what ``symgrasp train`` runs;
 - `synthetic`: analytic box scenes that follow the dataset contract, for tests and benchmarks.
 

@@ -5,7 +5,9 @@ A checkpoint is a ``torch.save`` dict holding ``format``, ``symgrasp_version``,
 checkpoints), ``object_set``, ``dataset_hash``, ``network`` (the
 `NetworkConfig` as a dict), ``config`` (the `TrainConfig` as a dict), ``epoch`` (epochs done),
 ``history`` (one metrics dict per epoch), ``best_val_loss``, ``model`` and ``optimizer`` state.
-It loads with ``weights_only=True``: plain data and tensors only.
+A run trained with ``ema`` holds the weight average in ``model`` (what `load_model` loads) and the
+trained weights in ``model_raw`` (only to resume). It loads with ``weights_only=True``: plain data
+and tensors only.
 """
 
 from __future__ import annotations

@@ -1,9 +1,12 @@
-"""The training loss: validity BCE + score L2 + the representation's rotation loss.
+"""The training loss: validity BCE (or focal) + score L2 + the representation's rotation loss.
 
 Following the paper (Appx. C), with a batch from `symgrasp.data.dataset.collate_scenes`:
 
 - **validity**: binary cross-entropy of the validity logit against ``valid``, summed over every
-  voxel of the batch and divided by the number of valid voxels;
+  voxel of the batch and divided by the number of valid voxels; or, with
+  ``ValidityLoss("focal", γ, α)``, the focal loss of Lin et al. 2017,
+  −α_t (1 − p_t)^γ log p_t per voxel (p_t the predicted probability of the voxel's label,
+  α_t = α at valid voxels and 1 − α elsewhere, or 1 without α), normalised the same way;
 - **score**: squared error of the gravity-rejection score at the valid voxels, mean over them
   (elsewhere the label is 0 by convention, not a measurement; the validity head covers it);
 - **rotation**: ``representation.loss(pred, rotations, rotation_mask)`` (Eq. 8 for
@@ -22,7 +25,7 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 
-from symgrasp.config import LossWeights
+from symgrasp.config import LossWeights, ValidityLoss
 from symgrasp.model.network import GraspOutput
 from symgrasp.rotation import Representation
 
@@ -40,22 +43,47 @@ def at_voxels(volume: Tensor, voxel_index: Tensor) -> Tensor:
     return volume[b, i, j, k]
 
 
+def focal_loss(logits: Tensor, labels: Tensor, gamma: float, alpha: float | None) -> Tensor:
+    """Per-element focal loss −α_t (1 − p_t)^γ log p_t (Lin et al. 2017) of ``logits`` against
+    ``labels`` in {0, 1} (same shape, float); γ = 0 without α is the cross-entropy exactly."""
+    cross_entropy = F.binary_cross_entropy_with_logits(logits, labels, reduction="none")
+    loss = cross_entropy
+    if gamma != 0:
+        # 1 − p_t = 1 − exp(−CE), accurate for small CE; kept above 0 so that γ < 1 has a
+        # finite gradient where p_t rounds to 1
+        miss = (-torch.expm1(-cross_entropy)).clamp_min(torch.finfo(logits.dtype).tiny)
+        loss = loss * miss.pow(gamma)
+    if alpha is not None:
+        loss = loss * (alpha * labels + (1 - alpha) * (1 - labels))
+    return loss
+
+
+def _validity_sum(logits: Tensor, labels: Tensor, loss: ValidityLoss | None) -> Tensor:
+    """The validity loss of ``logits`` [B, D, H, W] against ``labels`` (same shape, 0 or 1),
+    summed over the voxels."""
+    if loss is None or loss.kind == "bce":
+        return F.binary_cross_entropy_with_logits(logits, labels, reduction="sum")
+    return focal_loss(logits, labels, loss.focal_gamma, loss.focal_alpha).sum()
+
+
 def grasp_losses(
     output: GraspOutput,
     batch: dict[str, Tensor],
     representation: Representation,
     weights: LossWeights | None = None,
+    validity_loss: ValidityLoss | None = None,
 ) -> dict[str, Tensor]:
     """``{"total", "validity", "score", "rotation"}`` scalar losses of one batch.
 
     The rotation loss runs in float32 (the Bingham normaliser in float64 inside it) whatever
     the network's precision. A batch without valid voxels has score and rotation losses 0.
+    ``validity_loss``: binary cross-entropy by default.
     """
     weights = weights or LossWeights()
     index = batch["voxel_index"]
-    validity = F.binary_cross_entropy_with_logits(
-        output.validity.float(), batch["valid"], reduction="sum"
-    ) / max(len(index), 1)
+    validity = _validity_sum(output.validity.float(), batch["valid"], validity_loss) / max(
+        len(index), 1
+    )
     if len(index) == 0:
         zero = output.score.float().sum() * 0 + output.rotation.float().sum() * 0
         score, rotation_loss = zero, zero

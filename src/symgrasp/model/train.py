@@ -1,12 +1,19 @@
 """Training of the grasp detector: one readable loop, configured by a plain dataclass.
 
 ``train(TrainConfig(...))`` reads ``symgrasp.data.dataset.GraspDataset`` (train and val splits
-of ``config.data``), trains `GraspNet` with Adam on `grasp_losses`, validates after every epoch
-and writes into ``config.out``:
+of ``config.data``; ``train_scenes``: the first N training scenes), trains `GraspNet` with Adam
+(AdamW with ``weight_decay``) on `grasp_losses`, the lr of each step from
+`symgrasp.model.schedule`, validates after every epoch and writes into ``config.out``:
 
-- ``last.pt`` after every epoch and ``best.pt`` at the lowest validation loss (`checkpoint`);
-- ``metrics.csv``: one row per epoch, training losses and validation losses and metrics;
+- ``last.pt`` after every epoch, ``best.pt`` at the lowest validation loss (`checkpoint`) and,
+  with ``keep_every`` N, ``epoch_NNN.pt`` every N epochs;
+- ``metrics.csv``: one row per epoch, training losses and validation losses and metrics, and
+  ``lr``, the learning rate of the epoch's last step;
 - ``learning_curve.png``: the same as plots.
+
+With ``ema`` on, an exponential moving average of the weights (`symgrasp.model.averaging`) is
+what is validated and what the checkpoints' ``model`` holds (what `load_model` loads); the
+trained weights themselves are kept as ``model_raw`` so that a run resumes exactly.
 
 Same seed, same result: the weights are initialised from ``config.seed``, epoch e shuffles with
 a generator seeded from (seed, e) and selects the dataset's augmentation draws of epoch e
@@ -26,6 +33,7 @@ the world size, the global batch and the learning rate.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -40,13 +48,15 @@ from tqdm import tqdm
 
 import symgrasp
 from symgrasp.atomic import write_atomic
-from symgrasp.config import LossWeights, TrainConfig
+from symgrasp.config import LossWeights, TrainConfig, ValidityLoss
 from symgrasp.device import resolve_device
 from symgrasp.model import distributed
+from symgrasp.model.averaging import WeightAverage
 from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
 from symgrasp.model.loss import grasp_losses
 from symgrasp.model.metrics import MetricAccumulator
 from symgrasp.model.network import GraspNet
+from symgrasp.model.schedule import learning_rate
 from symgrasp.sim.grippers import get_gripper, same_name_note
 
 Tensor = torch.Tensor
@@ -73,6 +83,34 @@ def open_dataset(config: TrainConfig) -> tuple[Dataset, Dataset, Collate]:
     return train_set, val_set, collate_scenes
 
 
+class FirstScenes(Dataset):
+    """The first ``count`` scenes of ``dataset`` by scene id (its ``scene_ids``, one per item,
+    else the item indices), with its ``gripper``, ``manifest`` and ``set_epoch``: an item is
+    the dataset's item of that scene, augmented as it would be there."""
+
+    def __init__(self, dataset: Any, count: int) -> None:
+        ids = list(getattr(dataset, "scene_ids", range(len(dataset))))
+        if not 1 <= count <= len(ids):
+            raise ValueError(
+                f"train_scenes must be in [1, {len(ids)}], the scenes of the training split, "
+                f"got {count}"
+            )
+        self.dataset = dataset
+        self.indices = sorted(range(len(ids)), key=ids.__getitem__)[:count]
+        self.scene_ids = [ids[i] for i in self.indices]
+        self.gripper, self.manifest = dataset.gripper, dataset.manifest
+
+    def set_epoch(self, epoch: int) -> None:
+        if hasattr(self.dataset, "set_epoch"):
+            self.dataset.set_epoch(epoch)
+
+    def __len__(self) -> int:
+        return len(self.indices)
+
+    def __getitem__(self, i: int) -> dict[str, Tensor]:
+        return self.dataset[self.indices[i]]
+
+
 def check_dataset(dataset: Any, config: TrainConfig) -> None:
     """Raise ValueError unless ``dataset`` was produced for ``config.gripper`` (the same spec)."""
     asked = get_gripper(config.gripper)
@@ -94,6 +132,8 @@ def train(
     pass the synthetic dataset); each split needs the contract's ``gripper`` and ``manifest``.
     """
     train_set, val_set, collate = datasets or open_dataset(config)
+    if config.train_scenes:
+        train_set = FirstScenes(train_set, config.train_scenes)
     for dataset in (train_set, val_set):
         check_dataset(dataset, config)
     rank, world, device = distributed.start(resolve_device(config.device))
@@ -107,13 +147,22 @@ def train(
         torch.backends.cudnn.benchmark = False
         torch.use_deterministic_algorithms(True, warn_only=True)
     net = GraspNet(config.network).to(device)
-    optimizer = torch.optim.Adam(net.parameters(), lr=config.lr)
+    if config.weight_decay:
+        optimizer = torch.optim.AdamW(net.parameters(), config.lr, weight_decay=config.weight_decay)
+    else:
+        optimizer = torch.optim.Adam(net.parameters(), lr=config.lr)
+    average = WeightAverage(net, config.ema) if config.ema else None
+    validated = average.module if average else net  # validated, saved as "model"
     history: list[dict[str, float]] = []
     best_val_loss = math.inf
     if config.resume:
         state = load_checkpoint(out / "last.pt", config.representation, device)
         _check_resume(state, train_set, config)
-        net.load_state_dict(state["model"])
+        if average:
+            net.load_state_dict(state["model_raw"])
+            average.module.load_state_dict(state["model"])
+        else:
+            net.load_state_dict(state["model"])
         optimizer.load_state_dict(state["optimizer"])
         history, best_val_loss = state["history"], state["best_val_loss"]
     elif (out / "last.pt").exists():
@@ -140,10 +189,14 @@ def train(
         if hasattr(train_set, "set_epoch"):  # the dataset's augmentation draws of this epoch
             train_set.set_epoch(epoch)
         bar.set_description(f"epoch {epoch + 1}/{config.epochs}")
-        train_losses = _train_epoch(model, net, optimizer, train_loader, config, world, bar)
+        train_losses, lr = _train_epoch(
+            model, net, optimizer, average, train_loader, epoch, config, world, bar
+        )
         if rank > 0:  # validation, checkpoints and metrics are rank 0's
             continue
-        val_losses, metrics = evaluate(net, val_loader, config.loss_weights, device)
+        val_losses, metrics = evaluate(
+            validated, val_loader, config.loss_weights, device, config.validity
+        )
         _check_finite(torch.tensor(val_losses["total"]), "validation loss", config)
         row = {
             "epoch": epoch + 1,
@@ -152,7 +205,7 @@ def train(
             **metrics,
             "world_size": world,
             "global_batch_size": config.batch_size,
-            "lr": config.lr,
+            "lr": lr,
             "seconds": time.perf_counter() - start,
         }
         history.append(row)
@@ -168,10 +221,13 @@ def train(
             "world_size": world,
             "history": history,
             "best_val_loss": min(best_val_loss, val_losses["total"]),
-            "model": net.state_dict(),
+            "model": validated.state_dict(),
+            **({"model_raw": net.state_dict()} if average else {}),
             "optimizer": optimizer.state_dict(),
         }
         save_checkpoint(out / "last.pt", state)
+        if config.keep_every and (epoch + 1) % config.keep_every == 0:
+            save_checkpoint(out / f"epoch_{epoch + 1:03d}.pt", state)
         if val_losses["total"] < best_val_loss:
             best_val_loss = val_losses["total"]
             save_checkpoint(out / "best.pt", state)
@@ -215,6 +271,43 @@ def _check_resume(state: dict[str, Any], train_set: Any, config: TrainConfig) ->
             f"cannot resume: network {asdict(config.network)} differs from the checkpoint's "
             f"{state['network']}"
         )
+    # a checkpoint from before a field existed was trained with its default
+    recorded = {**_RECIPE_DEFAULTS, **state["config"]}
+    fixed = _RECIPE if _flat(config) else (*_RECIPE, "epochs", "batch_size")
+    changed = [name for name in fixed if recorded[name] != getattr(config, name)]
+    if changed:
+        raise ValueError(
+            "cannot resume: the checkpoint's run has "
+            + ", ".join(f"{name} {recorded[name]!r}" for name in changed)
+            + "; asked for "
+            + ", ".join(f"{name} {getattr(config, name)!r}" for name in changed)
+            + " (a run keeps its recipe"
+            + ("" if _flat(config) else " and the length its lr schedule spans")
+            + "; start a new --out to change it)"
+        )
+
+
+_RECIPE = (
+    "lr",
+    "schedule",
+    "warmup",
+    "min_lr",
+    "ema",
+    "weight_decay",
+    "validity_loss",
+    "focal_gamma",
+    "focal_alpha",
+    "train_scenes",
+)
+"""The fields of `TrainConfig` a resumed run must keep: changed midway, they would make a run
+that no straight run reproduces."""
+
+_RECIPE_DEFAULTS = {f.name: f.default for f in dataclasses.fields(TrainConfig) if f.name in _RECIPE}
+
+
+def _flat(config: TrainConfig) -> bool:
+    """Whether the lr does not depend on the run's length (more epochs can be added)."""
+    return config.schedule == "constant" and config.warmup == 0
 
 
 def _autocast(device: torch.device) -> torch.autocast:
@@ -232,34 +325,44 @@ def _train_epoch(
     model: torch.nn.Module,
     net: GraspNet,
     optimizer: torch.optim.Optimizer,
+    average: WeightAverage | None,
     loader: DataLoader,
+    epoch: int,
     config: TrainConfig,
     world: int,
     bar: tqdm,
-) -> dict[str, float]:
-    """One pass over ``loader`` (this rank's slices of the global batches); the mean of each
-    loss over the global batches. ``model`` is ``net`` or its DistributedDataParallel wrapper."""
+) -> tuple[dict[str, float], float]:
+    """Epoch ``epoch`` (0-based): one pass over ``loader`` (this rank's slices of the global
+    batches); the mean of each loss over the global batches and the lr of the last step.
+    ``model`` is ``net`` or its DistributedDataParallel wrapper."""
     model.train()
     device = next(net.parameters()).device
     sums: dict[str, float] = {}
     shown = 0.0  # this rank's running mean, for the progress bar
+    total, lr = config.epochs * len(loader), config.lr
+    validity = config.validity
     for step, batch in enumerate(loader, start=1):
         batch = _to(batch, device)
         with _autocast(device):
             output = model(batch["tsdf"])
-        losses = grasp_losses(output, batch, net.representation, config.loss_weights)
+        losses = grasp_losses(output, batch, net.representation, config.loss_weights, validity)
         _check_finite(losses["total"], f"training loss at step {step}", config)
         share = distributed.pooled_share(len(batch["voxel_index"]), device)  # 1 alone
         optimizer.zero_grad(set_to_none=True)
         (losses["total"] * (share * world)).backward()  # DDP divides the gradient sum by world
+        lr = learning_rate(config, epoch * len(loader) + step - 1, total)
+        for group in optimizer.param_groups:
+            group["lr"] = lr
         optimizer.step()
+        if average is not None:
+            average.update(net)
         for key, value in losses.items():
             sums[key] = sums.get(key, 0.0) + value.item() * share
         shown += (losses["total"].item() - shown) / step
         bar.set_postfix(loss=f"{shown:.4f}")
         bar.update()
     sums = distributed.sum_over_ranks(sums, device)
-    return {key: value / max(len(loader), 1) for key, value in sums.items()}
+    return {key: value / max(len(loader), 1) for key, value in sums.items()}, lr
 
 
 @torch.no_grad()
@@ -268,8 +371,10 @@ def evaluate(
     loader: DataLoader,
     weights: LossWeights | None = None,
     device: torch.device | str = "cpu",
+    validity_loss: ValidityLoss | None = None,
 ) -> tuple[dict[str, float], dict[str, float]]:
-    """Mean losses (per batch) and `MetricAccumulator` metrics of ``model`` on ``loader``."""
+    """Mean losses (per batch; the validity loss ``validity_loss``, default BCE) and
+    `MetricAccumulator` metrics of ``model`` on ``loader``."""
     device, weights = torch.device(device), weights or LossWeights()
     model.eval()
     accumulator = MetricAccumulator(model.representation)
@@ -278,7 +383,8 @@ def evaluate(
         batch = _to(batch, device)
         with _autocast(device):
             output = model(batch["tsdf"])
-        for key, value in grasp_losses(output, batch, model.representation, weights).items():
+        losses = grasp_losses(output, batch, model.representation, weights, validity_loss)
+        for key, value in losses.items():
             sums[key] = sums.get(key, 0.0) + value.item()
         accumulator.update(output, batch)
     return {k: v / max(len(loader), 1) for k, v in sums.items()}, accumulator.compute()
