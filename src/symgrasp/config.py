@@ -313,7 +313,8 @@ class TrainConfig:
     augment: bool = True
     """Let the dataset augment the training split."""
     resume: bool = False
-    """Continue the run in ``out`` from its last.pt."""
+    """Continue the run in ``out`` from its last.pt; with none there, start it (so a script
+    that runs across sessions can always pass it)."""
     widths: tuple[int, int, int, int] = (8, 16, 32, 64)
     """Network channels at 40³, 20³, 10³ and 5³."""
     features: int = 16

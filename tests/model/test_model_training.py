@@ -99,7 +99,7 @@ def test_checkpoint_round_trip_and_wrong_representation(tmp_path):
 
 def test_resume_gives_the_same_weights_as_an_uninterrupted_run(tmp_path):
     train(_config(tmp_path, "straight", epochs=2), _data())
-    train(_config(tmp_path, "resumed", epochs=1), _data())
+    train(_config(tmp_path, "resumed", epochs=1, resume=True), _data())  # nothing yet: a start
     train(_config(tmp_path, "resumed", epochs=2, resume=True), _data())
     straight = load_checkpoint(tmp_path / "straight" / "last.pt")["model"]
     resumed = load_checkpoint(tmp_path / "resumed" / "last.pt")["model"]

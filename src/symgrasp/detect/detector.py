@@ -154,7 +154,7 @@ class GraspDetector:
                 f"{trained_for.name!r}'s geometry",
                 stacklevel=2,
             )
-        info = {k: v for k, v in state.items() if k not in ("model", "optimizer")}
+        info = {k: v for k, v in state.items() if k not in ("model", "model_raw", "optimizer")}
         return cls(model, trained_for, device=device, info=info, **options)
 
     def __repr__(self) -> str:

@@ -155,7 +155,7 @@ def train(
     validated = average.module if average else net  # validated, saved as "model"
     history: list[dict[str, float]] = []
     best_val_loss = math.inf
-    if config.resume:
+    if config.resume and (out / "last.pt").exists():  # nothing to resume: a fresh start
         state = load_checkpoint(out / "last.pt", config.representation, device)
         _check_resume(state, train_set, config)
         if average:
