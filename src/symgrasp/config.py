@@ -347,6 +347,9 @@ class TrainConfig:
     train_scenes: int = 0
     """Train on the first N scenes of the train split by scene id (0: all); the validation split
     is unchanged."""
+    val_scenes: int = 0
+    """Validate on the first N scenes of the val split by scene id (0: all): runs on nested
+    training sets of one dataset then share one validation set of a chosen cost."""
     keep_every: int = 0
     """Also keep epoch_NNN.pt (what last.pt holds then) every N epochs (0: never)."""
 
@@ -380,6 +383,7 @@ class TrainConfig:
         check_range("weight_decay", self.weight_decay, 0, 1, integer=False)
         ValidityLoss(self.validity_loss, self.focal_gamma, self.focal_alpha)  # checks them
         check_range("train_scenes", self.train_scenes, 0, 10**8)
+        check_range("val_scenes", self.val_scenes, 0, 10**8)
         check_range("keep_every", self.keep_every, 0, 100_000)
 
     @property

@@ -227,6 +227,8 @@ def test_first_scenes_are_the_first_train_ids(tmp_path):
         assert first.gripper == dataset.gripper and first.manifest is dataset.manifest
     with pytest.raises(ValueError, match=r"train_scenes must be in \[1, 15\], .* got 16"):
         FirstScenes(dataset, 16)
+    with pytest.raises(ValueError, match=r"val_scenes must be in \[1, 15\], .* got 16"):
+        FirstScenes(dataset, 16, "val_scenes")
 
 
 class _Recording(SyntheticGraspDataset):
@@ -241,10 +243,11 @@ class _Recording(SyntheticGraspDataset):
         return super().__getitem__(index)
 
 
-def test_train_scenes_and_keep_every(tmp_path):
-    scenes = _Recording(5)
-    train(_config(tmp_path, train_scenes=2, keep_every=1), (scenes, *_data()[1:]))
-    assert scenes.read == {0, 1}
+def test_train_scenes_val_scenes_and_keep_every(tmp_path):
+    scenes, val = _Recording(5), _Recording(4, seed=9)
+    train(_config(tmp_path, train_scenes=2, val_scenes=3, keep_every=1),
+          (scenes, val, _data()[2]))  # fmt: skip
+    assert scenes.read == {0, 1} and val.read == {0, 1, 2}
     out = tmp_path / "run"
     last = load_checkpoint(out / "last.pt")
     assert last["config"]["train_scenes"] == 2

@@ -1,7 +1,7 @@
 """Training of the grasp detector: one readable loop, configured by a plain dataclass.
 
 ``train(TrainConfig(...))`` reads ``symgrasp.data.dataset.GraspDataset`` (train and val splits
-of ``config.data``; ``train_scenes``: the first N training scenes), trains `GraspNet` with Adam
+of ``config.data``; ``train_scenes``, ``val_scenes``: the first N of a split), trains `GraspNet` with Adam
 (AdamW with ``weight_decay``) on `grasp_losses`, the lr of each step from
 `symgrasp.model.schedule`, validates after every epoch and writes into ``config.out``:
 
@@ -88,12 +88,11 @@ class FirstScenes(Dataset):
     else the item indices), with its ``gripper``, ``manifest`` and ``set_epoch``: an item is
     the dataset's item of that scene, augmented as it would be there."""
 
-    def __init__(self, dataset: Any, count: int) -> None:
+    def __init__(self, dataset: Any, count: int, option: str = "train_scenes") -> None:
         ids = list(getattr(dataset, "scene_ids", range(len(dataset))))
         if not 1 <= count <= len(ids):
             raise ValueError(
-                f"train_scenes must be in [1, {len(ids)}], the scenes of the training split, "
-                f"got {count}"
+                f"{option} must be in [1, {len(ids)}], the scenes of the split, got {count}"
             )
         self.dataset = dataset
         self.indices = sorted(range(len(ids)), key=ids.__getitem__)[:count]
@@ -134,6 +133,8 @@ def train(
     train_set, val_set, collate = datasets or open_dataset(config)
     if config.train_scenes:
         train_set = FirstScenes(train_set, config.train_scenes)
+    if config.val_scenes:
+        val_set = FirstScenes(val_set, config.val_scenes, "val_scenes")
     for dataset in (train_set, val_set):
         check_dataset(dataset, config)
     rank, world, device = distributed.start(resolve_device(config.device))
