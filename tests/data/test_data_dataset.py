@@ -9,9 +9,11 @@ import torch
 from scipy.spatial.transform import Rotation
 
 from symgrasp.data.dataset import (
+    ITEM_KEYS,
     GraspDataset,
     collate_scenes,
     in_split,
+    load_scene,
     make_item,
     rotate_quarter_turns,
     shift_vertical,
@@ -151,3 +153,14 @@ def test_missing_and_corrupted_files_are_reported_by_path_and_skipped(tmp_path):
     item = data[0]
     assert item["tsdf"].dtype == torch.float32 and item["tsdf"].shape == (1, 40, 40, 40)
     assert item["valid"].sum() == len(item["voxel_index"]) > 0
+
+
+def test_load_scene_reads_only_the_asked_arrays_and_names_a_missing_one(tmp_path):
+    path = tmp_path / "scene.npz"
+    arrays = {key: np.arange(3) for key in ITEM_KEYS}
+    np.savez_compressed(path, depth=np.ones((48, 64), np.uint16), **arrays)
+    assert set(load_scene(path)) == {*ITEM_KEYS, "depth"}
+    assert set(load_scene(path, ITEM_KEYS)) == set(ITEM_KEYS)
+    np.savez_compressed(path, **{k: v for k, v in arrays.items() if k != "voxel_rotation_mask"})
+    with pytest.raises(ValueError, match=r"scene.npz is corrupted: no \['voxel_rotation_mask'\]"):
+        load_scene(path, ITEM_KEYS)

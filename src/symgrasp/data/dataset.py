@@ -49,14 +49,21 @@ def scene_path(root: str | Path, scene_id: int) -> Path:
     return Path(root) / "scenes" / f"scene_{scene_id:06d}.npz"
 
 
-def load_scene(path: str | Path) -> dict[str, np.ndarray]:
-    """All arrays of a scene file; raises ValueError naming the path if it is unreadable."""
+ITEM_KEYS = (*REQUIRED, "voxel_rotation_mask")
+"""The arrays of a scene file that a training item is made of."""
+
+
+def load_scene(path: str | Path, keys: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
+    """The arrays ``keys`` (None: all) of a scene file; raises ValueError naming the path if it
+    is unreadable or lacks one. Each array is its own compressed member, so leaving out the
+    depth image and the grasp lists saves most of the decompression."""
     try:
         with np.load(path) as z:
-            record = {k: z[k] for k in z.files}
+            wanted = z.files if keys is None else [k for k in keys if k in z.files]
+            record = {k: z[k] for k in wanted}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as err:
         raise ValueError(f"scene file {path} is missing or corrupted: {err}") from err
-    missing = [k for k in REQUIRED if k not in record]
+    missing = [k for k in (REQUIRED if keys is None else keys) if k not in record]
     if missing:
         raise ValueError(f"scene file {path} is corrupted: no {missing}")
     return record
@@ -203,7 +210,7 @@ class GraspDataset(Dataset):
         return len(self.paths)
 
     def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
-        r = load_scene(self.paths[i])
+        r = load_scene(self.paths[i], ITEM_KEYS)
         item = make_item(
             r["tsdf"],
             r["voxel_index"],
