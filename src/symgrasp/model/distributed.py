@@ -13,11 +13,13 @@ from __future__ import annotations
 import math
 import os
 import socket
+import warnings
 from collections.abc import Callable, Iterator
 from typing import Any
 
 import torch
 import torch.distributed as dist
+from torch.nn.parallel import DistributedDataParallel
 from torch.utils.data import Sampler
 
 
@@ -41,6 +43,14 @@ def stop() -> None:
     if dist.is_initialized():
         dist.barrier()
         dist.destroy_process_group()
+
+
+def data_parallel(net: torch.nn.Module) -> DistributedDataParallel:
+    """``net`` wrapped so that its backward averages the ranks' gradients."""
+    # A channels-last 1×1×1 kernel and its gradient differ in the strides of size-1 dimensions
+    # only: DDP copies those few gradients into its buckets and would warn on every backward.
+    warnings.filterwarnings("ignore", message="Grad strides do not match bucket view strides")
+    return DistributedDataParallel(net)
 
 
 def check_global_batch(batch_size: int, world: int) -> None:

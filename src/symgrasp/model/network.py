@@ -90,11 +90,7 @@ class GraspNet(nn.Module):
         # Valid voxels are rare (≈ 1 %): starting at that prior keeps the first steps from being
         # spent on the bias (the prior initialisation of Lin et al. 2017, "Focal Loss").
         nn.init.constant_(self.validity_head.bias, math.log(VALID_PRIOR / (1 - VALID_PRIOR)))
-        for conv in self.modules():  # loading a state dict keeps the layout (copy_)
-            if isinstance(conv, nn.Conv3d) and conv.weight[0, 0].numel() > 1:
-                # a 1×1×1 kernel is laid out alike either way; converted, its strides would
-                # differ from its gradient's and DDP's buckets would warn on every step
-                conv.weight.data = conv.weight.data.contiguous(memory_format=MEMORY_FORMAT)
+        self.to(memory_format=MEMORY_FORMAT)  # loading a state dict keeps it (copy_)
 
     def features(self, tsdf: Tensor) -> Tensor:
         """``[B, 1, D, H, W]`` → the ``[B, features, D, H, W]`` feature volume."""

@@ -42,7 +42,6 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from torch.nn.parallel import DistributedDataParallel
 from torch.utils.data import DataLoader, Dataset
 from tqdm import tqdm
 
@@ -168,7 +167,7 @@ def train(
         history, best_val_loss = state["history"], state["best_val_loss"]
     elif (out / "last.pt").exists():
         raise ValueError(f"out {str(out)!r} already holds a run; resume it or choose another out")
-    model = net if world == 1 else DistributedDataParallel(net)  # averages the ranks' gradients
+    model = net if world == 1 else distributed.data_parallel(net)
 
     train_loader = DataLoader(
         train_set, batch_sampler=batches, collate_fn=collate, num_workers=config.workers
