@@ -157,7 +157,9 @@ class World:
         )
         self.data = mujoco.MjData(self.model)
         m = self.model
-        self._obj_body = np.array([m.body(f"obj_{i}").id for i in range(len(self.objects))])
+        self._obj_body = np.array(
+            [m.body(f"obj_{i}").id for i in range(len(self.objects))], dtype=int
+        )
         jnt = [m.joint(f"obj_{i}").id for i in range(len(self.objects))]
         self._obj_qadr = np.array([m.jnt_qposadr[j] for j in jnt], dtype=int)
         self._obj_vadr = np.array([m.jnt_dofadr[j] for j in jnt], dtype=int)
