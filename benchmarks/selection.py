@@ -268,12 +268,16 @@ def main() -> None:
         runs = quick_runs(args.quick / "runs")
         datasets = ([SyntheticGraspDataset(1, seed=9)[0]], collate_scenes)  # made once
     parallel = parallel_from_args(args)
+    validation = sel.DeclutterValidation(
+        objects=args.val_objects, rounds=args.val_rounds, seed=args.val_seed,
+        num_objects=args.num_objects,
+    )  # fmt: skip
+    revalidate = args.revalidate or bool(args.quick)
     rows = []
     for run in runs:
         table = sel.checkpoint_measures(
-            run, declutter=True, objects=args.val_objects, rounds=args.val_rounds,
-            seed=args.val_seed, num_objects=args.num_objects, parallel=parallel,
-            revalidate=args.revalidate or bool(args.quick), data=args.data, datasets=datasets,
+            run, declutter=True, validation=validation, parallel=parallel,
+            revalidate=sel.Revalidation(args.data, datasets) if revalidate else None,
         )  # fmt: skip
         for row in table:
             path = run / row["checkpoint"]
@@ -298,7 +302,7 @@ def main() -> None:
     print(table, end="")
     figure(Path(args.figure), result, rows)
     settings = {
-        "runs": [str(r) for r in runs], "revalidated": args.revalidate or bool(args.quick),
+        "runs": [str(r) for r in runs], "revalidated": revalidate,
         "validation": {"objects": args.val_objects, "rounds": args.val_rounds,
                        "seed": args.val_seed, "num_objects": args.num_objects},
         "test": {"objects": args.test_objects, "rounds": args.test_rounds,

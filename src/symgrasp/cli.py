@@ -959,13 +959,16 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run_select(args: argparse.Namespace) -> None:
-    from symgrasp.model.selection import select_checkpoint
+    from symgrasp.model.selection import DeclutterValidation, Revalidation, select_checkpoint
 
+    validation = DeclutterValidation(
+        objects=args.objects, rounds=args.rounds, seed=args.seed, num_objects=args.num_objects,
+        scene=args.scene, mesh_unit=args.mesh_unit,
+    )  # fmt: skip
+    revalidate = Revalidation(args.data, batch_size=args.batch_size, device=args.device)
     selection = select_checkpoint(
-        args.run_dir, args.by, objects=args.objects, rounds=args.rounds, seed=args.seed,
-        num_objects=args.num_objects, scene=args.scene, mesh_unit=args.mesh_unit,
-        parallel=parallel_from_args(args), revalidate=args.revalidate, data=args.data,
-        batch_size=args.batch_size, device=args.device, copy=not args.dry_run,
+        args.run_dir, args.by, validation=validation, parallel=parallel_from_args(args),
+        revalidate=revalidate if args.revalidate else None, copy=not args.dry_run,
     )  # fmt: skip
     measure = selection["by"]
     for row in selection["checkpoints"]:

@@ -93,8 +93,9 @@ def test_a_metric_column_chooses_its_best_epoch(run, by, column, sign):
 
 
 def test_revalidation_recomputes_the_metrics_csv_values(run):
-    selection = sel.select_checkpoint(run, "top5_valid_near", revalidate=True,
-                                      datasets=_val_data(), copy=False)  # fmt: skip
+    selection = sel.select_checkpoint(run, "top5_valid_near",
+                                      revalidate=sel.Revalidation(datasets=_val_data()),
+                                      copy=False)  # fmt: skip
     rows = _metrics(run)
     for row in selection["checkpoints"]:
         for key in ("val_total", "validity_ap", "top1_valid", "top5_valid_near"):
@@ -116,29 +117,34 @@ def _fake_declutter(calls, ratios):
     return run
 
 
+def _rounds(rounds):
+    return sel.DeclutterValidation(rounds=rounds)
+
+
 def test_declutter_selection_caches_each_checkpoint_and_breaks_ties_by_clear_ratio(
     run, monkeypatch
 ):
     calls = []
     ratios = {1: (0.5, 0.4), 2: (0.8, 0.5), 3: (0.8, 0.6)}
     monkeypatch.setattr(sel, "declutter_validation", _fake_declutter(calls, ratios))
-    selection = sel.select_checkpoint(run, "declutter", rounds=3)
+    selection = sel.select_checkpoint(run, "declutter", validation=_rounds(3))
     assert calls == ["epoch_001.pt", "epoch_002.pt", "last.pt"]
     assert selection["chosen"]["checkpoint"] == "last.pt"  # SR tie with epoch 2, higher CR
     assert selection["declutter"]["seed"] == VALIDATION_SEED
     assert [r["declutter_sr"] for r in selection["checkpoints"]] == [0.5, 0.8, 0.8]
     calls.clear()
-    again = sel.select_checkpoint(run, "declutter", rounds=3)  # resumed: all cached
+    again = sel.select_checkpoint(run, "declutter", validation=_rounds(3))  # resumed: all cached
     assert calls == [] and again["chosen"] == selection["chosen"]
-    by_loss = sel.select_checkpoint(run, "val_loss", rounds=3)  # cached numbers reported
+    # Cached numbers are reported when selecting by another measure.
+    by_loss = sel.select_checkpoint(run, "val_loss", validation=_rounds(3))
     assert calls == [] and by_loss["checkpoints"][0]["declutter_sr"] == 0.5
-    sel.select_checkpoint(run, "declutter", rounds=4)  # other settings: evaluated anew
+    sel.select_checkpoint(run, "declutter", validation=_rounds(4))  # other settings: evaluated anew
     assert len(calls) == 3
     calls.clear()
     cached = sorted((run / "selection").glob("epoch_001-*.json"))
     assert len(cached) == 1
     cached[0].unlink()  # a checkpoint whose result was lost: only it reruns
-    sel.select_checkpoint(run, "declutter", rounds=3)
+    sel.select_checkpoint(run, "declutter", validation=_rounds(3))
     assert calls == ["epoch_001.pt"]
 
 
@@ -175,6 +181,16 @@ def test_declutter_validation_refuses_test_seeds_and_test_objects(tmp_path, obje
     with pytest.raises(ValueError, match=word):
         sel.declutter_validation(SHIPPED, tmp_path / "b", objects, rounds, seed)
     assert not (tmp_path / "b").exists()
+
+
+def test_validation_settings_are_checked_when_made_and_name_their_cache_stably():
+    with pytest.raises(ValueError, match="seed"):
+        sel.DeclutterValidation(seed=5)
+    with pytest.raises(ValueError, match="objects"):
+        sel.DeclutterValidation(objects="vgn-pile-test")
+    # The cache folder of the defaults, as runs selected before this class existed named it.
+    assert sel.DeclutterValidation().slug == "vgn-pile-train-pile5-r50-s1000000-88f84857"
+    assert sel.DeclutterValidation(rounds=49).slug != sel.DeclutterValidation().slug
 
 
 def test_declutter_validation_of_a_shipped_model_runs(tmp_path):

@@ -28,7 +28,7 @@ import hashlib
 import json
 import math
 import re
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -47,6 +47,8 @@ __all__ = [
     "VALIDATION_OBJECTS",
     "VALIDATION_ROUNDS",
     "VALIDATION_SEED",
+    "DeclutterValidation",
+    "Revalidation",
     "check_validation_rounds",
     "checkpoint_id",
     "checkpoint_measures",
@@ -109,6 +111,49 @@ def check_validation_rounds(objects: str, rounds: int, seed: int) -> None:
             f"objects: {', '.join(tests)} is a test object set; declutter validation plays "
             f"training objects (default {VALIDATION_OBJECTS}, or household-train)"
         )
+
+
+@dataclass(frozen=True)
+class DeclutterValidation:
+    """The settings of a declutter validation (`declutter_validation`'s arguments), checked when
+    made: ``rounds`` rounds from seed ``seed`` of ``num_objects`` objects of ``objects`` as a
+    ``scene``. ValueError names the argument (seed, objects, or the benchmark's own checks)."""
+
+    objects: str = VALIDATION_OBJECTS
+    rounds: int = VALIDATION_ROUNDS
+    seed: int = VALIDATION_SEED
+    num_objects: int = 5
+    scene: str = "pile"
+    mesh_unit: str = "auto"
+
+    def __post_init__(self) -> None:
+        check_validation_rounds(self.objects, self.rounds, self.seed)
+        BenchmarkConfig(**asdict(self))
+
+    @property
+    def slug(self) -> str:
+        """A folder name for these settings: readable, and unique by a hash."""
+        settings = asdict(self)
+        digest = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:8]
+        name = re.sub(r"[^A-Za-z0-9_.-]+", "_", Path(str(self.objects)).name)[:40]
+        return f"{name}-{self.scene}{self.num_objects}-r{self.rounds}-s{self.seed}-{digest}"
+
+
+@dataclass(frozen=True)
+class Revalidation:
+    """Recompute checkpoints' validation metrics (`validation_metrics`' arguments) instead of
+    reading the run's metrics.csv: on the validation split of ``data`` (default: the dataset
+    each run trained on), or on ``datasets`` = (val split, collate function)."""
+
+    data: str | None = None
+    datasets: tuple[Any, Any] | None = None
+    batch_size: int = 4
+    device: str = "cpu"
+
+    @property
+    def key(self) -> str:
+        """Which validation data the cached metrics were computed on."""
+        return self.data or ("given datasets" if self.datasets is not None else "trained on")
 
 
 def declutter_validation(
@@ -259,14 +304,6 @@ def _metric_rows(run: Path, checkpoints: list[tuple[int, Path]]) -> dict[int, di
     return {int(float(row["epoch"])): {k: _number(v) for k, v in row.items()} for row in rows}
 
 
-def _slug(settings: dict[str, Any]) -> str:
-    """A folder name for declutter validation ``settings``: readable, and unique by a hash."""
-    digest = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:8]
-    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", Path(str(settings["objects"])).name)[:40]
-    return (f"{name}-{settings['scene']}{settings['num_objects']}-r{settings['rounds']}"
-            f"-s{settings['seed']}-{digest}")  # fmt: skip
-
-
 class _Cache:
     """What is known of one checkpoint, in ``RUN_DIR/selection/<stem>-<hash>.json``, rewritten
     atomically after each new piece."""
@@ -292,53 +329,40 @@ def checkpoint_measures(
     run_dir: str | Path,
     *,
     declutter: bool = False,
-    objects: str = VALIDATION_OBJECTS,
-    rounds: int = VALIDATION_ROUNDS,
-    seed: int = VALIDATION_SEED,
-    num_objects: int = 5,
-    scene: str = "pile",
-    mesh_unit: str = "auto",
+    validation: DeclutterValidation = DeclutterValidation(),
     parallel: ParallelConfig | None = None,
-    revalidate: bool = False,
-    data: str | None = None,
-    datasets: tuple[Any, Any] | None = None,
-    batch_size: int = 4,
-    device: str = "cpu",
+    revalidate: Revalidation | None = None,
 ) -> list[dict[str, Any]]:
     """One row per kept checkpoint of ``run_dir`` (`find_checkpoints`, by epoch):
     ``checkpoint`` (file name), ``epoch``, ``sha256``, its metrics.csv row (recomputed by
-    `validation_metrics` with ``revalidate``), and the declutter validation's numbers
+    `validation_metrics` when ``revalidate`` is given), and the declutter validation's numbers
     (``declutter_sr``, ``declutter_cr``, their ``_low``/``_high`` bounds, ``declutter_grasps``
-    …) when ``declutter`` is set or they are cached for these settings. Every result is cached
-    in ``run_dir/selection/`` (`select_checkpoint`)."""
+    …) when ``declutter`` is set or they are cached for the ``validation`` settings. Every
+    result is cached in ``run_dir/selection/`` (`select_checkpoint`)."""
     run = Path(run_dir)
     checkpoints = find_checkpoints(run)
-    settings = {
-        "objects": objects, "mesh_unit": mesh_unit, "scene": scene,
-        "num_objects": num_objects, "rounds": rounds, "seed": seed,
-    }  # fmt: skip
-    check_validation_rounds(objects, rounds, seed)
-    BenchmarkConfig(**settings)  # checks the numbers before any work
     rows = _metric_rows(run, checkpoints)
     folder = run / "selection"
-    slug = _slug(settings)
-    data_key = data or ("given datasets" if datasets is not None else "trained on")
+    slug = validation.slug
     table = []
     for epoch, path in checkpoints:
         cache = _Cache(folder, path, epoch)
         row: dict[str, Any] = {"checkpoint": path.name, "epoch": epoch, "sha256": cache.sha}
         row.update({k: v for k, v in rows.get(epoch, {}).items() if k not in BOOKKEEPING})
-        if revalidate:
-            if cache.get("validation", data_key) is None:
+        if revalidate is not None:
+            if cache.get("validation", revalidate.key) is None:
                 fresh = validation_metrics(
-                    path, data, datasets=datasets, batch_size=batch_size, device=device
-                )
-                cache.put("validation", data_key, fresh)
-            row.update(cache.get("validation", data_key))
+                    path, revalidate.data, datasets=revalidate.datasets,
+                    batch_size=revalidate.batch_size, device=revalidate.device,
+                )  # fmt: skip
+                cache.put("validation", revalidate.key, fresh)
+            row.update(cache.get("validation", revalidate.key))
         result = cache.get("declutter", slug)
         if result is None and declutter:
             out = folder / "declutter" / slug / cache.id
-            result = declutter_validation(path.resolve(), out, parallel=parallel, **settings)
+            result = declutter_validation(
+                path.resolve(), out, parallel=parallel, **asdict(validation)
+            )
             cache.put("declutter", slug, result)
         if result is not None:
             row.update(_declutter_columns(result))
@@ -356,18 +380,9 @@ def select_checkpoint(
     run_dir: str | Path,
     by: str,
     *,
-    objects: str = VALIDATION_OBJECTS,
-    rounds: int = VALIDATION_ROUNDS,
-    seed: int = VALIDATION_SEED,
-    num_objects: int = 5,
-    scene: str = "pile",
-    mesh_unit: str = "auto",
+    validation: DeclutterValidation = DeclutterValidation(),
     parallel: ParallelConfig | None = None,
-    revalidate: bool = False,
-    data: str | None = None,
-    datasets: tuple[Any, Any] | None = None,
-    batch_size: int = 4,
-    device: str = "cpu",
+    revalidate: Revalidation | None = None,
     copy: bool = True,
 ) -> dict[str, Any]:
     """Evaluate every kept checkpoint of ``run_dir`` (`checkpoint_measures`), choose the best by
@@ -377,14 +392,12 @@ def select_checkpoint(
     ``by``: ``declutter`` (the declutter validation's SR; ``declutter_cr`` its CR), ``val_loss``
     or a column of the run's ``metrics.csv`` (`direction` says which way is better). Ties go to
     the earlier epoch (for ``declutter``, the higher CR first); checkpoints whose measure is
-    NaN are never chosen. The declutter validation (settings as `declutter_validation`'s) runs
-    when ``by`` is a declutter measure; results already cached for these settings are reported
-    either way. ``revalidate`` recomputes each checkpoint's validation metrics
-    (`validation_metrics` on ``data``/``datasets``) instead of reading metrics.csv, for
-    metrics added after the run trained.
+    NaN are never chosen. The declutter validation (``validation``'s settings) runs when ``by``
+    is a declutter measure; results already cached for these settings are reported either
+    way. ``revalidate`` recomputes each checkpoint's validation metrics (`validation_metrics`)
+    instead of reading metrics.csv, for metrics added after the run trained.
 
-    Raises ValueError naming the argument (RUN_DIR, --by, seed, objects) before any
-    evaluation starts.
+    Raises ValueError naming the argument (RUN_DIR, --by) before any evaluation starts.
     """
     measure = ALIASES.get(by, by)
     sign = direction(measure)
@@ -392,23 +405,19 @@ def select_checkpoint(
     checkpoints = find_checkpoints(run)
     columns = {key for row in _metric_rows(run, checkpoints).values() for key in row}
     columns -= set(BOOKKEEPING)
-    if measure not in DECLUTTER_MEASURES and not revalidate and measure not in columns:
+    if measure not in DECLUTTER_MEASURES and revalidate is None and measure not in columns:
         raise ValueError(
             f"--by: {by!r} is neither declutter, declutter_cr, val_loss nor a column of "
             f"{run / 'metrics.csv'} or the checkpoints' history "
             f"({', '.join(sorted(columns)) or 'none'}); --revalidate "
             "recomputes the validation metrics, the top-k ones included"
         )
-    settings = {
-        "objects": objects, "mesh_unit": mesh_unit, "scene": scene,
-        "num_objects": num_objects, "rounds": rounds, "seed": seed,
-    }  # fmt: skip
     table = checkpoint_measures(
-        run, declutter=measure in DECLUTTER_MEASURES, parallel=parallel, revalidate=revalidate,
-        data=data, datasets=datasets, batch_size=batch_size, device=device, **settings,
+        run, declutter=measure in DECLUTTER_MEASURES, validation=validation, parallel=parallel,
+        revalidate=revalidate,
     )  # fmt: skip
     chosen = _choose(table, measure, sign)
-    folder = run / "selection" / "declutter" / _slug(settings)
+    folder = run / "selection" / "declutter" / validation.slug
     selection = {
         "by": measure,
         "better": "higher" if sign > 0 else "lower",
@@ -416,9 +425,9 @@ def select_checkpoint(
             "checkpoint": chosen["checkpoint"], "epoch": chosen["epoch"],
             "value": chosen[measure], "sha256": chosen["sha256"],
         },
-        "declutter": {**settings, "folder": str(folder)}
+        "declutter": {**asdict(validation), "folder": str(folder)}
         if measure in DECLUTTER_MEASURES else None,
-        "revalidated": revalidate,
+        "revalidated": revalidate is not None,
         "checkpoints": table,
     }  # fmt: skip
     _write_table(run / "selection.csv", table)
