@@ -99,7 +99,7 @@ def correlations(rows: list[dict[str, Any]], measures: list[str]) -> dict[str, d
             mine = [i for i, row in enumerate(rows) if row["run"] == run]
             per_run[run] = spearman(x[mine], sr[mine])
             try:
-                pick = sel._choose([rows[i] for i in mine], measure, sign)
+                pick = sel.choose([rows[i] for i in mine], measure, sign)
             except ValueError:
                 continue
             picks[run] = {"checkpoint": pick["checkpoint"], "test_sr": pick["test_sr"]}

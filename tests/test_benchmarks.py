@@ -30,6 +30,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "scale": ("scale.json", "one_million_scenes"),
     "campaign": ("campaign.json", "steps"),
     "selection": ("selection.json", "correlations"),
+    "learning_curve": ("learning_curve.json", "cells"),
 }
 NEEDS_VGN = {"scene_physics", "grasp_db"}  # reads VGN's meshes from the data folder
 NEEDS_REFERENCE = {"hands"}  # reads MuJoCo Menagerie's hands from ../shared/reference

@@ -52,6 +52,7 @@ __all__ = [
     "check_validation_rounds",
     "checkpoint_id",
     "checkpoint_measures",
+    "choose",
     "declutter_validation",
     "direction",
     "find_checkpoints",
@@ -416,7 +417,7 @@ def select_checkpoint(
         run, declutter=measure in DECLUTTER_MEASURES, validation=validation, parallel=parallel,
         revalidate=revalidate,
     )  # fmt: skip
-    chosen = _choose(table, measure, sign)
+    chosen = choose(table, measure, sign)
     folder = run / "selection" / "declutter" / validation.slug
     selection = {
         "by": measure,
@@ -454,7 +455,7 @@ def _finite(value: Any) -> bool:
     return isinstance(value, int | float) and math.isfinite(value)
 
 
-def _choose(table: list[dict[str, Any]], measure: str, sign: int) -> dict[str, Any]:
+def choose(table: list[dict[str, Any]], measure: str, sign: int) -> dict[str, Any]:
     """The row with the best finite ``measure``; ties: higher CR (declutter SR), earlier."""
     candidates = [row for row in table if _finite(row.get(measure))]
     if not candidates:

@@ -1,0 +1,144 @@
+"""The learning curve: declutter test SR against the number of training scenes →
+benchmarks/results/learning_curve.{json,md}, docs/figures/learning_curve.png.
+
+    PYTHONPATH=src python benchmarks/learning_curve.py \\
+        [--study benchmarks/results/selection.json] [--by declutter_sr] [--quick [DIR]]
+
+Reads the model-selection study (``benchmarks/selection.py``: every kept checkpoint of each
+run with its validation measures and its test SR on vgn-pile-test, 100 rounds) and groups its
+runs by the training scenes they used (their ``--train-scenes``; 0 = the whole split). Per run, the checkpoint ``--by`` chooses (the rule of ``symgrasp select``,
+`symgrasp.model.selection`: validation measures only) and that checkpoint's test SR and CR
+with their 95 % intervals; beside it the best test SR any checkpoint of the run reached, an
+upper bound no selection rule can know. Nothing
+here is trained or played: the study did that. ``--quick`` runs ``selection.py --quick`` into
+DIR first and reads its result.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+from common import parse_args, write_result
+
+from symgrasp.model import selection as sel
+from symgrasp.model.checkpoint import load_checkpoint
+
+
+def train_scenes(checkpoint: Path) -> int:
+    """The training scenes of the run that wrote ``checkpoint``: its ``--train-scenes`` (0: the
+    whole split)."""
+    return int(load_checkpoint(checkpoint)["config"].get("train_scenes", 0))
+
+
+def curve(study: dict[str, Any], by: str) -> list[dict[str, Any]]:
+    """One cell per run of ``study``: its size, the checkpoint ``by`` chooses and its test
+    numbers, the best test SR of the run, sorted by size."""
+    measure = sel.ALIASES.get(by, by)
+    sign = sel.direction(measure)
+    cells = []
+    for path in study["settings"]["runs"]:
+        run = Path(path)
+        rows = [row for row in study["cells"] if row["run"] == run.name]
+        chosen = sel.choose(rows, measure, sign)
+        cells.append({
+            "run": run.name, "train_scenes": train_scenes(run / chosen["checkpoint"]),
+            "checkpoint": chosen["checkpoint"], "epoch": chosen["epoch"],
+            "measure": measure, "value": chosen[measure],
+            "test_sr": chosen["test_sr"], "test_sr_ci95": chosen["test_sr_ci95"],
+            "test_cr": chosen["test_cr"], "test_grasps": chosen["test_grasps"],
+            "best_test_sr": max(row["test_sr"] for row in rows),
+            "checkpoints": len(rows),
+        })  # fmt: skip
+    return sorted(cells, key=lambda c: (c["train_scenes"] or math.inf, c["run"]))
+
+
+def markdown(cells: list[dict[str, Any]]) -> str:
+    text = [
+        "| training scenes | run | chosen checkpoint (measure) | test SR % [95 % CI] | "
+        "test CR % | grasps | best test SR % of the run |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for c in cells:
+        low, high = (100 * v for v in c["test_sr_ci95"])
+        text.append(
+            f"| {c['train_scenes'] or 'all'} | {c['run']} | {c['checkpoint']} "
+            f"({c['measure']} {c['value']:.3g}) | {100 * c['test_sr']:.1f} [{low:.1f}, "
+            f"{high:.1f}] | {100 * c['test_cr']:.1f} | {c['test_grasps']} | "
+            f"{100 * c['best_test_sr']:.1f} |"
+        )
+    return "\n".join(text) + "\n"
+
+
+def figure(path: Path, cells: list[dict[str, Any]]) -> None:
+    """Test SR of the chosen checkpoints (with intervals) and the runs' best against size."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axis = plt.subplots(figsize=(5.2, 3.4), constrained_layout=True)
+    sizes = [c["train_scenes"] or 1 for c in cells]
+    sr = [100 * c["test_sr"] for c in cells]
+    errors = [[s - 100 * c["test_sr_ci95"][0] for s, c in zip(sr, cells, strict=True)],
+              [100 * c["test_sr_ci95"][1] - s for s, c in zip(sr, cells, strict=True)]]  # fmt: skip
+    axis.errorbar(sizes, sr, yerr=errors, fmt="o", capsize=3,
+                  label=f"checkpoint chosen by {cells[0]['measure']}")  # fmt: skip
+    axis.scatter(sizes, [100 * c["best_test_sr"] for c in cells], marker="_", s=120,
+                 color="grey", label="best checkpoint of the run (not knowable)")  # fmt: skip
+    axis.set_xscale("log")
+    axis.set_xticks(sorted(set(sizes)), [str(s) for s in sorted(set(sizes))])
+    axis.set_xlabel("training scenes")
+    axis.set_ylabel("declutter SR % (vgn-pile-test)")
+    axis.legend(fontsize=7)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--study", default="benchmarks/results/selection.json",
+                        help="result of benchmarks/selection.py (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--by", default="declutter_sr",
+                        help="the selection measure that chooses each run's checkpoint, as "
+                        "symgrasp select --by (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--result", default="benchmarks/results/learning_curve", help="stem")
+    parser.add_argument("--figure", default="docs/figures/learning_curve.png", help="figure")
+    args = parse_args(parser, outputs=("result", "figure"), quick={},
+                      also="; runs selection.py --quick into DIR/study first")  # fmt: skip
+    study_path = Path(args.study)
+    if args.quick:
+        done = subprocess.run([sys.executable, str(Path(__file__).with_name("selection.py")),
+                               "--quick", str(args.quick / "study")])  # fmt: skip
+        if done.returncode:
+            raise SystemExit(done.returncode)
+        study_path = args.quick / "study" / "selection.json"
+    if not study_path.is_file():
+        raise SystemExit(f"error: --study {study_path}: no such file (run benchmarks/selection.py)")
+    study = json.loads(study_path.read_text())
+    cells = curve(study, args.by)
+    table = markdown(cells)
+    print(table, end="")
+    figure(Path(args.figure), cells)
+    write_result(
+        args.result,
+        "declutter test SR against training scenes, each run's checkpoint chosen by a "
+        "validation measure",
+        f"PYTHONPATH=src python benchmarks/learning_curve.py --study {args.study} --by {args.by}",
+        cells,
+        table,
+        study=str(study_path),
+        study_date=study.get("date"),
+        test=study["settings"]["test"],
+        figure=str(args.figure),
+    )
+
+
+if __name__ == "__main__":
+    main()
