@@ -31,6 +31,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "campaign": ("campaign.json", "steps"),
     "selection": ("selection.json", "correlations"),
     "learning_curve": ("learning_curve.json", "cells"),
+    "recipe": ("recipe.json", "verdicts"),
 }
 NEEDS_VGN = {"scene_physics", "grasp_db"}  # reads VGN's meshes from the data folder
 NEEDS_REFERENCE = {"hands"}  # reads MuJoCo Menagerie's hands from ../shared/reference

@@ -1,0 +1,199 @@
+"""The recipe study: each training factor against the baseline recipe, per training seed, on
+declutter rounds no checkpoint was chosen by → benchmarks/results/recipe.{json,md}.
+
+    PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/recipe.py --runs ROOT/runs \\
+        [--factor NAME=RUN,RUN ...] [--rounds 100] [--seed 2000000] [--workers 2] [--quick [DIR]]
+
+Every run has been selected first (``symgrasp select RUN --by declutter``: its best.pt is the
+checkpoint with the best declutter validation, 50 rounds on training objects from seed
+1 000 000). Choosing the best of several noisy validations flatters the winner, so each run's
+best.pt is judged again on **other** rounds: ``--rounds`` rounds of 5 ``--objects`` (training
+objects, default vgn-pile-train) from ``--seed`` (2 000 000), the same rounds for every run
+(`symgrasp.model.selection.declutter_validation`: test sets and seeds are refused). Each
+factor's runs (one per training seed, named ``…-sN``) are compared with the baseline's run of
+the same seed on those rounds, paired round by round (`symgrasp.benchmark.compare`).
+
+The rule fixed before any run was judged (docs/model.md, "Recipe"): a factor is adopted when
+its SR beats the baseline's for **every** training seed; CR is reported beside it.
+``--quick``: the shipped Robotiq model stands in for two runs (a baseline and a factor), one
+round of one object of household-train.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from common import parse_args, write_result
+
+from symgrasp.benchmark.compare import paired_change, paired_rounds
+from symgrasp.cli import add_parallel_options, parallel_from_args
+from symgrasp.detect.pretrained import shipped_path
+from symgrasp.model import selection as sel
+
+FACTORS = {
+    "baseline": ("lc-7200-s0", "base-s1"),
+    "cosine": ("cosine-s0", "cosine-s1"),
+    "ema": ("ema-s0", "ema-s1"),
+    "focal": ("focal-s0", "focal-s1"),
+    "batch16": ("batch16-s0", "batch16-s1"),
+}
+"""Default factors: their runs in ``benchmarks/campaigns/robust_training.toml`` (stage 2)."""
+
+QUICK_FACTORS = {"baseline": ("a-s0",), "other": ("b-s0",)}
+
+JUDGE_SEED = 2_000_000
+"""Round 0 of the judging rounds: off the test seeds and off the selection's 1 000 000 on."""
+
+SHIPPED = "bingham2d-robotiq-2f85"
+
+
+def training_seed(run: str) -> int:
+    """The training seed in a run's name (``…-sN``); ValueError naming --factor otherwise."""
+    match = re.search(r"-s(\d+)$", run)
+    if not match:
+        raise ValueError(f"--factor: run {run!r} does not end in -sN, its training seed")
+    return int(match.group(1))
+
+
+def parse_factor(text: str) -> tuple[str, tuple[str, ...]]:
+    """``NAME=RUN,RUN`` → (name, runs)."""
+    name, _, runs = text.partition("=")
+    if not name or not runs:
+        raise argparse.ArgumentTypeError(f"--factor: expected NAME=RUN,RUN, got {text!r}")
+    return name, tuple(runs.split(","))
+
+
+def chosen_checkpoint(run: Path) -> Path:
+    """``run/best.pt`` when ``symgrasp select --by declutter`` put it there; else SystemExit."""
+    from symgrasp.model.checkpoint import load_checkpoint
+
+    best = run / "best.pt"
+    selection = load_checkpoint(best).get("selection", {}) if best.is_file() else {}
+    if selection.get("by") != "declutter_sr":
+        raise SystemExit(
+            f"error: {best} was not chosen by the declutter validation; run "
+            f"symgrasp select {run} --by declutter first"
+        )
+    return best
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", default="runs", help="folder of the training runs")
+    parser.add_argument("--factor", type=parse_factor, action="append", default=None,
+                        help="NAME=RUN,RUN: a factor's runs, one per training seed; the first "
+                        "factor is the baseline (default: the stage-2 runs of "
+                        "robust_training.toml)")  # fmt: skip
+    parser.add_argument("--objects", default=sel.VALIDATION_OBJECTS,
+                        help="judging objects, training ones (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--rounds", type=int, default=100, help="judging rounds (default: 100)")
+    parser.add_argument("--seed", type=int, default=JUDGE_SEED,
+                        help="judging round 0 (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
+    add_parallel_options(parser, "rounds")
+    parser.set_defaults(workers=2)
+    parser.add_argument("--out", default="out/bench/recipe", help="judging benchmark folders")
+    parser.add_argument("--result", default="benchmarks/results/recipe", help="stem")
+    args = parse_args(
+        parser, outputs=("out", "result"),
+        quick={"rounds": 1, "num_objects": 1, "workers": 1, "objects": "household-train"},
+        also=f", {SHIPPED} for every run",
+    )  # fmt: skip
+    factors = dict(args.factor or (QUICK_FACTORS if args.quick else FACTORS).items())
+    validation = sel.DeclutterValidation(
+        objects=args.objects, rounds=args.rounds, seed=args.seed, num_objects=args.num_objects
+    )
+    parallel = parallel_from_args(args)
+    folders, cells = {}, []
+    for factor, runs in factors.items():
+        for run in runs:
+            checkpoint = (shipped_path(SHIPPED) if args.quick
+                          else chosen_checkpoint(Path(args.runs) / run))  # fmt: skip
+            folder = Path(args.out) / run / f"{sel.checkpoint_id(checkpoint)}-{validation.slug}"
+            result = sel.declutter_validation(
+                checkpoint, folder, parallel=parallel, **asdict(validation)
+            )
+            folders[factor, training_seed(run)] = folder
+            cells.append({
+                "factor": factor, "run": run, "seed": training_seed(run),
+                "checkpoint": str(checkpoint), "sr": result["success_ratio"],
+                "sr_ci95": result["success_ratio_ci95"], "cr": result["clear_ratio"],
+                "cr_ci95": result["clear_ratio_ci95"], "grasps": result["executed"],
+                "errors": result["errors"],
+            })  # fmt: skip
+    baseline = next(iter(factors))
+    for cell in cells:
+        base = folders.get((baseline, cell["seed"]))
+        if cell["factor"] != baseline and base is not None:
+            change = paired_change(*paired_rounds(folders[cell["factor"], cell["seed"]], base))
+            cell["sr_change"], cell["cr_change"] = change["success_ratio"], change["clear_ratio"]
+    verdicts = verdict(cells, baseline)
+    table = markdown(cells, verdicts, baseline)
+    print(table, end="")
+    write_result(
+        args.result,
+        "each training factor against the baseline recipe per training seed, on judging "
+        "declutter rounds of training objects (paired by round)",
+        "PYTHONPATH=src python benchmarks/recipe.py --runs " + str(args.runs),
+        cells,
+        table,
+        judging=asdict(validation),
+        baseline=baseline,
+        verdicts=verdicts,
+    )
+
+
+def verdict(cells: list[dict[str, Any]], baseline: str) -> dict[str, dict[str, Any]]:
+    """Per factor: its mean SR/CR change over seeds and whether the rule adopts it (SR ahead of
+    the baseline for every seed that has a baseline run)."""
+    result = {}
+    for factor in dict.fromkeys(c["factor"] for c in cells if c["factor"] != baseline):
+        mine = [c for c in cells if c["factor"] == factor and "sr_change" in c]
+        if not mine:
+            continue
+        result[factor] = {
+            "seeds": [c["seed"] for c in mine],
+            "mean_sr_change": sum(c["sr_change"][0] for c in mine) / len(mine),
+            "mean_cr_change": sum(c["cr_change"][0] for c in mine) / len(mine),
+            "adopted": all(c["sr_change"][0] > 0 for c in mine),
+        }
+    return result
+
+
+def markdown(cells: list[dict[str, Any]], verdicts: dict[str, Any], baseline: str) -> str:
+    def pct(value: float, interval: list[float]) -> str:
+        return f"{100 * value:.1f} [{100 * interval[0]:.1f}, {100 * interval[1]:.1f}]"
+
+    def change(triple: list[float] | None) -> str:
+        if triple is None:
+            return "–"
+        point, low, high = (100 * v for v in triple)
+        return f"{point:+.1f} [{low:+.1f}, {high:+.1f}]"
+
+    text = [
+        f"| factor | run (training seed) | SR % [95 % CI] | CR % [95 % CI] | grasps | "
+        f"SR − {baseline}, same seed [paired 95 % CI] | CR − {baseline} |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for c in cells:
+        text.append(
+            f"| {c['factor']} | {c['run']} ({c['seed']}) | {pct(c['sr'], c['sr_ci95'])} | "
+            f"{pct(c['cr'], c['cr_ci95'])} | {c['grasps']} | {change(c.get('sr_change'))} | "
+            f"{change(c.get('cr_change'))} |"
+        )
+    text.append("")
+    for factor, v in verdicts.items():
+        text.append(
+            f"- {factor}: mean change over seeds {', '.join(map(str, v['seeds']))}: SR "
+            f"{100 * v['mean_sr_change']:+.1f}, CR {100 * v['mean_cr_change']:+.1f} points; "
+            f"{'adopted' if v['adopted'] else 'not adopted'} (SR ahead for every seed)"
+        )
+    return "\n".join(text) + "\n"
+
+
+if __name__ == "__main__":
+    main()
