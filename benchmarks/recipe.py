@@ -67,20 +67,6 @@ def parse_factor(text: str) -> tuple[str, tuple[str, ...]]:
     return name, tuple(runs.split(","))
 
 
-def chosen_checkpoint(run: Path) -> Path:
-    """``run/best.pt`` when ``symgrasp select --by declutter`` put it there; else SystemExit."""
-    from symgrasp.model.checkpoint import load_checkpoint
-
-    best = run / "best.pt"
-    selection = load_checkpoint(best).get("selection", {}) if best.is_file() else {}
-    if selection.get("by") != "declutter_sr":
-        raise SystemExit(
-            f"error: {best} was not chosen by the declutter validation; run "
-            f"symgrasp select {run} --by declutter first"
-        )
-    return best
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", default="runs", help="folder of the training runs")
@@ -112,7 +98,7 @@ def main() -> None:
     for factor, runs in factors.items():
         for run in runs:
             checkpoint = (shipped_path(SHIPPED) if args.quick
-                          else chosen_checkpoint(Path(args.runs) / run))  # fmt: skip
+                          else sel.selected_checkpoint(Path(args.runs) / run))  # fmt: skip
             folder = Path(args.out) / run / f"{sel.checkpoint_id(checkpoint)}-{validation.slug}"
             result = sel.declutter_validation(
                 checkpoint, folder, parallel=parallel, **asdict(validation)

@@ -32,6 +32,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "selection": ("selection.json", "correlations"),
     "learning_curve": ("learning_curve.json", "cells"),
     "recipe": ("recipe.json", "verdicts"),
+    "seed_spread": ("seed_spread.json", "pairings"),
 }
 NEEDS_VGN = {"scene_physics", "grasp_db"}  # reads VGN's meshes from the data folder
 NEEDS_REFERENCE = {"hands"}  # reads MuJoCo Menagerie's hands from ../shared/reference

@@ -92,6 +92,15 @@ def test_a_metric_column_chooses_its_best_epoch(run, by, column, sign):
     assert json.loads((run / "selection.json").read_text())["chosen"]["epoch"] == expected
 
 
+def test_selected_checkpoint_is_best_pt_only_when_chosen_by_that_measure(run):
+    with pytest.raises(ValueError, match="symgrasp select"):
+        sel.selected_checkpoint(run)  # best.pt of training: chosen by validation loss
+    sel.select_checkpoint(run, "validity_ap")
+    assert sel.selected_checkpoint(run, "validity_ap") == run / "best.pt"
+    with pytest.raises(ValueError, match="RUN_DIR"):
+        sel.selected_checkpoint(run, "declutter")
+
+
 def test_revalidation_recomputes_the_metrics_csv_values(run):
     selection = sel.select_checkpoint(run, "top5_valid_near",
                                       revalidate=sel.Revalidation(datasets=_val_data()),

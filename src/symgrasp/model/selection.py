@@ -57,6 +57,7 @@ __all__ = [
     "direction",
     "find_checkpoints",
     "select_checkpoint",
+    "selected_checkpoint",
     "validation_metrics",
 ]
 
@@ -437,6 +438,23 @@ def select_checkpoint(
     if copy:
         _install(run, run / chosen["checkpoint"], selection)
     return selection
+
+
+def selected_checkpoint(run_dir: str | Path, by: str = "declutter") -> Path:
+    """``run_dir/best.pt`` when `select_checkpoint` chose it by ``by`` (default the declutter
+    validation); ValueError naming RUN_DIR, and the command that would select it, otherwise
+    (a best.pt that training chose by validation loss, or none)."""
+    run, measure = Path(run_dir), ALIASES.get(by, by)
+    best = run / "best.pt"
+    if best.is_file():
+        from symgrasp.model.checkpoint import load_checkpoint
+
+        if load_checkpoint(best).get("selection", {}).get("by") == measure:
+            return best
+    raise ValueError(
+        f"RUN_DIR {run}: best.pt was not chosen by {measure}; run "
+        f"symgrasp select {run} --by {by} first"
+    )
 
 
 def _declutter_columns(result: dict[str, Any]) -> dict[str, Any]:

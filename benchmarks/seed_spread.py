@@ -1,0 +1,157 @@
+"""How much the training seed moves the declutter result, and whether the representations'
+ordering survives it → benchmarks/results/seed_spread.{json,md}.
+
+    PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/seed_spread.py --runs ROOT/runs \\
+        [--prefix final] [--reps bingham2d rotmat6d] [--seeds 0 1 2] [--gripper robotiq-2f85] \\
+        [--objects vgn-pile-test large-box] [--rounds 100] [--out ROOT/bench/table] \\
+        [--workers 2] [--quick [DIR]]
+
+Each run ``--runs/PREFIX-REP-sSEED`` has been selected (``symgrasp select RUN --by
+declutter``; validation rounds on training objects only) and its ``best.pt`` plays the test
+benchmark: ``--rounds`` rounds of 5 objects from seed 0 on each object set, failure diagnosis
+on, into ``--out/GRIPPER/REP/sSEED/OBJECTS`` (read back when finished, resumed when not, so a
+step of a campaign can play one run as soon as it is selected and a later call collates).
+
+Per representation and object set: SR and CR of every training seed (bootstrap 95 % intervals
+over rounds), their mean, minimum and maximum, and the **spread** (max − min SR; issue 17's
+target is ≤ 6 points). Per object set: the first representation minus each other one for
+**every pairing of training seeds**, paired round by round on the same test rounds
+(`symgrasp.benchmark.compare.paired_change`), and whether it is ahead in all of them.
+``--quick``: the shipped Robotiq model stands in for every run; one seed, one round of one
+household-test object.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+from pathlib import Path
+from typing import Any
+
+from common import parse_args, write_result
+
+from symgrasp.benchmark.compare import paired_change
+from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
+from symgrasp.cli import add_parallel_options, parallel_from_args
+from symgrasp.detect.pretrained import shipped_path
+from symgrasp.model.selection import selected_checkpoint
+
+SPREAD_TARGET = 0.06
+"""Issue 17's target for the SR spread between training seeds of one representation."""
+
+SHIPPED = "bingham2d-robotiq-2f85"
+
+
+def spread(cells: list[dict[str, Any]], rep: str, objects: str) -> dict[str, Any]:
+    """Mean, min, max and spread of SR and CR over the training seeds of ``rep`` on
+    ``objects``."""
+    mine = [c for c in cells if c["rep"] == rep and c["objects"] == objects]
+    row: dict[str, Any] = {"rep": rep, "objects": objects, "seeds": [c["seed"] for c in mine]}
+    for name in ("success_ratio", "clear_ratio"):
+        values = [c["summary"][name] for c in mine]
+        row[name] = {"per_seed": values, "mean": sum(values) / len(values),
+                     "min": min(values), "max": max(values), "spread": max(values) - min(values)}  # fmt: skip
+    row["within_target"] = row["success_ratio"]["spread"] <= SPREAD_TARGET
+    return row
+
+
+def markdown(cells: list[dict], spreads: list[dict], pairings: list[dict]) -> str:
+    def pct(summary: dict[str, Any], name: str) -> str:
+        low, high = (100 * v for v in summary[f"{name}_ci95"])
+        return f"{100 * summary[name]:.1f} [{low:.1f}, {high:.1f}]"
+
+    text = ["| representation | objects | training seed | SR % [95 % CI] | CR % [95 % CI] | "
+            "grasps |", "|---|---|---|---|---|---|"]  # fmt: skip
+    for c in cells:
+        s = c["summary"]
+        text.append(f"| `{c['rep']}` | {c['objects']} | {c['seed']} | "
+                    f"{pct(s, 'success_ratio')} | {pct(s, 'clear_ratio')} | {s['executed']} |")  # fmt: skip
+    text += ["", "| representation | objects | SR % mean (min–max) | SR spread | CR % mean "
+             "(min–max) |", "|---|---|---|---|---|"]  # fmt: skip
+    for r in spreads:
+        sr, cr = r["success_ratio"], r["clear_ratio"]
+        mark = "≤ 6" if r["within_target"] else "> 6"
+        text.append(
+            f"| `{r['rep']}` | {r['objects']} | {100 * sr['mean']:.1f} ({100 * sr['min']:.1f}–"
+            f"{100 * sr['max']:.1f}) | {100 * sr['spread']:.1f} ({mark}) | {100 * cr['mean']:.1f} "
+            f"({100 * cr['min']:.1f}–{100 * cr['max']:.1f}) |"
+        )
+    text += ["", "| pairing (seeds) | objects | SR change [paired 95 % CI] | CR change |",
+             "|---|---|---|---|"]  # fmt: skip
+    for p in pairings:
+        sr, cr = ([f"{100 * v:+.1f}" for v in p["change"][k]]
+                  for k in ("success_ratio", "clear_ratio"))  # fmt: skip
+        text.append(
+            f"| `{p['a']}` s{p['seed_a']} − `{p['b']}` s{p['seed_b']} | {p['objects']} | "
+            f"{sr[0]} [{sr[1]}, {sr[2]}] | {cr[0]} [{cr[1]}, {cr[2]}] |"
+        )
+    return "\n".join(text) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", default="runs", help="folder of the training runs")
+    parser.add_argument("--prefix", default="final",
+                        help="run folders are PREFIX-REP-sSEED (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--reps", nargs="+", default=["bingham2d", "rotmat6d"],
+                        help="representations; the first is compared with each other one")  # fmt: skip
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2],
+                        help="training seeds (default: 0 1 2)")  # fmt: skip
+    parser.add_argument("--gripper", default="robotiq-2f85",
+                        help="gripper the runs trained for, a folder level of --out")  # fmt: skip
+    parser.add_argument("--objects", nargs="+", default=["vgn-pile-test", "large-box"],
+                        help="test object sets (default: vgn-pile-test large-box)")  # fmt: skip
+    parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
+    parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
+    add_parallel_options(parser, "rounds")
+    parser.set_defaults(workers=2)
+    parser.add_argument("--out", default="out/bench/table", help="benchmark cell folders")
+    parser.add_argument("--result", default="benchmarks/results/seed_spread", help="stem")
+    args = parse_args(
+        parser, outputs=("out", "result"),
+        quick={"rounds": 1, "num_objects": 1, "workers": 1, "seeds": [0],
+               "objects": ["household-test"]},
+        also=f", {SHIPPED} for every run",
+    )  # fmt: skip
+    parallel = parallel_from_args(args)
+    cells, rounds = [], {}
+    for rep, seed, objects in itertools.product(args.reps, args.seeds, args.objects):
+        run = Path(args.runs) / f"{args.prefix}-{rep}-s{seed}"
+        model = shipped_path(SHIPPED) if args.quick else selected_checkpoint(run)
+        config = BenchmarkConfig(model=str(Path(model).resolve()), objects=objects,
+                                 num_objects=args.num_objects, rounds=args.rounds)  # fmt: skip
+        folder = Path(args.out) / args.gripper / rep / f"s{seed}" / objects
+        rounds[rep, seed, objects] = run_or_reuse(config, folder, parallel)
+        cells.append({"rep": rep, "seed": seed, "objects": objects, "run": str(run),
+                      "folder": str(folder), "summary": summarise(rounds[rep, seed, objects])})  # fmt: skip
+    spreads = [spread(cells, rep, objects) for rep in args.reps for objects in args.objects]
+    first = args.reps[0]
+    pairings = [
+        {"a": first, "seed_a": sa, "b": other, "seed_b": sb, "objects": objects,
+         "change": paired_change(rounds[first, sa, objects], rounds[other, sb, objects])}
+        for other in args.reps[1:] for objects in args.objects
+        for sa, sb in itertools.product(args.seeds, args.seeds)
+    ]  # fmt: skip
+    ahead: dict[str, bool] = {}  # first rep ahead of each other one, per object set
+    for p in pairings:
+        key = f"{p['b']} {p['objects']}"
+        ahead[key] = ahead.get(key, True) and p["change"]["success_ratio"][0] > 0
+    table = markdown(cells, spreads, pairings)
+    print(table, end="")
+    write_result(
+        args.result,
+        "training-seed spread of the declutter SR/CR per representation, and the first "
+        "representation's paired lead over each other in every pairing of training seeds",
+        f"PYTHONPATH=src python benchmarks/seed_spread.py --runs {args.runs} --prefix "
+        f"{args.prefix} --reps {' '.join(args.reps)} --seeds {' '.join(map(str, args.seeds))}",
+        cells,
+        table,
+        spreads=spreads,
+        pairings=pairings,
+        ahead_in_every_pairing=ahead,
+        spread_target=SPREAD_TARGET,
+    )
+
+
+if __name__ == "__main__":
+    main()
