@@ -13,10 +13,12 @@ on, into ``--out/GRIPPER/REP/sSEED/OBJECTS`` (read back when finished, resumed w
 step of a campaign can play one run as soon as it is selected and a later call collates).
 
 Per representation and object set: SR and CR of every training seed (bootstrap 95 % intervals
-over rounds), their mean, minimum and maximum, and the **spread** (max − min SR; issue 17's
-target is ≤ 6 points). Per object set: the first representation minus each other one for
+over rounds), their mean with a 95 % interval that includes the training seed (hierarchical
+bootstrap, `symgrasp.benchmark.seeds`), minimum and maximum, and the **spread** (max − min
+SR; issue 17's target is ≤ 6 points). Per object set: the first representation minus each other one for
 **every pairing of training seeds**, paired round by round on the same test rounds
-(`symgrasp.benchmark.compare.paired_change`), and whether it is ahead in all of them.
+(`symgrasp.benchmark.compare.paired_change`), whether it is ahead in all of them, and the
+difference of the means over seeds with the hierarchical interval on the shared rounds.
 ``--quick``: the shipped Robotiq model stands in for every run; one seed, one round of one
 household-test object.
 """
@@ -32,6 +34,7 @@ from common import parse_args, write_result
 
 from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
+from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios
 from symgrasp.cli import add_parallel_options, parallel_from_args
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.model.selection import selected_checkpoint
@@ -42,20 +45,23 @@ SPREAD_TARGET = 0.06
 SHIPPED = "bingham2d-robotiq-2f85"
 
 
-def spread(cells: list[dict[str, Any]], rep: str, objects: str) -> dict[str, Any]:
-    """Mean, min, max and spread of SR and CR over the training seeds of ``rep`` on
-    ``objects``."""
+def spread(cells: list[dict[str, Any]], rounds: dict, rep: str, objects: str) -> dict[str, Any]:
+    """Mean (with the hierarchical interval over seeds and rounds), min, max and spread of SR
+    and CR over the training seeds of ``rep`` on ``objects``."""
     mine = [c for c in cells if c["rep"] == rep and c["objects"] == objects]
     row: dict[str, Any] = {"rep": rep, "objects": objects, "seeds": [c["seed"] for c in mine]}
+    interval = seed_ratios([rounds[rep, c["seed"], objects] for c in mine])
     for name in ("success_ratio", "clear_ratio"):
         values = [c["summary"][name] for c in mine]
-        row[name] = {"per_seed": values, "mean": sum(values) / len(values),
+        row[name] = {"per_seed": values, "mean": interval[name][0], "ci95": interval[name][1:],
                      "min": min(values), "max": max(values), "spread": max(values) - min(values)}  # fmt: skip
     row["within_target"] = row["success_ratio"]["spread"] <= SPREAD_TARGET
     return row
 
 
-def markdown(cells: list[dict], spreads: list[dict], pairings: list[dict]) -> str:
+def markdown(
+    cells: list[dict], spreads: list[dict], pairings: list[dict], mean_changes: list[dict]
+) -> str:
     def pct(summary: dict[str, Any], name: str) -> str:
         low, high = (100 * v for v in summary[f"{name}_ci95"])
         return f"{100 * summary[name]:.1f} [{low:.1f}, {high:.1f}]"
@@ -66,15 +72,15 @@ def markdown(cells: list[dict], spreads: list[dict], pairings: list[dict]) -> st
         s = c["summary"]
         text.append(f"| `{c['rep']}` | {c['objects']} | {c['seed']} | "
                     f"{pct(s, 'success_ratio')} | {pct(s, 'clear_ratio')} | {s['executed']} |")  # fmt: skip
-    text += ["", "| representation | objects | SR % mean (min–max) | SR spread | CR % mean "
-             "(min–max) |", "|---|---|---|---|---|"]  # fmt: skip
+    text += ["", "| representation | objects | SR % mean over seeds [95 % CI, seeds and rounds] "
+             "(min–max) | SR spread | CR % mean [95 % CI] (min–max) |",
+             "|---|---|---|---|---|"]  # fmt: skip
     for r in spreads:
         sr, cr = r["success_ratio"], r["clear_ratio"]
         mark = "≤ 6" if r["within_target"] else "> 6"
         text.append(
-            f"| `{r['rep']}` | {r['objects']} | {100 * sr['mean']:.1f} ({100 * sr['min']:.1f}–"
-            f"{100 * sr['max']:.1f}) | {100 * sr['spread']:.1f} ({mark}) | {100 * cr['mean']:.1f} "
-            f"({100 * cr['min']:.1f}–{100 * cr['max']:.1f}) |"
+            f"| `{r['rep']}` | {r['objects']} | {_mean(sr)} | {100 * sr['spread']:.1f} ({mark}) "
+            f"| {_mean(cr)} |"
         )
     text += ["", "| pairing (seeds) | objects | SR change [paired 95 % CI] | CR change |",
              "|---|---|---|---|"]  # fmt: skip
@@ -85,7 +91,20 @@ def markdown(cells: list[dict], spreads: list[dict], pairings: list[dict]) -> st
             f"| `{p['a']}` s{p['seed_a']} − `{p['b']}` s{p['seed_b']} | {p['objects']} | "
             f"{sr[0]} [{sr[1]}, {sr[2]}] | {cr[0]} [{cr[1]}, {cr[2]}] |"
         )
+    for m in mean_changes:
+        sr, cr = ([f"{100 * v:+.1f}" for v in m["change"][k]]
+                  for k in ("success_ratio", "clear_ratio"))  # fmt: skip
+        text.append(
+            f"| `{m['a']}` − `{m['b']}`, means over seeds [seeds and rounds] | {m['objects']} | "
+            f"{sr[0]} [{sr[1]}, {sr[2]}] | {cr[0]} [{cr[1]}, {cr[2]}] |"
+        )
     return "\n".join(text) + "\n"
+
+
+def _mean(ratio: dict[str, Any]) -> str:
+    low, high = (100 * v for v in ratio["ci95"])
+    return (f"{100 * ratio['mean']:.1f} [{low:.1f}, {high:.1f}] ({100 * ratio['min']:.1f}–"
+            f"{100 * ratio['max']:.1f})")  # fmt: skip
 
 
 def main() -> None:
@@ -124,7 +143,7 @@ def main() -> None:
         rounds[rep, seed, objects] = run_or_reuse(config, folder, parallel)
         cells.append({"rep": rep, "seed": seed, "objects": objects, "run": str(run),
                       "folder": str(folder), "summary": summarise(rounds[rep, seed, objects])})  # fmt: skip
-    spreads = [spread(cells, rep, objects) for rep in args.reps for objects in args.objects]
+    spreads = [spread(cells, rounds, rep, objects) for rep in args.reps for objects in args.objects]
     first = args.reps[0]
     pairings = [
         {"a": first, "seed_a": sa, "b": other, "seed_b": sb, "objects": objects,
@@ -132,11 +151,18 @@ def main() -> None:
         for other in args.reps[1:] for objects in args.objects
         for sa, sb in itertools.product(args.seeds, args.seeds)
     ]  # fmt: skip
+    mean_changes = []  # first rep minus each other one, means over seeds, hierarchical interval
+    for other, objects in itertools.product(args.reps[1:], args.objects):
+        shared = common_rounds(*(rounds[rep, s, objects] for rep in (first, other)
+                                 for s in args.seeds))  # fmt: skip
+        n = len(args.seeds)
+        mean_changes.append({"a": first, "b": other, "objects": objects,
+                             "change": seed_paired_change(shared[:n], shared[n:])})  # fmt: skip
     ahead: dict[str, bool] = {}  # first rep ahead of each other one, per object set
     for p in pairings:
         key = f"{p['b']} {p['objects']}"
         ahead[key] = ahead.get(key, True) and p["change"]["success_ratio"][0] > 0
-    table = markdown(cells, spreads, pairings)
+    table = markdown(cells, spreads, pairings, mean_changes)
     print(table, end="")
     write_result(
         args.result,
@@ -148,6 +174,7 @@ def main() -> None:
         table,
         spreads=spreads,
         pairings=pairings,
+        mean_changes=mean_changes,
         ahead_in_every_pairing=ahead,
         spread_target=SPREAD_TARGET,
     )

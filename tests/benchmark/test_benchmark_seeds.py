@@ -1,0 +1,103 @@
+"""Ratios over training seeds (`symgrasp.benchmark.seeds`): the mean over seeds, and intervals
+that include the seed's luck."""
+
+import numpy as np
+import pytest
+
+from symgrasp.benchmark.runner import summarise
+from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios
+
+
+def _run(counts, first=0):
+    """Round records: round ``first + i`` had ``counts[i]`` = (successes, executed, objects)."""
+    return [{"seed": first + i, "successes": s, "executed": e, "objects": o, "attempts": [],
+             "renderer": "test"}
+            for i, (s, e, o) in enumerate(counts)]  # fmt: skip
+
+
+def _random_run(rng, rounds=60, p=0.7):
+    counts = []
+    for _ in range(rounds):
+        executed = int(rng.integers(2, 7))
+        successes = int(rng.binomial(executed, p))
+        counts.append((successes, executed, min(5, successes + int(rng.integers(0, 3)))))
+    return _run(counts)
+
+
+def test_the_point_is_the_mean_of_each_seeds_pooled_ratio():
+    runs = [_run([(3, 4, 5), (1, 4, 5)]), _run([(2, 2, 5)]), _run([(0, 3, 5), (3, 3, 5)])]
+    result = seed_ratios(runs)
+    assert result["per_seed_success_ratio"] == pytest.approx([4 / 8, 1.0, 3 / 6])
+    assert result["success_ratio"][0] == pytest.approx((0.5 + 1.0 + 0.5) / 3)
+    assert result["clear_ratio"][0] == pytest.approx((4 / 10 + 2 / 5 + 3 / 10) / 3)
+    for name in ("success_ratio", "clear_ratio"):
+        point, low, high = result[name]
+        assert low <= point <= high
+
+
+def test_seeds_that_disagree_widen_the_interval_that_rounds_alone_would_not():
+    # Within a run every round is alike, so a bootstrap over rounds has no width; the two
+    # training seeds disagree completely, and the interval must span both.
+    runs = [_run([(2, 2, 2)] * 30), _run([(0, 2, 2)] * 30)]
+    for run in runs:
+        low, high = summarise(run)["success_ratio_ci95"]
+        assert low == high
+    point, low, high = seed_ratios(runs)["success_ratio"]
+    assert point == pytest.approx(0.5)
+    assert low == pytest.approx(0.0) and high == pytest.approx(1.0)
+
+
+def test_one_seed_gives_the_interval_of_a_bootstrap_over_rounds():
+    run = _random_run(np.random.default_rng(3))
+    ours = seed_ratios([run], seed=1)["success_ratio"]
+    rounds = summarise(run, seed=2)
+    assert ours[0] == pytest.approx(rounds["success_ratio"])
+    assert ours[1:] == pytest.approx(rounds["success_ratio_ci95"], abs=0.02)
+
+
+def test_crashed_rounds_are_left_out_of_a_run():
+    run = [*_run([(1, 2, 5), (2, 2, 5)]), {"seed": 2, "error": "boom"}]
+    assert seed_ratios([run])["success_ratio"][0] == pytest.approx(3 / 4)
+
+
+def test_paired_change_of_a_detector_with_itself_is_exactly_zero():
+    run = _random_run(np.random.default_rng(0))
+    change = seed_paired_change([run], [run])
+    assert change["success_ratio"] == [0.0, 0.0, 0.0]
+    assert change["clear_ratio"] == [0.0, 0.0, 0.0]
+
+
+def test_a_constant_lead_per_round_survives_shared_round_draws():
+    # A clears one object more than B in every round, with the same grasps, in every seed.
+    base = [(2, 4, 5)] * 40
+    lead = [(3, 4, 5)] * 40
+    change = seed_paired_change([_run(lead), _run(lead)], [_run(base), _run(base)])
+    assert change["success_ratio"] == pytest.approx([0.25, 0.25, 0.25])
+    assert change["clear_ratio"] == pytest.approx([0.2, 0.2, 0.2])
+
+
+def test_paired_change_includes_the_seed_spread_of_each_detector():
+    rng = np.random.default_rng(5)
+    a = [_random_run(rng, p=0.9), _random_run(np.random.default_rng(6), p=0.5)]
+    b = [_random_run(np.random.default_rng(7), p=0.6)] * 2
+    point, low, high = seed_paired_change(a, b)["success_ratio"]
+    means = [seed_ratios(r)["success_ratio"][0] for r in (a, b)]
+    assert point == pytest.approx(means[0] - means[1])
+    assert low < 0 < high  # one seed of A far ahead of B, one behind: no claim either way
+
+
+def test_runs_of_other_rounds_are_refused():
+    with pytest.raises(ValueError, match="round seeds"):
+        seed_paired_change([_run([(1, 1, 1)])], [_run([(1, 1, 1)], first=5)])
+    with pytest.raises(ValueError, match="crashed"):
+        seed_paired_change([[{"seed": 0, "error": "x"}]], [[{"seed": 0, "error": "x"}]])
+    with pytest.raises(ValueError, match="runs"):
+        seed_ratios([])
+
+
+def test_common_rounds_keeps_the_seeds_every_run_finished():
+    a = _run([(1, 1, 1)] * 4)
+    b = _run([(0, 1, 1)] * 3, first=1)
+    b[1] = {"seed": 2, "error": "boom"}
+    kept_a, kept_b = common_rounds(a, b)
+    assert [r["seed"] for r in kept_a] == [1, 3] == [r["seed"] for r in kept_b]
