@@ -85,20 +85,18 @@ def markdown(
     text += ["", "| pairing (seeds) | objects | SR change [paired 95 % CI] | CR change |",
              "|---|---|---|---|"]  # fmt: skip
     for p in pairings:
-        sr, cr = ([f"{100 * v:+.1f}" for v in p["change"][k]]
-                  for k in ("success_ratio", "clear_ratio"))  # fmt: skip
-        text.append(
-            f"| `{p['a']}` s{p['seed_a']} − `{p['b']}` s{p['seed_b']} | {p['objects']} | "
-            f"{sr[0]} [{sr[1]}, {sr[2]}] | {cr[0]} [{cr[1]}, {cr[2]}] |"
-        )
+        text.append(_change_row(f"`{p['a']}` s{p['seed_a']} − `{p['b']}` s{p['seed_b']}", p))
     for m in mean_changes:
-        sr, cr = ([f"{100 * v:+.1f}" for v in m["change"][k]]
-                  for k in ("success_ratio", "clear_ratio"))  # fmt: skip
-        text.append(
-            f"| `{m['a']}` − `{m['b']}`, means over seeds [seeds and rounds] | {m['objects']} | "
-            f"{sr[0]} [{sr[1]}, {sr[2]}] | {cr[0]} [{cr[1]}, {cr[2]}] |"
-        )
+        text.append(_change_row(f"`{m['a']}` − `{m['b']}`, means over seeds [seeds and rounds]", m))
     return "\n".join(text) + "\n"
+
+
+def _change_row(label: str, row: dict[str, Any]) -> str:
+    sr, cr = ([f"{100 * v:+.1f}" for v in row["change"][k]]
+              for k in ("success_ratio", "clear_ratio"))  # fmt: skip
+    return (
+        f"| {label} | {row['objects']} | {sr[0]} [{sr[1]}, {sr[2]}] | {cr[0]} [{cr[1]}, {cr[2]}] |"
+    )
 
 
 def _mean(ratio: dict[str, Any]) -> str:

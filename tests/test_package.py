@@ -58,3 +58,15 @@ def test_an_interrupted_write_leaves_the_old_file_and_no_temporary(tmp_path):
         write_atomic(path, fail, "w")
     assert path.read_text() == "old"
     assert [p.name for p in tmp_path.iterdir()] == ["a.txt"]
+
+
+def test_write_csv_takes_every_key_in_first_seen_order(tmp_path):
+    import csv
+
+    from symgrasp.atomic import write_csv
+
+    path = write_csv(tmp_path / "t.csv", [{"a": 1, "b": 2}, {"b": 3, "c": 4}])
+    with open(path, newline="") as file:
+        rows = list(csv.DictReader(file))
+    assert list(rows[0]) == ["a", "b", "c"]
+    assert rows == [{"a": "1", "b": "2", "c": ""}, {"a": "", "b": "3", "c": "4"}]

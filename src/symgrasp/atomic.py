@@ -27,6 +27,21 @@ def write_atomic(
     return path
 
 
+def write_csv(path: str | Path, rows: list[dict[str, Any]]) -> Path:
+    """``rows`` as CSV with a header of every key in first-seen order (a row without a key
+    leaves its cell empty), written atomically."""
+    import csv
+
+    columns = list(dict.fromkeys(key for row in rows for key in row))
+
+    def write(file: Any) -> None:
+        writer = csv.DictWriter(file, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)
+
+    return write_atomic(path, write, "w", newline="")
+
+
 def move_into_place(source: str | Path, path: str | Path) -> Path:
     """Rename ``source``, a file or folder finished elsewhere in pieces (a resumable download,
     an extracted archive), to ``path`` in one step: a reader sees all of it or nothing. For a

@@ -32,7 +32,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from symgrasp.atomic import write_atomic
+from symgrasp.atomic import write_atomic, write_csv
 from symgrasp.config import (
     TEST_SEED_LIMIT,
     VALIDATION_OBJECTS,
@@ -432,7 +432,7 @@ def select_checkpoint(
         "revalidated": revalidate is not None,
         "checkpoints": table,
     }  # fmt: skip
-    _write_table(run / "selection.csv", table)
+    write_csv(run / "selection.csv", table)
     text = json.dumps(selection, indent=1) + "\n"
     write_atomic(run / "selection.json", lambda file: file.write(text), mode="w")
     if copy:
@@ -487,17 +487,6 @@ def choose(table: list[dict[str, Any]], measure: str, sign: int) -> dict[str, An
         return (sign * row[measure], second if _finite(second) else -math.inf, -row["epoch"])
 
     return max(candidates, key=key)
-
-
-def _write_table(path: Path, table: list[dict[str, Any]]) -> None:
-    columns = list(dict.fromkeys(key for row in table for key in row))
-
-    def write(file: Any) -> None:
-        writer = csv.DictWriter(file, fieldnames=columns)
-        writer.writeheader()
-        writer.writerows(table)
-
-    write_atomic(path, write, "w", newline="")
 
 
 def _install(run: Path, chosen: Path, selection: dict[str, Any]) -> None:

@@ -32,7 +32,6 @@ the world size, the global batch and the learning rate.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import math
 import time
@@ -46,7 +45,7 @@ from torch.utils.data import DataLoader, Dataset
 from tqdm import tqdm
 
 import symgrasp
-from symgrasp.atomic import write_atomic
+from symgrasp.atomic import write_atomic, write_csv
 from symgrasp.config import LossWeights, TrainConfig, ValidityLoss
 from symgrasp.device import resolve_device
 from symgrasp.model import distributed
@@ -388,18 +387,6 @@ def evaluate(
             sums[key] = sums.get(key, 0.0) + value.item()
         accumulator.update(output, batch)
     return {k: v / max(len(loader), 1) for k, v in sums.items()}, accumulator.compute()
-
-
-def write_csv(path: Path, history: list[dict[str, float]]) -> None:
-    """``history`` as CSV (one row per epoch), written atomically."""
-    columns = list(dict.fromkeys(key for row in history for key in row))
-
-    def write(file: Any) -> None:
-        writer = csv.DictWriter(file, fieldnames=columns)
-        writer.writeheader()
-        writer.writerows(history)
-
-    write_atomic(path, write, "w", newline="")
 
 
 def plot_learning_curve(path: Path, history: list[dict[str, float]]) -> None:
