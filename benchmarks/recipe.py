@@ -13,8 +13,8 @@ objects, default vgn-pile-train) from ``--seed`` (2 000 000), the same rounds fo
 factor's runs (one per training seed, named ``…-sN``) are compared with the baseline's run of
 the same seed on those rounds, paired round by round (`symgrasp.benchmark.compare`).
 
-The rule fixed before any run was judged (docs/model.md, "Recipe"): a factor is adopted when
-its SR beats the baseline's for **every** training seed; CR is reported beside it.
+The rule fixed before any run was judged (docs/model.md, "The recipe"): a factor is adopted
+when, for **every** training seed, its paired SR and CR changes sum to more than zero.
 ``--quick``: the shipped Robotiq model stands in for two runs (a baseline and a factor), one
 round of one object of household-train.
 """
@@ -134,8 +134,8 @@ def main() -> None:
 
 
 def verdict(cells: list[dict[str, Any]], baseline: str) -> dict[str, dict[str, Any]]:
-    """Per factor: its mean SR/CR change over seeds and whether the rule adopts it (SR ahead of
-    the baseline for every seed that has a baseline run)."""
+    """Per factor: its mean SR/CR change over seeds and whether the rule adopts it (SR + CR
+    change above zero for every seed that has a baseline run)."""
     result = {}
     for factor in dict.fromkeys(c["factor"] for c in cells if c["factor"] != baseline):
         mine = [c for c in cells if c["factor"] == factor and "sr_change" in c]
@@ -145,7 +145,7 @@ def verdict(cells: list[dict[str, Any]], baseline: str) -> dict[str, dict[str, A
             "seeds": [c["seed"] for c in mine],
             "mean_sr_change": sum(c["sr_change"][0] for c in mine) / len(mine),
             "mean_cr_change": sum(c["cr_change"][0] for c in mine) / len(mine),
-            "adopted": all(c["sr_change"][0] > 0 for c in mine),
+            "adopted": all(c["sr_change"][0] + c["cr_change"][0] > 0 for c in mine),
         }
     return result
 
@@ -176,7 +176,7 @@ def markdown(cells: list[dict[str, Any]], verdicts: dict[str, Any], baseline: st
         text.append(
             f"- {factor}: mean change over seeds {', '.join(map(str, v['seeds']))}: SR "
             f"{100 * v['mean_sr_change']:+.1f}, CR {100 * v['mean_cr_change']:+.1f} points; "
-            f"{'adopted' if v['adopted'] else 'not adopted'} (SR ahead for every seed)"
+            f"{'adopted' if v['adopted'] else 'not adopted'} (SR + CR change > 0 for every seed)"
         )
     return "\n".join(text) + "\n"
 
