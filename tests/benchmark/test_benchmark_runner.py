@@ -103,6 +103,29 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
     assert json.loads((tmp_path / "results.json").read_text())["config"]["seed"] == 10
 
 
+@pytest.mark.parametrize("given", [1, 2])
+def test_rounds_in_process_use_no_more_torch_threads_than_the_process_was_given(
+    monkeypatch, tmp_path, given
+):
+    import torch
+
+    from symgrasp.benchmark.declutter import Round
+
+    seen = []
+    monkeypatch.setattr(runner, "run_round", lambda detector, objects, num_objects, seed, scene,
+                        observer, diagnose: Round(seed, num_objects, "gl"))  # fmt: skip
+    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: (
+        seen.append(threads), runner._WORKER.update(config=config, detector=None, out=out)))  # fmt: skip
+    monkeypatch.setattr(runner.os, "cpu_count", lambda: 16)
+    before = torch.get_num_threads()
+    torch.set_num_threads(given)
+    try:
+        runner.run_benchmark(BenchmarkConfig(rounds=1), tmp_path)
+    finally:
+        torch.set_num_threads(before)
+    assert seen == [given]
+
+
 def test_bad_configuration_is_refused():
     with pytest.raises(ValueError, match="rounds"):
         BenchmarkConfig(rounds=0)

@@ -100,6 +100,16 @@ def round_seeds(config: BenchmarkConfig) -> list[int]:
     return [config.seed + r for r in range(config.rounds)]
 
 
+def _in_process_threads() -> int:
+    """Torch threads for rounds played in this process: two (the detector's network gains
+    little beyond), or fewer when the process was given fewer (``OMP_NUM_THREADS``,
+    ``torch.set_num_threads``), so that jobs sharing a machine one core each do not
+    oversubscribe it."""
+    import torch
+
+    return max(1, min(2, torch.get_num_threads(), os.cpu_count() or 1))
+
+
 def run_rounds(
     config: BenchmarkConfig,
     executor: Executor,
@@ -111,7 +121,7 @@ def run_rounds(
     raised is ``{"seed", "error", "traceback"}`` (pictures, if asked for, go under ``out`` on
     the machine that plays the round)."""
     seeds = round_seeds(config) if seeds is None else list(seeds)
-    threads = max(1, min(2, os.cpu_count() or 1)) if executor.in_process else 1
+    threads = _in_process_threads() if executor.in_process else 1
     job = Job(_round_task, _init_worker, (config, threads, Path(out)))
     for seed, result in executor.map(job, seeds, "declutter rounds"):
         if isinstance(result, Failure):  # a crashed round is data, not the end of the benchmark
