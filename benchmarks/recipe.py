@@ -5,7 +5,7 @@ declutter rounds no checkpoint was chosen by → benchmarks/results/recipe.{json
         [--factor NAME=RUN,RUN ...] [--rounds 100] [--seed 2000000] [--workers 2] [--quick [DIR]]
 
 Every run has been selected first (``symgrasp select RUN --by declutter``: its best.pt is the
-checkpoint with the best declutter validation, 50 rounds on training objects from seed
+checkpoint with the best declutter validation, 200 rounds on training objects from seed
 1 000 000). Choosing the best of several noisy validations flatters the winner, so each run's
 best.pt is judged again on **other** rounds: ``--rounds`` rounds of 5 ``--objects`` (training
 objects, default vgn-pile-train) from ``--seed`` (2 000 000), the same rounds for every run

@@ -25,6 +25,7 @@ from symgrasp.config import (
     SEED_MAX,
     TEST_SEED_LIMIT,
     VALIDATION_OBJECTS,
+    VALIDATION_ROUNDS,
     VALIDATION_SEED,
     BenchmarkConfig,
     ParallelConfig,
@@ -913,8 +914,8 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
         f"(default: {VALIDATION_OBJECTS})", VALIDATION_OBJECTS,
     )  # fmt: skip
     parser.add_argument(
-        "--rounds", type=_integer(1, 100_000), default=50,
-        help="declutter validation rounds per checkpoint (default: 50)",
+        "--rounds", type=_integer(1, 100_000), default=VALIDATION_ROUNDS,
+        help=f"declutter validation rounds per checkpoint (default: {VALIDATION_ROUNDS})",
     )  # fmt: skip
     parser.add_argument(
         "--seed", type=SEED, default=VALIDATION_SEED,

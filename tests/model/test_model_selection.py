@@ -197,9 +197,9 @@ def test_validation_settings_are_checked_when_made_and_name_their_cache_stably()
         sel.DeclutterValidation(seed=5)
     with pytest.raises(ValueError, match="objects"):
         sel.DeclutterValidation(objects="vgn-pile-test")
-    # The cache folder of the defaults, as runs selected before this class existed named it.
-    assert sel.DeclutterValidation().slug == "vgn-pile-train-pile5-r50-s1000000-88f84857"
-    assert sel.DeclutterValidation(rounds=49).slug != sel.DeclutterValidation().slug
+    # The cache folder of 50 rounds, as runs selected before this class existed named it.
+    assert sel.DeclutterValidation(rounds=50).slug == "vgn-pile-train-pile5-r50-s1000000-88f84857"
+    assert sel.DeclutterValidation(rounds=49).slug != sel.DeclutterValidation(rounds=50).slug
 
 
 def test_declutter_validation_of_a_shipped_model_runs(tmp_path):

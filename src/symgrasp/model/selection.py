@@ -36,6 +36,7 @@ from symgrasp.atomic import write_atomic, write_csv
 from symgrasp.config import (
     TEST_SEED_LIMIT,
     VALIDATION_OBJECTS,
+    VALIDATION_ROUNDS,
     VALIDATION_SEED,
     BenchmarkConfig,
     ParallelConfig,
@@ -60,9 +61,6 @@ __all__ = [
     "selected_checkpoint",
     "validation_metrics",
 ]
-
-VALIDATION_ROUNDS = 50
-"""Rounds of a declutter validation (≈ 150 executed grasps, a ±7-point SR interval)."""
 
 ALIASES = {"declutter": "declutter_sr", "val_loss": "val_total"}
 """Measure names ``--by`` also takes."""
