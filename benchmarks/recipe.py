@@ -2,7 +2,7 @@
 declutter rounds no checkpoint was chosen by → benchmarks/results/recipe.{json,md}.
 
     PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/recipe.py --runs ROOT/runs \\
-        [--factor NAME=RUN,RUN ...] [--rounds 100] [--seed 2000000] [--workers 2] [--quick [DIR]]
+        [--factor NAME=RUN,RUN ...] [--rounds 400] [--seed 2000000] [--workers 2] [--quick [DIR]]
 
 Every run has been selected first (``symgrasp select RUN --by declutter``: its best.pt is the
 checkpoint with the best declutter validation, 200 rounds on training objects from seed
@@ -76,7 +76,7 @@ def main() -> None:
                         "robust_training.toml)")  # fmt: skip
     parser.add_argument("--objects", default=sel.VALIDATION_OBJECTS,
                         help="judging objects, training ones (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--rounds", type=int, default=100, help="judging rounds (default: 100)")
+    parser.add_argument("--rounds", type=int, default=400, help="judging rounds (default: 400)")
     parser.add_argument("--seed", type=int, default=JUDGE_SEED,
                         help="judging round 0 (default: %(default)s)")  # fmt: skip
     parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
