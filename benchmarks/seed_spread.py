@@ -145,7 +145,8 @@ def main() -> None:
     first = args.reps[0]
     pairings = [
         {"a": first, "seed_a": sa, "b": other, "seed_b": sb, "objects": objects,
-         "change": paired_change(rounds[first, sa, objects], rounds[other, sb, objects])}
+         "change": paired_change(*common_rounds(rounds[first, sa, objects],
+                                                rounds[other, sb, objects]))}
         for other in args.reps[1:] for objects in args.objects
         for sa, sb in itertools.product(args.seeds, args.seeds)
     ]  # fmt: skip

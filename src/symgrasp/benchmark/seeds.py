@@ -28,8 +28,9 @@ import numpy as np
 
 from symgrasp.benchmark.runner import BOOTSTRAP
 
-RATIOS = {"success_ratio": "executed", "clear_ratio": "objects"}
-"""Each pooled ratio and the count it divides the successes by."""
+RATIOS = {"success_ratio": 1, "clear_ratio": 2}
+"""Each pooled ratio and the row of `_counts` it divides the successes by (executed grasps,
+objects presented)."""
 
 
 def _counts(rounds: list[dict[str, Any]]) -> np.ndarray:
@@ -58,8 +59,7 @@ def seed_ratios(runs: list[list[dict[str, Any]]], seed: int = 0) -> dict[str, li
     counts = [_counts(run) for run in runs]
     rng = np.random.default_rng(seed)
     result: dict[str, list[float]] = {}
-    for name, key in RATIOS.items():
-        row = 1 if key == "executed" else 2
+    for name, row in RATIOS.items():
         per_seed = [float(_ratio(c[0], c[row])) for c in counts]
         means = np.empty(BOOTSTRAP)
         for b in range(BOOTSTRAP):
@@ -103,8 +103,7 @@ def seed_paired_change(
     b = np.stack([_counts(run) for run in runs_b])
     rng = np.random.default_rng(seed)
     result = {}
-    for name, key in RATIOS.items():
-        row = 1 if key == "executed" else 2
+    for name, row in RATIOS.items():
         point = np.nanmean(_ratio(a[:, 0], a[:, row])) - np.nanmean(_ratio(b[:, 0], b[:, row]))
         changes = np.empty(BOOTSTRAP)
         for i in range(BOOTSTRAP):
