@@ -2,16 +2,19 @@
 benchmarks/results/learning_curve.{json,md}, docs/figures/learning_curve.png.
 
     PYTHONPATH=src python benchmarks/learning_curve.py \\
-        [--study benchmarks/results/selection.json] [--by declutter_sr] [--quick [DIR]]
+        [--study benchmarks/results/selection.json] [--by declutter_sr] [--bench DIR]
+        [--quick [DIR]]
 
 Reads the model-selection study (``benchmarks/selection.py``: every kept checkpoint of each
 run with its validation measures and its test SR on vgn-pile-test, 100 rounds) and groups its
-runs by the training scenes they used (their ``--train-scenes``; 0 = the whole split). Per run, the checkpoint ``--by`` chooses (the rule of ``symgrasp select``,
+runs by the training scenes they used (their ``--train-scenes``; 0 = the whole split). Per
+run, the checkpoint ``--by`` chooses (the rule of ``symgrasp select``,
 `symgrasp.model.selection`: validation measures only) and that checkpoint's test SR and CR
 with their 95 % intervals; beside it the best test SR any checkpoint of the run reached, an
-upper bound no selection rule can know. Nothing
-here is trained or played: the study did that. ``--quick`` runs ``selection.py --quick`` into
-DIR first and reads its result.
+upper bound no selection rule can know; and its SR and CR minus those of the largest run's
+choice, paired round by round on the study's test rounds (``--bench``). Nothing here is
+trained or played: the study did that. ``--quick`` runs ``selection.py --quick`` into DIR
+first and reads its result.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from typing import Any
 
 from common import parse_args, write_result
 
+from symgrasp.benchmark.compare import paired_change, paired_rounds
 from symgrasp.model import selection as sel
 from symgrasp.model.checkpoint import load_checkpoint
 
@@ -36,9 +40,10 @@ def train_scenes(checkpoint: Path) -> int:
     return int(load_checkpoint(checkpoint)["config"].get("train_scenes", 0))
 
 
-def curve(study: dict[str, Any], by: str) -> list[dict[str, Any]]:
+def curve(study: dict[str, Any], by: str, bench: Path) -> list[dict[str, Any]]:
     """One cell per run of ``study``: its size, the checkpoint ``by`` chooses and its test
-    numbers, the best test SR of the run, sorted by size."""
+    numbers, the best test SR of the run, and its SR and CR minus those of the largest run's
+    choice on the same test rounds (played by the study into ``bench``), sorted by size."""
     measure = sel.ALIASES.get(by, by)
     sign = sel.direction(measure)
     cells = []
@@ -46,31 +51,43 @@ def curve(study: dict[str, Any], by: str) -> list[dict[str, Any]]:
         run = Path(path)
         rows = [row for row in study["cells"] if row["run"] == run.name]
         chosen = sel.choose(rows, measure, sign)
+        checkpoint = run / chosen["checkpoint"]
         cells.append({
-            "run": run.name, "train_scenes": train_scenes(run / chosen["checkpoint"]),
+            "run": run.name, "train_scenes": train_scenes(checkpoint),
             "checkpoint": chosen["checkpoint"], "epoch": chosen["epoch"],
             "measure": measure, "value": chosen[measure],
             "test_sr": chosen["test_sr"], "test_sr_ci95": chosen["test_sr_ci95"],
             "test_cr": chosen["test_cr"], "test_grasps": chosen["test_grasps"],
             "best_test_sr": max(row["test_sr"] for row in rows),
             "checkpoints": len(rows),
+            "test_folder": str(bench / run.name / sel.checkpoint_id(checkpoint)),
         })  # fmt: skip
-    return sorted(cells, key=lambda c: (c["train_scenes"] or math.inf, c["run"]))
+    cells.sort(key=lambda c: (c["train_scenes"] or math.inf, c["run"]))
+    largest = cells[-1]
+    for cell in cells:
+        change = paired_change(*paired_rounds(cell["test_folder"], largest["test_folder"]))
+        cell["vs_largest"] = {"run": largest["run"], **change}
+    return cells
 
 
 def markdown(cells: list[dict[str, Any]]) -> str:
     text = [
         "| training scenes | run | chosen checkpoint (measure) | test SR % [95 % CI] | "
-        "test CR % | grasps | best test SR % of the run |",
-        "|---|---|---|---|---|---|---|",
+        "test CR % | grasps | best test SR % of the run | SR / CR change vs the largest "
+        "(paired, same rounds) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for c in cells:
         low, high = (100 * v for v in c["test_sr_ci95"])
+        change = " / ".join(
+            "{:+.1f} [{:+.1f}, {:+.1f}]".format(*(100 * v for v in c["vs_largest"][key]))
+            for key in ("success_ratio", "clear_ratio")
+        )
         text.append(
             f"| {c['train_scenes'] or 'all'} | {c['run']} | {c['checkpoint']} "
             f"({c['measure']} {c['value']:.3g}) | {100 * c['test_sr']:.1f} [{low:.1f}, "
             f"{high:.1f}] | {100 * c['test_cr']:.1f} | {c['test_grasps']} | "
-            f"{100 * c['best_test_sr']:.1f} |"
+            f"{100 * c['best_test_sr']:.1f} | {change} |"
         )
     return "\n".join(text) + "\n"
 
@@ -93,6 +110,7 @@ def figure(path: Path, cells: list[dict[str, Any]]) -> None:
                  color="grey", label="best checkpoint of the run (not knowable)")  # fmt: skip
     axis.set_xscale("log")
     axis.set_xticks(sorted(set(sizes)), [str(s) for s in sorted(set(sizes))])
+    axis.set_xticks([], minor=True)  # the log axis' own minor labels collide with the sizes
     axis.set_xlabel("training scenes")
     axis.set_ylabel("declutter SR % (vgn-pile-test)")
     axis.legend(fontsize=7)
@@ -108,6 +126,9 @@ def main() -> None:
     parser.add_argument("--by", default="declutter_sr",
                         help="the selection measure that chooses each run's checkpoint, as "
                         "symgrasp select --by (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--bench", default=None,
+                        help="the folder the study played its test rounds into (its --out; "
+                        "default: the one the study recorded)")  # fmt: skip
     parser.add_argument("--result", default="benchmarks/results/learning_curve", help="stem")
     parser.add_argument("--figure", default="docs/figures/learning_curve.png", help="figure")
     args = parse_args(parser, outputs=("result", "figure"), quick={},
@@ -122,7 +143,10 @@ def main() -> None:
     if not study_path.is_file():
         raise SystemExit(f"error: --study {study_path}: no such file (run benchmarks/selection.py)")
     study = json.loads(study_path.read_text())
-    cells = curve(study, args.by)
+    bench = args.bench or study["settings"].get("out")
+    if bench is None:
+        raise SystemExit(f"error: --study {study_path} records no test folder: give --bench")
+    cells = curve(study, args.by, Path(bench))
     table = markdown(cells)
     print(table, end="")
     figure(Path(args.figure), cells)
@@ -130,7 +154,8 @@ def main() -> None:
         args.result,
         "declutter test SR against training scenes, each run's checkpoint chosen by a "
         "validation measure",
-        f"PYTHONPATH=src python benchmarks/learning_curve.py --study {args.study} --by {args.by}",
+        f"PYTHONPATH=src python benchmarks/learning_curve.py --study {args.study} --by {args.by}"
+        f" --bench {bench}",
         cells,
         table,
         study=str(study_path),

@@ -302,7 +302,7 @@ def main() -> None:
     print(table, end="")
     figure(Path(args.figure), result, rows)
     settings = {
-        "runs": [str(r) for r in runs], "revalidated": revalidate,
+        "runs": [str(r) for r in runs], "revalidated": revalidate, "out": str(args.out),
         "validation": {"objects": args.val_objects, "rounds": args.val_rounds,
                        "seed": args.val_seed, "num_objects": args.num_objects},
         "test": {"objects": args.test_objects, "rounds": args.test_rounds,
@@ -313,7 +313,8 @@ def main() -> None:
         args.result,
         "how well each candidate selection measure ranks checkpoints as the declutter test SR "
         "does (signed Spearman ρ, bootstrap over checkpoints)",
-        "PYTHONPATH=src python benchmarks/selection.py --runs " + " ".join(settings["runs"]),
+        f"PYTHONPATH=src python benchmarks/selection.py --val-rounds {args.val_rounds} "
+        f"--out {args.out} --runs " + " ".join(settings["runs"]),
         rows,
         table,
         settings=settings,
