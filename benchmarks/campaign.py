@@ -71,7 +71,8 @@ def read_plan(path: Path, root: Path) -> list[Step]:
         raise SystemExit(f"error: plan {path}: {error}") from None
     values = {"root": str(root)}
     for key, value in plan.get("vars", {}).items():
-        values[key] = str(value).format(**values)
+        # one line, as a step's command: a line break inside a shell command would end it
+        values[key] = " ".join(str(value).split()).format(**values)
     steps = []
     for entry in plan.get("step", []):
         unknown = set(entry) - {"name", "run", "cores", "needs"}

@@ -2,7 +2,8 @@
 declutter rounds no checkpoint was chosen by → benchmarks/results/recipe.{json,md}.
 
     PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/recipe.py --runs ROOT/runs \\
-        [--factor NAME=RUN,RUN ...] [--rounds 400] [--seed 2000000] [--workers 2] [--quick [DIR]]
+        [--factor NAME=RUN,RUN ...] [--flags NAME=OPTIONS ...] [--rounds 400] [--seed 2000000]
+        [--workers 2] [--quick [DIR]]
 
 Every run has been selected first (``symgrasp select RUN --by declutter``: its best.pt is the
 checkpoint with the best declutter validation, 200 rounds on training objects from seed
@@ -14,7 +15,9 @@ factor's runs (one per training seed, named ``…-sN``) are compared with the ba
 the same seed on those rounds, paired round by round (`symgrasp.benchmark.compare`).
 
 The rule fixed before any run was judged (docs/model.md, "The recipe"): a factor is adopted
-when, for **every** training seed, its paired SR and CR changes sum to more than zero.
+when, for **every** training seed, its paired SR and CR changes sum to more than zero. With
+``--flags`` (each factor's options of ``symgrasp train``), the adopted factors' options are
+written to ``RESULT.flags``, one line, for the final runs to train with (stage 3 of the plan).
 ``--quick``: the shipped Robotiq model stands in for two runs (a baseline and a factor), one
 round of one object of household-train.
 """
@@ -29,6 +32,7 @@ from typing import Any
 
 from common import parse_args, write_result
 
+from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.compare import paired_change, paired_rounds
 from symgrasp.cli import add_parallel_options, parallel_from_args
 from symgrasp.detect.pretrained import shipped_path
@@ -44,6 +48,7 @@ FACTORS = {
 """Default factors: their runs in ``benchmarks/campaigns/robust_training.toml`` (stage 2)."""
 
 QUICK_FACTORS = {"baseline": ("a-s0",), "other": ("b-s0",)}
+QUICK_FLAGS = {"other": "--ema 0.999"}
 
 JUDGE_SEED = 2_000_000
 """Round 0 of the judging rounds: off the test seeds and off the selection's 1 000 000 on."""
@@ -67,6 +72,19 @@ def parse_factor(text: str) -> tuple[str, tuple[str, ...]]:
     return name, tuple(runs.split(","))
 
 
+def parse_flags(text: str) -> tuple[str, str]:
+    """``NAME=OPTIONS`` → (name, options)."""
+    name, _, options = text.partition("=")
+    if not name or not options.strip():
+        raise argparse.ArgumentTypeError(f"--flags: expected NAME=OPTIONS, got {text!r}")
+    return name, options.strip()
+
+
+def adopted_flags(verdicts: dict[str, dict[str, Any]], flags: dict[str, str]) -> str:
+    """The training options of the adopted factors, in the factors' order, one line."""
+    return " ".join(flags[factor] for factor, v in verdicts.items() if v["adopted"])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", default="runs", help="folder of the training runs")
@@ -74,6 +92,9 @@ def main() -> None:
                         help="NAME=RUN,RUN: a factor's runs, one per training seed; the first "
                         "factor is the baseline (default: the stage-2 runs of "
                         "robust_training.toml)")  # fmt: skip
+    parser.add_argument("--flags", type=parse_flags, action="append", default=None,
+                        help="NAME=OPTIONS: the options of symgrasp train a factor changes, for "
+                        "every factor but the baseline; the adopted ones go to RESULT.flags")  # fmt: skip
     parser.add_argument("--objects", default=sel.VALIDATION_OBJECTS,
                         help="judging objects, training ones (default: %(default)s)")  # fmt: skip
     parser.add_argument("--rounds", type=int, default=400, help="judging rounds (default: 400)")
@@ -90,6 +111,10 @@ def main() -> None:
         also=f", {SHIPPED} for every run",
     )  # fmt: skip
     factors = dict(args.factor or (QUICK_FACTORS if args.quick else FACTORS).items())
+    flags = dict(args.flags or (QUICK_FLAGS.items() if args.quick else ()))
+    missing = [f for f in list(factors)[1:] if f not in flags]
+    if flags and missing:
+        parser.error(f"--flags: no options for factor(s) {', '.join(missing)}")
     validation = sel.DeclutterValidation(
         objects=args.objects, rounds=args.rounds, seed=args.seed, num_objects=args.num_objects
     )
@@ -118,6 +143,8 @@ def main() -> None:
             change = paired_change(*paired_rounds(folders[cell["factor"], cell["seed"]], base))
             cell["sr_change"], cell["cr_change"] = change["success_ratio"], change["clear_ratio"]
     verdicts = verdict(cells, baseline)
+    for factor, v in verdicts.items():
+        v["flags"] = flags.get(factor)
     table = markdown(cells, verdicts, baseline)
     print(table, end="")
     write_result(
@@ -131,6 +158,10 @@ def main() -> None:
         baseline=baseline,
         verdicts=verdicts,
     )
+    if flags:
+        line = adopted_flags(verdicts, flags)
+        write_atomic(f"{args.result}.flags", lambda f: f.write(line + "\n"), mode="w")
+        print(f"adopted options ({args.result}.flags): {line or '(none)'}")
 
 
 def verdict(cells: list[dict[str, Any]], baseline: str) -> dict[str, dict[str, Any]]:

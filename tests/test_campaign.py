@@ -40,6 +40,18 @@ def test_steps_run_after_their_needs_and_a_changed_command_runs_again(tmp_path):
     assert log.read_text() == "fslL"
 
 
+def test_a_var_written_over_lines_is_one_command(tmp_path):
+    # A line break in a [vars] value used to reach the shell and end the command there, so
+    # the options on the next line ran as a command of their own.
+    text = (f'[vars]\nwrite = """{sys.executable} -c \'import sys; open(sys.argv[1], "w")'
+            f'.write(sys.argv[2])\'\n  {{root}}/out.txt"""\n'
+            '[[step]]\nname = "a"\nrun = "{write} second-line"\n')  # fmt: skip
+    steps = campaign.read_plan(_plan(tmp_path, text), tmp_path)
+    assert "\n" not in steps[0].run
+    assert campaign.run(steps, tmp_path, cores=1) == {"a": "done"}
+    assert (tmp_path / "out.txt").read_text() == "second-line"
+
+
 def test_one_core_runs_steps_one_at_a_time_and_a_failure_holds_its_dependants(tmp_path):
     text = "".join([
         _step("broken", "raise SystemExit(2)"),

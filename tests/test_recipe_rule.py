@@ -1,0 +1,54 @@
+"""benchmarks/recipe.py's adoption rule (docs/model.md, "The recipe"), the options it hands to
+the final runs, and the campaign plan that feeds it: every factor's runs are steps, and the
+recipe study names every factor's options."""
+
+import shlex
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import campaign
+import recipe
+
+
+def _cell(factor, seed, sr, cr):
+    return {"factor": factor, "seed": seed, "sr_change": [sr, sr - 0.1, sr + 0.1],
+            "cr_change": [cr, cr - 0.1, cr + 0.1]}  # fmt: skip
+
+
+def test_a_factor_is_adopted_only_when_its_net_change_is_positive_for_every_seed():
+    cells = [
+        {"factor": "baseline", "seed": 0}, {"factor": "baseline", "seed": 1},
+        _cell("both", 0, 0.02, 0.01), _cell("both", 1, 0.01, 0.00),
+        _cell("one", 0, 0.10, 0.10), _cell("one", 1, -0.02, 0.01),
+        _cell("trade", 0, -0.01, 0.05), _cell("trade", 1, -0.03, 0.04),
+        _cell("zero", 0, 0.02, -0.02), _cell("zero", 1, 0.05, 0.0),
+    ]  # fmt: skip
+    verdicts = recipe.verdict(cells, "baseline")
+    assert {f: v["adopted"] for f, v in verdicts.items()} == {
+        "both": True, "one": False, "trade": True, "zero": False}  # fmt: skip
+    assert abs(verdicts["one"]["mean_sr_change"] - 0.04) < 1e-12
+    flags = {"both": "--ema 0.999", "one": "--x", "trade": "--batch-size 16 --lr 2e-3",
+             "zero": "--y"}  # fmt: skip
+    assert recipe.adopted_flags(verdicts, flags) == "--ema 0.999 --batch-size 16 --lr 2e-3"
+    assert recipe.adopted_flags({"one": verdicts["one"]}, flags) == ""
+
+
+def test_the_plan_trains_every_factor_and_hands_its_options_to_the_recipe_study():
+    steps = {s.name: s for s in campaign.read_plan(
+        ROOT / "benchmarks" / "campaigns" / "robust_training.toml", Path("/root"))}  # fmt: skip
+    words = shlex.split(steps["recipe-study"].run)
+    flags = dict(recipe.parse_flags(words[i + 1]) for i, w in enumerate(words) if w == "--flags")
+    baseline, *factors = recipe.FACTORS
+    assert set(flags) == set(factors)
+    for factor in factors:
+        for run in recipe.FACTORS[factor]:
+            assert run in steps, run
+            assert f" {flags[factor]} --seed {recipe.training_seed(run)} " in steps[run].run
+            assert f"select-{run}" in steps["recipe-study"].needs
+    for run in recipe.FACTORS[baseline]:
+        assert f"select-{run}" in steps["recipe-study"].needs
+    final = [s for name, s in steps.items() if name.startswith("final-")]
+    assert final and all("$(cat /root/results/recipe.flags)" in s.run for s in final)
+    assert all("recipe-study" in s.needs for s in final)
