@@ -2,14 +2,17 @@
 the final runs, and the campaign plan that feeds it: every factor's runs are steps, and the
 recipe study names every factor's options."""
 
+import os
 import shlex
+import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import campaign
 import recipe
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _cell(factor, seed, sr, cr):
@@ -52,3 +55,16 @@ def test_the_plan_trains_every_factor_and_hands_its_options_to_the_recipe_study(
     final = [s for name, s in steps.items() if name.startswith("final-")]
     assert final and all("$(cat /root/results/recipe.flags)" in s.run for s in final)
     assert all("recipe-study" in s.needs for s in final)
+
+
+def test_flags_must_name_exactly_the_factors(tmp_path):
+    def run(*flags):
+        return subprocess.run([sys.executable, "benchmarks/recipe.py", *flags], cwd=ROOT,
+                              env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+                              capture_output=True, text=True)  # fmt: skip
+
+    every = [f"--flags={f}=--x" for f in list(recipe.FACTORS)[1:]]
+    typo = run(*every, "--flags", "emma=--ema 0.9")
+    assert typo.returncode == 2 and "--flags: emma is not a factor" in typo.stderr
+    short = run(*every[1:])
+    assert short.returncode == 2 and "no options for factor(s) cosine" in short.stderr
