@@ -15,11 +15,14 @@ step of a campaign can play one run as soon as it is selected and a later call c
 Per representation and object set: SR and CR of every training seed (bootstrap 95 % intervals
 over rounds), their mean with a 95 % interval that includes the training seed (hierarchical
 bootstrap, `symgrasp.benchmark.seeds`), minimum and maximum, and the **spread** (max − min
-SR; issue 17's target is ≤ 6 points). Per object set: the first representation minus each other one for
-**every pairing of training seeds**, paired round by round on the same test rounds
-(`symgrasp.benchmark.compare.paired_change`), whether it is ahead in all of them, and the
-difference of the means over seeds with the hierarchical interval on the shared rounds.
-``--quick``: the shipped Robotiq model stands in for every run; one seed, one round of one
+SR; issue 17's target is ≤ 6 points) beside the spread that equally good seeds would show on
+the same rounds (a permutation test, `symgrasp.benchmark.seeds.spread_null`: its median, 95th
+percentile, and the p-value of the observed spread). Per object set: the first representation
+minus each other one for **every pairing of training seeds**, paired round by round on the
+same test rounds (`symgrasp.benchmark.compare.paired_change`), whether it is ahead in all of
+them, and the difference of the means over seeds with the hierarchical interval on the shared
+rounds.
+``--quick``: the shipped Robotiq model stands in for every run; two seeds, one round of one
 household-test object.
 """
 
@@ -34,7 +37,7 @@ from common import parse_args, write_result
 
 from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
-from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios
+from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios, spread_null
 from symgrasp.cli import add_parallel_options, parallel_from_args
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.model.selection import selected_checkpoint
@@ -56,6 +59,10 @@ def spread(cells: list[dict[str, Any]], rounds: dict, rep: str, objects: str) ->
         row[name] = {"per_seed": values, "mean": interval[name][0], "ci95": interval[name][1:],
                      "min": min(values), "max": max(values), "spread": max(values) - min(values)}  # fmt: skip
     row["within_target"] = row["success_ratio"]["spread"] <= SPREAD_TARGET
+    if len(mine) > 1:  # the spread equally good seeds would show on these rounds
+        null = spread_null(common_rounds(*(rounds[rep, c["seed"], objects] for c in mine)))
+        for name in ("success_ratio", "clear_ratio"):
+            row[name]["noise"] = {k: v for k, v in null[name].items() if k != "spread"}
     return row
 
 
@@ -73,14 +80,18 @@ def markdown(
         text.append(f"| `{c['rep']}` | {c['objects']} | {c['seed']} | "
                     f"{pct(s, 'success_ratio')} | {pct(s, 'clear_ratio')} | {s['executed']} |")  # fmt: skip
     text += ["", "| representation | objects | SR % mean over seeds [95 % CI, seeds and rounds] "
-             "(min–max) | SR spread | CR % mean [95 % CI] (min–max) |",
-             "|---|---|---|---|---|"]  # fmt: skip
+             "(min–max) | SR spread | spread of equally good seeds: median, 95th pct. (p) | "
+             "CR % mean [95 % CI] (min–max) |",
+             "|---|---|---|---|---|---|"]  # fmt: skip
     for r in spreads:
         sr, cr = r["success_ratio"], r["clear_ratio"]
         mark = "≤ 6" if r["within_target"] else "> 6"
+        noise = sr.get("noise")
+        floor = (f"{100 * noise['null_median']:.1f}, {100 * noise['null_95']:.1f} "
+                 f"(p = {noise['p']:.3f})" if noise else "–")  # fmt: skip
         text.append(
             f"| `{r['rep']}` | {r['objects']} | {_mean(sr)} | {100 * sr['spread']:.1f} ({mark}) "
-            f"| {_mean(cr)} |"
+            f"| {floor} | {_mean(cr)} |"
         )
     text += ["", "| pairing (seeds) | objects | SR change [paired 95 % CI] | CR change |",
              "|---|---|---|---|"]  # fmt: skip
@@ -126,7 +137,7 @@ def main() -> None:
     parser.add_argument("--result", default="benchmarks/results/seed_spread", help="stem")
     args = parse_args(
         parser, outputs=("out", "result"),
-        quick={"rounds": 1, "num_objects": 1, "workers": 1, "seeds": [0],
+        quick={"rounds": 1, "num_objects": 1, "workers": 1, "seeds": [0, 1],
                "objects": ["household-test"]},
         also=f", {SHIPPED} for every run",
     )  # fmt: skip

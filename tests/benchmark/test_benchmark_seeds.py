@@ -1,11 +1,11 @@
-"""Ratios over training seeds (`symgrasp.benchmark.seeds`): the mean over seeds, and intervals
-that include the seed's luck."""
+"""Ratios over training seeds (`symgrasp.benchmark.seeds`): the mean over seeds, intervals
+that include the seed's luck, and the spread the rounds' noise alone would make."""
 
 import numpy as np
 import pytest
 
 from symgrasp.benchmark.runner import summarise
-from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios
+from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios, spread_null
 
 
 def _run(counts, first=0):
@@ -101,3 +101,39 @@ def test_common_rounds_keeps_the_seeds_every_run_finished():
     b[1] = {"seed": 2, "error": "boom"}
     kept_a, kept_b = common_rounds(a, b)
     assert [r["seed"] for r in kept_a] == [1, 3] == [r["seed"] for r in kept_b]
+
+
+def test_spread_null_matches_the_binomial_closed_form():
+    # Seed A grasps every round's one object, seed B never does. Shuffling the two records of
+    # each of the 10 rounds gives A K successes, K ~ Binomial(10, 1/2), and a SR spread of
+    # |2K/10 - 1|: median 0.2 (P(K = 5) = 0.246 < 0.5 <= P(|K - 5| <= 1) = 0.656), 95th
+    # percentile 0.6 (P(spread >= 0.6) = 0.109, P(spread >= 0.8) = 0.021), and the observed
+    # spread 1 only when K is 0 or 10: p = 2 / 1024.
+    a, b = _run([(1, 1, 1)] * 10), _run([(0, 1, 1)] * 10)
+    result = spread_null([a, b])["success_ratio"]
+    assert result["spread"] == 1.0
+    assert result["null_median"] == pytest.approx(0.2)
+    assert result["null_95"] == pytest.approx(0.6)
+    assert result["p"] == pytest.approx(2 / 1024, abs=0.003)
+
+
+def test_equal_runs_have_no_spread_and_no_evidence_against_equality():
+    run = _random_run(np.random.default_rng(3))
+    for name, row in spread_null([run, run, run]).items():
+        assert row == {"spread": 0.0, "null_median": 0.0, "null_95": 0.0, "p": 1.0}, name
+
+
+def test_a_spread_within_the_rounds_noise_is_not_significant():
+    # Three seeds drawn from one success probability: their spread is the rounds' noise.
+    rng = np.random.default_rng(5)
+    runs = [_random_run(rng) for _ in range(3)]
+    result = spread_null(runs)["success_ratio"]
+    assert result["spread"] > 0 and result["null_95"] > result["spread"] and result["p"] > 0.05
+
+
+def test_spread_null_refuses_one_run_and_other_rounds():
+    run = _run([(1, 1, 1), (0, 1, 1)])
+    with pytest.raises(ValueError, match="two or more runs"):
+        spread_null([run])
+    with pytest.raises(ValueError, match="same round seeds"):
+        spread_null([run, _run([(1, 1, 1), (0, 1, 1)], first=5)])

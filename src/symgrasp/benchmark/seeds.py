@@ -16,6 +16,12 @@ of round records (`symgrasp.benchmark.runner`), and:
   and one draw of rounds shared by every run of both (the same seeds drop the same objects the
   same way, so the rounds' luck cancels, as in `symgrasp.benchmark.compare`).
 
+- how much of a **spread** between the seeds (max − min of their ratios) the rounds' own noise
+  makes when the seeds are equally good: under that hypothesis the runs' records of one round
+  are exchangeable, so a permutation test (Good 2005, ch. 3) shuffles them among the runs
+  round by round, keeping each round's difficulty, and compares the observed spread with the
+  spreads of 2 000 shuffles.
+
 With three seeds the seed level of the bootstrap is coarse (ten distinct resamples); the
 intervals are then a floor on the uncertainty, and the per-seed values belong beside them.
 """
@@ -116,4 +122,39 @@ def seed_paired_change(
         changes = changes[np.isfinite(changes)]
         interval = np.percentile(changes, [2.5, 97.5]) if len(changes) else [np.nan] * 2
         result[name] = [float(point), *map(float, interval)]
+    return result
+
+
+def spread_null(runs: list[list[dict[str, Any]]], seed: int = 0) -> dict[str, dict[str, float]]:
+    """The SR and CR spread (max − min over the runs of one detector, one per training seed,
+    that played the same rounds in the same order; `common_rounds`) against the spreads of
+    2 000 shuffles of the runs' records within each round (module docstring): ``{name:
+    {"spread", "null_median", "null_95", "p"}}``, ``p`` the share of shuffles whose spread is at
+    least the observed one. ValueError for fewer than two runs or differing round seeds."""
+    _check(runs, "runs")
+    if len(runs) < 2:
+        raise ValueError(f"runs: a spread needs two or more runs, got {len(runs)}")
+    seeds = [r["seed"] for r in runs[0]]
+    if any([r["seed"] for r in run] != seeds for run in runs):
+        raise ValueError("runs: every run must hold the same round seeds in order")
+    if any("error" in r for run in runs for r in run):
+        raise ValueError("runs: leave out crashed rounds from every run first")
+    counts = np.stack([_counts(run) for run in runs])  # (runs, 3, rounds)
+    n_runs, _, n_rounds = counts.shape
+    rng = np.random.default_rng(seed)
+    # one permutation of the runs per round and draw: which run's record each run gets
+    order = rng.permuted(np.broadcast_to(np.arange(n_runs), (BOOTSTRAP, n_rounds, n_runs)), axis=2)
+    shuffled = counts[order, :, np.arange(n_rounds)[None, :, None]]  # (draws, rounds, runs, 3)
+    result = {}
+    for name, row in RATIOS.items():
+        observed = _ratio(counts[:, 0], counts[:, row])
+        ratios = _ratio(shuffled[..., 0].transpose(0, 2, 1), shuffled[..., row].transpose(0, 2, 1))
+        spreads = ratios.max(1) - ratios.min(1)
+        spread = float(observed.max() - observed.min())
+        result[name] = {
+            "spread": spread,
+            "null_median": float(np.median(spreads)),
+            "null_95": float(np.percentile(spreads, 95)),
+            "p": float(np.mean(spreads >= spread - 1e-12)),
+        }
     return result
