@@ -9,8 +9,9 @@ ordering survives it → benchmarks/results/seed_spread.{json,md}.
 Each run ``--runs/PREFIX-REP-sSEED`` has been selected (``symgrasp select RUN --by
 declutter``; validation rounds on training objects only) and its ``best.pt`` plays the test
 benchmark: ``--rounds`` rounds of 5 objects from seed 0 on each object set, failure diagnosis
-on, into ``--out/GRIPPER/REP/sSEED/OBJECTS`` (read back when finished, resumed when not, so a
-step of a campaign can play one run as soon as it is selected and a later call collates).
+on, into ``--out/GRIPPER/REP/sSEED/OBJECTS`` (`symgrasp.benchmark.cells`: read back when
+finished, resumed when not, so a step of a campaign can play one run as soon as it is selected
+and a later call collates; the Table 1 collation reads the same cells).
 
 Per representation and object set: SR and CR of every training seed (bootstrap 95 % intervals
 over rounds), their mean with a 95 % interval that includes the training seed (hierarchical
@@ -30,13 +31,13 @@ from __future__ import annotations
 
 import argparse
 import itertools
-from pathlib import Path
 from typing import Any
 
 from common import parse_args, write_result
 
+from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.compare import paired_change
-from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
+from symgrasp.benchmark.runner import run_or_reuse, summarise
 from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios, spread_null
 from symgrasp.cli import add_parallel_options, parallel_from_args
 from symgrasp.detect.pretrained import shipped_path
@@ -144,11 +145,11 @@ def main() -> None:
     parallel = parallel_from_args(args)
     cells, rounds = [], {}
     for rep, seed, objects in itertools.product(args.reps, args.seeds, args.objects):
-        run = Path(args.runs) / f"{args.prefix}-{rep}-s{seed}"
+        cell = Cell(args.gripper, rep, seed, objects)
+        run = cell.run(args.runs, args.prefix)
         model = shipped_path(SHIPPED) if args.quick else selected_checkpoint(run)
-        config = BenchmarkConfig(model=str(Path(model).resolve()), objects=objects,
-                                 num_objects=args.num_objects, rounds=args.rounds)  # fmt: skip
-        folder = Path(args.out) / args.gripper / rep / f"s{seed}" / objects
+        folder = cell.folder(args.out)
+        config = cell.config(model, args.rounds, args.num_objects)
         rounds[rep, seed, objects] = run_or_reuse(config, folder, parallel)
         cells.append({"rep": rep, "seed": seed, "objects": objects, "run": str(run),
                       "folder": str(folder), "summary": summarise(rounds[rep, seed, objects])})  # fmt: skip

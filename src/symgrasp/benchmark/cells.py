@@ -1,0 +1,61 @@
+"""The cells of a comparison over training seeds: which training run plays which test rounds,
+and the one folder its benchmark lives in, so that every script that needs a cell (the seed
+spread, the Table 1 collation) reads the same rounds instead of playing them again.
+
+A cell is a gripper, a representation (with or without its confidence threshold), a training
+seed, and an object set laid out as a pile or packed. Its run is ``RUNS/PREFIX-REP-sSEED``
+(``symgrasp train --out``; the prefix names the campaign and gripper, e.g. ``final`` for the
+Robotiq 2F-85 and ``final-franka``), its model that run's ``best.pt`` as chosen by the
+declutter validation (`symgrasp.model.selection.selected_checkpoint`), and its rounds the
+benchmark of `symgrasp.benchmark.runner` from round seed 0 with failure diagnosis, in
+``OUT/GRIPPER/REP[-noconf]/sSEED/OBJECTS[-packed]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from symgrasp.config import SCENES, BenchmarkConfig
+
+NO_THRESHOLD = (("confidence_threshold", 0.0),)
+"""The detector options of the paper's "2D Bingham" row: its confidence threshold off."""
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One training run of one representation on one object set (module docstring)."""
+
+    gripper: str
+    rep: str
+    seed: int
+    """The training seed."""
+    objects: str
+    scene: str = "pile"
+    threshold: bool = True
+    """Whether the detector keeps its confidence threshold (off: the paper's ablation)."""
+
+    def __post_init__(self) -> None:
+        if self.scene not in SCENES:
+            raise ValueError(f"scene must be one of {SCENES}, got {self.scene!r}")
+        if self.seed < 0:
+            raise ValueError(f"seed must be a training seed ≥ 0, got {self.seed}")
+
+    def run(self, runs: str | Path, prefix: str) -> Path:
+        """The training run's folder: ``runs/PREFIX-REP-sSEED``."""
+        return Path(runs) / f"{prefix}-{self.rep}-s{self.seed}"
+
+    def folder(self, out: str | Path) -> Path:
+        """Where the cell's benchmark lives under ``out``."""
+        rep = self.rep + ("" if self.threshold else "-noconf")
+        objects = self.objects + ("" if self.scene == "pile" else f"-{self.scene}")
+        return Path(out) / self.gripper / rep / f"s{self.seed}" / objects
+
+    def config(self, model: str | Path, rounds: int = 100, num_objects: int = 5) -> BenchmarkConfig:
+        """The benchmark the cell plays with the checkpoint ``model``: ``rounds`` rounds of
+        ``num_objects`` objects from round seed 0, failure diagnosis on."""
+        return BenchmarkConfig(
+            model=str(Path(model).resolve()), objects=self.objects, scene=self.scene,
+            num_objects=num_objects, rounds=rounds,
+            options=() if self.threshold else NO_THRESHOLD,
+        )  # fmt: skip
