@@ -12,6 +12,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from symgrasp.atomic import write_atomic
+
 QUICK_DIR = Path("out/bench-quick")
 """Where ``--quick`` writes when given no folder."""
 
@@ -94,6 +96,6 @@ def write_result(
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "cells": cells,
     }
-    Path(f"{stem}.json").write_text(json.dumps(result, indent=1) + "\n")
+    write_atomic(f"{stem}.json", lambda f: f.write(json.dumps(result, indent=1) + "\n"), mode="w")
     if table is not None:
-        Path(f"{stem}.md").write_text(table)
+        write_atomic(f"{stem}.md", lambda f: f.write(table), mode="w")

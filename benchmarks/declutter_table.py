@@ -1,20 +1,35 @@
-"""The paper's Table 1 on symgrasp's simulator → benchmarks/results/declutter.{json,md}.
+"""The paper's Table 1 on VGN's objects with three training seeds per cell, and the field's
+pile/packed table → benchmarks/results/declutter.{json,md}, docs/figures/declutter_comparison.png
+and docs/results.md (between its markers).
 
-    PYTHONPATH=src python benchmarks/declutter_table.py [--runs runs] [--out out/bench]
-        [--rounds 100] [--num-objects 5] [--workers 2] [--backend ray [--ray-address HOST:PORT]] [--collate-only] [--quick [DIR]]
+    PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/declutter_table.py --runs ROOT/runs \\
+        [--out ROOT/bench/table] [--seeds 0 1 2] [--rounds 100] [--workers 2] [--collate-only] \\
+        [--quick [DIR]]
 
-Runs `symgrasp bench declutter` (`symgrasp.benchmark.runner.run_benchmark`, failure modes
-on) for every representation × gripper × object set, plus ``bingham2d`` without
-its confidence threshold. ``bingham2d`` is the shipped model of each gripper; the baselines
-are the checkpoints ``--runs/REP-<robotiq|franka>/best.pt`` that ``symgrasp train --rep REP``
-wrote (commands in docs/results.md). A cell whose run is missing or unfinished is listed as –;
-a cell whose ``--out`` folder already holds the same configuration's diagnosed results is
-read, not rerun, so the script resumes after an interruption and fills cells as runs finish.
-Household cells are also broken down by the family of the object each grasp was aimed at.
-The collated table (with the paper's numbers beside ours) goes to ``--result`` and into
-``--docs`` (between its markers), a bar chart to ``--figure``. ``--quick`` plays the shipped
-models' cells only, one round of one object each, lists the baselines as –, and updates a copy
-of the page.
+Every cell is one training run (``--runs/PREFIX-REP-sSEED``, the prefix per gripper from
+``--prefix``) whose ``best.pt`` the declutter validation chose (``symgrasp select RUN --by
+declutter``; training objects and seeds only), playing ``--rounds`` rounds of 5 objects from
+round seed 0 with failure diagnosis into ``--out/GRIPPER/REP[-noconf]/sSEED/OBJECTS[-packed]``
+(`symgrasp.benchmark.cells`; a cell already there is read, not replayed, so the script resumes
+and picks up runs as they are selected; a run not yet selected is listed as waiting).
+
+- **Table 1**: per gripper, object set (``--objects``, pile) and representation (the paper's
+  five rows: ``bingham2d`` with and without its confidence threshold, ``rotmat6d``,
+  ``quaternion``, ``bingham3d``): SR and CR as the mean over training seeds with a 95 %
+  interval that includes the seed (hierarchical bootstrap, seeds then rounds;
+  `symgrasp.benchmark.seeds`), each seed's value, and the paper's numbers beside them.
+- **bingham2d − each other row**, per gripper and object set, on the same rounds: the change of
+  the means over seeds with its hierarchical interval, and in how many pairings of training
+  seeds ``bingham2d`` is ahead (each pairing paired round by round).
+- **Failure modes** per representation, pooled over seeds (`symgrasp.benchmark.failures`).
+- **The field's table**: VGN's protocol objects, ``--field`` (``vgn-pile-test`` pile and
+  ``vgn-packed-test`` packed) with the ``--field-gripper`` (Franka, VGN's hand), every
+  representation with its threshold; the published numbers of VGN, GIGA and EdgeGraspNet on
+  those scenes, their sources and how their protocols differ are in docs/benchmark.md
+  ("Published numbers on VGN's scenes").
+
+``--quick``: the shipped Robotiq model stands in for every run; two seeds, one round of one
+household-test object (pile and packed), the Robotiq only, a copy of the page updated.
 """
 
 from __future__ import annotations
@@ -22,170 +37,269 @@ from __future__ import annotations
 import argparse
 import itertools
 import shutil
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
-import torch
 from common import parse_args, write_result
 
+from symgrasp.benchmark.cells import Cell
+from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.failures import MODES
-from symgrasp.benchmark.runner import (
-    BenchmarkConfig,
-    percent_with_interval,
-    run_or_reuse,
-    saved_rounds,
-    summarise,
-)
+from symgrasp.benchmark.runner import run_or_reuse, saved_rounds, summarise
+from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios
 from symgrasp.cli import add_parallel_options, parallel_from_args
-from symgrasp.config import ParallelConfig
+from symgrasp.detect.pretrained import shipped_path
+from symgrasp.model.selection import selected_checkpoint
 
-GRIPPERS = {"robotiq-2f85": "robotiq", "franka": "franka"}
-OBJECTS = ("household-test", "large-box")
-ROWS = (  # (representation, confidence threshold on)
-    ("bingham2d", True),
-    ("bingham2d", False),
-    ("rotmat6d", True),
-    ("quaternion", True),
-    ("bingham3d", True),
-)
+GRIPPERS = ("robotiq-2f85", "franka")
+PREFIXES = {"robotiq-2f85": "final", "franka": "final-franka"}
+"""The run folders' prefix per gripper (benchmarks/campaigns/*.toml)."""
+REPS = ("bingham2d", "rotmat6d", "quaternion", "bingham3d")
+ROWS = (("bingham2d", True), ("bingham2d", False), ("rotmat6d", True), ("quaternion", True),
+        ("bingham3d", True))  # fmt: skip
+"""Table 1's rows: (representation, confidence threshold on)."""
+OBJECTS = ("vgn-pile-test", "large-box")
+FIELD = ("vgn-pile-test:pile", "vgn-packed-test:packed")
 PAPER = {  # Table 1 of the paper, SR / CR [%], on its own simulator and objects
-    ("robotiq-2f85", "bingham2d", True): {"household-test": (79.0, 76.6), "large-box": (62.9, 70.6)},
-    ("robotiq-2f85", "bingham2d", False): {"household-test": (73.7, 74.9), "large-box": (54.3, 59.9)},
-    ("robotiq-2f85", "rotmat6d", True): {"household-test": (65.5, 70.2), "large-box": (46.1, 52.0)},
-    ("robotiq-2f85", "quaternion", True): {"household-test": (58.3, 62.4), "large-box": (22.2, 24.6)},
-    ("robotiq-2f85", "bingham3d", True): {"household-test": (45.6, 47.4), "large-box": (16.4, 17.5)},
-    ("franka", "bingham2d", True): {"household-test": (63.1, 64.9), "large-box": (67.7, 80.6)},
-    ("franka", "bingham2d", False): {"household-test": (63.6, 66.6), "large-box": (66.2, 79.4)},
-    ("franka", "rotmat6d", True): {"household-test": (58.7, 63.8), "large-box": (48.7, 57.5)},
-    ("franka", "quaternion", True): {"household-test": (47.8, 48.2), "large-box": (38.5, 48.4)},
-    ("franka", "bingham3d", True): {"household-test": (39.1, 39.8), "large-box": (20.5, 23.4)},
+    ("robotiq-2f85", "bingham2d", True): {"vgn-pile-test": (79.0, 76.6), "large-box": (62.9, 70.6)},
+    ("robotiq-2f85", "bingham2d", False): {"vgn-pile-test": (73.7, 74.9), "large-box": (54.3, 59.9)},
+    ("robotiq-2f85", "rotmat6d", True): {"vgn-pile-test": (65.5, 70.2), "large-box": (46.1, 52.0)},
+    ("robotiq-2f85", "quaternion", True): {"vgn-pile-test": (58.3, 62.4), "large-box": (22.2, 24.6)},
+    ("robotiq-2f85", "bingham3d", True): {"vgn-pile-test": (45.6, 47.4), "large-box": (16.4, 17.5)},
+    ("franka", "bingham2d", True): {"vgn-pile-test": (63.1, 64.9), "large-box": (67.7, 80.6)},
+    ("franka", "bingham2d", False): {"vgn-pile-test": (63.6, 66.6), "large-box": (66.2, 79.4)},
+    ("franka", "rotmat6d", True): {"vgn-pile-test": (58.7, 63.8), "large-box": (48.7, 57.5)},
+    ("franka", "quaternion", True): {"vgn-pile-test": (47.8, 48.2), "large-box": (38.5, 48.4)},
+    ("franka", "bingham3d", True): {"vgn-pile-test": (39.1, 39.8), "large-box": (20.5, 23.4)},
 }  # fmt: skip
+"""The paper's "VGN Dataset" column is its subset of VGN's meshes; ours is VGN's pile test set."""
+SHIPPED = "bingham2d-robotiq-2f85"
 
 
-def model_for(gripper: str, rep: str, runs: Path) -> str | None:
-    """The model of a cell: the shipped ``bingham2d``, or the baseline's training run once it
-    has run all its epochs (None before)."""
-    if rep == "bingham2d":
-        return f"bingham2d-{gripper}"
-    run = runs / f"{rep}-{GRIPPERS[gripper]}"
-    if not (run / "last.pt").exists():
-        return None
-    last = torch.load(run / "last.pt", map_location="cpu", weights_only=False)
-    return str(run / "best.pt") if last["epoch"] >= last["config"]["epochs"] else None
+def parse_prefix(text: str) -> tuple[str, str]:
+    """``GRIPPER=PREFIX`` → (gripper, prefix)."""
+    gripper, _, prefix = text.partition("=")
+    if gripper not in GRIPPERS or not prefix:
+        raise argparse.ArgumentTypeError(
+            f"--prefix: expected GRIPPER=PREFIX with GRIPPER one of {', '.join(GRIPPERS)}, "
+            f"got {text!r}"
+        )
+    return gripper, prefix
 
 
-def cell(
-    config: BenchmarkConfig, out: Path, parallel: ParallelConfig, collate_only: bool
-) -> dict | None:
-    """The summary of one cell: read when ``out`` holds it, else run (unless collating)."""
-    rounds = saved_rounds(config, out)
-    if rounds is None and not collate_only:
-        rounds = run_or_reuse(config, out, parallel)
-    return None if rounds is None else summarise(rounds, config.seed)
+def parse_field(text: str) -> tuple[str, str]:
+    """``OBJECTS:SCENE`` → (objects, scene)."""
+    objects, _, scene = text.rpartition(":")
+    if not objects or scene not in ("pile", "packed"):
+        raise argparse.ArgumentTypeError(f"--field: expected OBJECTS:pile|packed, got {text!r}")
+    return objects, scene
 
 
 def label(rep: str, threshold: bool) -> str:
-    """A table row's name."""
+    """A row's name."""
     return f"`{rep}`" + ("" if threshold else ", no threshold")
 
 
-def markdown(rows: list[dict[str, Any]]) -> str:
-    """One table per gripper, the paper's numbers beside ours."""
+def grid(args: argparse.Namespace) -> list[Cell]:
+    """Every cell of both tables, each once (the field's pile cells are Table 1's)."""
+    cells = [Cell(g, rep, seed, objects, "pile", threshold)
+             for g, (rep, threshold), objects, seed
+             in itertools.product(args.grippers, ROWS, args.objects, args.seeds)]  # fmt: skip
+    cells += [Cell(args.field_gripper, rep, seed, objects, scene)
+              for (objects, scene), rep, seed in itertools.product(args.field, REPS, args.seeds)]  # fmt: skip
+    return list(dict.fromkeys(cells))
+
+
+def play(cell: Cell, args: argparse.Namespace, prefixes: dict[str, str]) -> dict[str, Any]:
+    """The cell's round records (``rounds``), or why it has none yet (``waiting``)."""
+    run = cell.run(args.runs, prefixes[cell.gripper])
+    if args.quick:
+        model = shipped_path(SHIPPED)
+    else:
+        try:
+            model = selected_checkpoint(run)
+        except ValueError:  # not trained, or not selected yet
+            return {"rounds": None, "waiting": f"{run.name} (not selected)"}
+    config = cell.config(model, args.rounds, args.num_objects)
+    folder = cell.folder(args.out)
+    if args.collate_only:
+        rounds = saved_rounds(config, folder)
+        return {"rounds": rounds, "waiting": None if rounds else f"{run.name} (not played)"}
+    print(f"{cell.gripper} {label(cell.rep, cell.threshold)} seed {cell.seed} on {cell.objects} "
+          f"({cell.scene})")  # fmt: skip
+    return {"rounds": run_or_reuse(config, folder, parallel_from_args(args)), "waiting": None}
+
+
+def row(played: dict[Cell, dict], gripper: str, rep: str, threshold: bool, objects: str,
+        scene: str) -> dict[str, Any]:  # fmt: skip
+    """One representation on one object set: the seeds played, the means over them with the
+    hierarchical intervals, each seed's summary, and the failure modes pooled over seeds."""
+    mine = {c.seed: p["rounds"] for c, p in played.items()
+            if (c.gripper, c.rep, c.threshold, c.objects, c.scene)
+            == (gripper, rep, threshold, objects, scene) and p["rounds"]}  # fmt: skip
+    result: dict[str, Any] = {"gripper": gripper, "rep": rep, "threshold": threshold,
+                              "objects": objects, "scene": scene, "seeds": sorted(mine)}  # fmt: skip
+    if not mine:
+        return result
+    summaries = {seed: summarise(rounds) for seed, rounds in sorted(mine.items())}
+    result["ratios"] = seed_ratios([mine[s] for s in sorted(mine)])
+    result["per_seed"] = {str(s): {k: summaries[s][k] for k in ("success_ratio", "clear_ratio",
+                                                                 "executed", "successes")}
+                          for s in summaries}  # fmt: skip
+    modes = sum((Counter(s["modes"]) for s in summaries.values()), Counter())
+    result["modes"] = {mode: modes[mode] for mode in MODES}
+    result["executed"] = sum(s["executed"] for s in summaries.values())
+    return result
+
+
+def lead(played: dict[Cell, dict], a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any] | None:
+    """Row ``a`` minus row ``b`` (same gripper and objects) on the rounds every one of their
+    runs finished: the change of the means over seeds with the hierarchical interval, and the
+    number of seed pairings in which ``a``'s SR is ahead, each paired round by round."""
+    if not a["seeds"] or not b["seeds"]:
+        return None
+
+    def runs(r: dict[str, Any]) -> list[list[dict]]:
+        return [next(p["rounds"] for c, p in played.items()
+                     if (c.gripper, c.rep, c.threshold, c.objects, c.scene, c.seed)
+                     == (r["gripper"], r["rep"], r["threshold"], r["objects"], r["scene"], s))
+                for s in r["seeds"]]  # fmt: skip
+
+    runs_a, runs_b = runs(a), runs(b)
+    shared = common_rounds(*runs_a, *runs_b)
+    ahead = sum(paired_change(*common_rounds(x, y))["success_ratio"][0] > 0
+                for x, y in itertools.product(runs_a, runs_b))  # fmt: skip
+    return {
+        "a": [a["rep"], a["threshold"]], "b": [b["rep"], b["threshold"]],
+        "gripper": a["gripper"], "objects": a["objects"], "scene": a["scene"],
+        "rounds": len(shared[0]),
+        "change": seed_paired_change(shared[: len(runs_a)], shared[len(runs_a) :]),
+        "ahead": ahead, "pairings": len(runs_a) * len(runs_b),
+    }  # fmt: skip
+
+
+def _mean(r: dict[str, Any], name: str, seeds: list[int]) -> str:
+    """``mean [low, high] (s0 / s1 / s2)`` in %, or – before any seed is played."""
+    if "ratios" not in r:
+        return "–"
+    mean, low, high = (100 * v for v in r["ratios"][name])
+    each = " / ".join(f"{100 * r['per_seed'][str(s)][name]:.1f}" if str(s) in r["per_seed"]
+                      else "–" for s in seeds)  # fmt: skip
+    return f"{mean:.1f} [{low:.1f}, {high:.1f}] ({each})"
+
+
+def _change(triple: list[float]) -> str:
+    point, low, high = (100 * v for v in triple)
+    return f"{point:+.1f} [{low:+.1f}, {high:+.1f}]"
+
+
+def markdown(rows: list[dict], leads: list[dict], field: list[dict], args: argparse.Namespace,
+             waiting: list[str]) -> str:  # fmt: skip
+    """Table 1 per gripper with the paper's numbers, the leads, the failure modes, the field's
+    table, and the runs still waiting."""
+    seeds = list(args.seeds)
     text = []
-    for gripper in GRIPPERS:
-        text += [
-            f"### {gripper}\n",
-            "| representation | household-test SR | household-test CR | large-box SR | "
-            "large-box CR | paper household SR / CR | paper large box SR / CR |",
-            "|---|---|---|---|---|---|---|",
-        ]
+    for gripper in args.grippers:
+        mine = [r for r in rows if r["gripper"] == gripper]
+        head = " | ".join(f"{o} SR % | {o} CR %" for o in args.objects)
+        paper = " | ".join(f"paper {o} SR / CR" for o in args.objects)
+        text += [f"### {gripper}", "",
+                 f"Mean over training seeds [95 % interval over seeds and rounds] (seed "
+                 f"{' / '.join(map(str, seeds))}):", "",
+                 f"| representation | {head} | {paper} |",
+                 "|---|" + "---|" * (3 * len(args.objects))]  # fmt: skip
         for rep, threshold in ROWS:
-            cells = {r["objects"]: r for r in rows if r["key"] == [gripper, rep, threshold]}
-            ours = []
-            for objects in OBJECTS:
-                summary = cells.get(objects, {}).get("summary")
-                ours += [percent_with_interval(summary, n) for n in ("success_ratio", "clear_ratio")] if summary else ["–", "–"]  # fmt: skip
-            paper = PAPER[(gripper, rep, threshold)]
-            theirs = [f"{paper[o][0]} / {paper[o][1]}" for o in OBJECTS]
-            text.append(f"| {label(rep, threshold)} | " + " | ".join(ours + theirs) + " |")
-        text += ["", f"Attempts by mode ({gripper}; `symgrasp.benchmark.failures`):", ""]
-        text += ["| representation | objects | " + " | ".join(MODES) + " | wrong yaw / executed |",
+            cells, theirs = [], []
+            for objects in args.objects:
+                r = next(x for x in mine if (x["rep"], x["threshold"], x["objects"])
+                         == (rep, threshold, objects))  # fmt: skip
+                cells += [_mean(r, "success_ratio", seeds), _mean(r, "clear_ratio", seeds)]
+                ref = PAPER.get((gripper, rep, threshold), {}).get(objects)
+                theirs.append(f"{ref[0]} / {ref[1]}" if ref else "–")
+            text.append(f"| {label(rep, threshold)} | " + " | ".join(cells + theirs) + " |")
+        text += ["", f"`bingham2d` minus each other row on the same rounds ({gripper}): change "
+                 "of the means over seeds [95 %, seeds and rounds]; seed pairings in which "
+                 "`bingham2d`'s SR is ahead:", "",
+                 "| objects | `bingham2d` − | SR change | CR change | SR ahead in |",
+                 "|---|---|---|---|---|"]  # fmt: skip
+        for m in (m for m in leads if m["gripper"] == gripper):
+            text.append(f"| {m['objects']} | {label(*m['b'])} | "
+                        f"{_change(m['change']['success_ratio'])} | "
+                        f"{_change(m['change']['clear_ratio'])} | "
+                        f"{m['ahead']} of {m['pairings']} |")  # fmt: skip
+        text += ["", f"Attempts by failure mode, pooled over seeds ({gripper}; "
+                 "`symgrasp.benchmark.failures`):", "",
+                 "| representation | objects | " + " | ".join(MODES) + " | wrong yaw / executed |",
                  "|---|---|" + "---|" * (len(MODES) + 1)]  # fmt: skip
-        for row in rows:
-            if row["key"][0] == gripper and row["summary"] and row["summary"]["modes"]:
-                modes, executed = row["summary"]["modes"], row["summary"]["executed"]
-                counts = [str(modes.get(mode, 0)) for mode in MODES]
-                share = f"{modes.get('wrong_yaw', 0) / executed:.0%}" if executed else "–"
-                text.append(
-                    f"| {label(*row['key'][1:])} | {row['objects']} | "
-                    + " | ".join(counts)
-                    + f" | {share} |"
-                )
-        text += ["", *family_table(rows, gripper), ""]
-    return "\n".join(text)
+        for r in (r for r in mine if "modes" in r):
+            share = f"{r['modes']['wrong_yaw'] / r['executed']:.0%}" if r["executed"] else "–"
+            text.append(f"| {label(r['rep'], r['threshold'])} | {r['objects']} | "
+                        + " | ".join(str(r["modes"][m]) for m in MODES) + f" | {share} |")  # fmt: skip
+        text.append("")
+    text += [f"### The field's protocol ({args.field_gripper}, VGN's objects)", "",
+             "| representation | " + " | ".join(f"{o} ({s}) SR % | CR %" for o, s in args.field)
+             + " |", "|---|" + "---|" * (2 * len(args.field))]  # fmt: skip
+    for rep in REPS:
+        cells = []
+        for objects, scene in args.field:
+            r = next(
+                x for x in field if (x["rep"], x["objects"], x["scene"]) == (rep, objects, scene)
+            )
+            cells += [_mean(r, "success_ratio", seeds), _mean(r, "clear_ratio", seeds)]
+        text.append(f"| `{rep}` | " + " | ".join(cells) + " |")
+    text += ["", "Published numbers on these scenes, from other simulators and protocols: "
+             "`docs/benchmark.md`, \"Published numbers on VGN's scenes\"."]  # fmt: skip
+    if waiting:
+        text += ["", f"Waiting for {len(waiting)} cells of the runs "
+                 f"{', '.join(sorted(set(waiting)))}."]  # fmt: skip
+    return "\n".join(text) + "\n"
 
 
-def family_table(rows: list[dict[str, Any]], gripper: str) -> list[str]:
-    """Household-test grasps per aimed-at object family: SR and wrong-yaw share of the
-    executed grasps (their count in brackets) for each representation with its threshold."""
-    cells = {r["key"][1]: r["summary"]["families"] for r in rows
-             if r["key"][0] == gripper and r["key"][2] and r["objects"] == "household-test"
-             and r["summary"] and "families" in r["summary"]}  # fmt: skip
-    if not cells:
-        return []
-    text = [f"Household-test grasps by the family of the object aimed at ({gripper}): success "
-            "ratio / wrong-yaw share of executed grasps, [executed]:", "",
-            "| family | " + " | ".join(f"`{rep}`" for rep in cells) + " |",
-            "|---|" + "---|" * len(cells)]  # fmt: skip
-    for family in sorted({f for families in cells.values() for f in families}):
-        entries = []
-        for families in cells.values():
-            n = families.get(family, {"executed": 0, "successes": 0, "wrong_yaw": 0})
-            shares = [f"{n[k] / n['executed']:.0%}" if n["executed"] else "–"
-                      for k in ("successes", "wrong_yaw")]  # fmt: skip
-            entries.append(f"{shares[0]} / {shares[1]} [{n['executed']}]")
-        text.append(f"| {family} | " + " | ".join(entries) + " |")
-    return text
-
-
-def figure(rows: list[dict[str, Any]], path: str | Path, rounds: int, num_objects: int) -> None:
-    """Bars of SR and CR with their 95 % intervals per representation, one panel per gripper
-    and object set; the paper's values as black ticks."""
+def figure(rows: list[dict], path: str | Path, args: argparse.Namespace) -> None:
+    """Bars of the mean SR and CR over seeds with their seed-and-round intervals, each seed's
+    value as a dot, the paper's as a black tick; one panel per gripper and object set."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharey=True)
-    for (i, gripper), (j, objects) in itertools.product(enumerate(GRIPPERS), enumerate(OBJECTS)):
+    grippers, objects = list(args.grippers), list(args.objects)
+    fig, axes = plt.subplots(len(grippers), len(objects), figsize=(5.5 * len(objects),
+                             3.5 * len(grippers)), sharey=True, squeeze=False)  # fmt: skip
+    for (i, gripper), (j, obj) in itertools.product(enumerate(grippers), enumerate(objects)):
         ax = axes[i, j]
         for k, (rep, threshold) in enumerate(ROWS):
-            row = next(r for r in rows if r["key"] == [gripper, rep, threshold]
-                       and r["objects"] == objects)  # fmt: skip
-            paper = PAPER[(gripper, rep, threshold)][objects]
+            r = next(x for x in rows if (x["gripper"], x["rep"], x["threshold"], x["objects"])
+                     == (gripper, rep, threshold, obj))  # fmt: skip
+            paper = PAPER.get((gripper, rep, threshold), {}).get(obj)
             for m, (name, colour) in enumerate((("success_ratio", "C0"), ("clear_ratio", "C1"))):
                 x = k + (m - 0.5) * 0.38
-                ax.plot([x - 0.17, x + 0.17], [paper[m]] * 2, color="k", lw=2)
-                if row["summary"] is None:
+                if paper:
+                    ax.plot([x - 0.17, x + 0.17], [paper[m]] * 2, color="k", lw=2)
+                if "ratios" not in r:
                     ax.text(x, 2, "–", ha="center")
                     continue
-                value = 100 * row["summary"][name]
-                lo, hi = (100 * v for v in row["summary"][f"{name}_ci95"])
-                ax.bar(x, value, 0.36, color=colour, yerr=[[value - lo], [hi - value]],
+                mean, low, high = (100 * v for v in r["ratios"][name])
+                ax.bar(x, mean, 0.36, color=colour, alpha=0.8, yerr=[[mean - low], [high - mean]],
                        capsize=3, label=name.replace("_", " ") if k == 0 else None)  # fmt: skip
-        labels = [rep + ("" if threshold else "\nno thr.") for rep, threshold in ROWS]
-        ax.set_xticks(range(len(ROWS)), labels, fontsize=8)
-        ax.set_title(f"{gripper}, {objects}")
+                dots = [100 * s[name] for s in r["per_seed"].values()]
+                ax.plot([x] * len(dots), dots, "o", ms=3, color="k", alpha=0.6,
+                        label="one training seed" if k == 0 and m == 0 else None)  # fmt: skip
+        ax.set_xticks(range(len(ROWS)), [rep + ("" if t else "\nno thr.") for rep, t in ROWS],
+                      fontsize=8)  # fmt: skip
+        ax.set_title(f"{gripper}, {obj}")
         ax.set_ylim(0, 100)
         ax.grid(axis="y", alpha=0.3)
-    axes[0, 0].set_ylabel("%")
-    axes[1, 0].set_ylabel("%")
+    for i in range(len(grippers)):
+        axes[i, 0].set_ylabel("%")
     axes[0, 0].plot([], [], color="k", lw=2, label="the paper (its simulator)")
-    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="lower center", ncol=3, fontsize=9)
-    fig.suptitle(
-        f"Simulated decluttering, {rounds} rounds of {num_objects} objects, 95 % intervals"
-    )
-    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="lower center", ncol=4, fontsize=9)
+    fig.suptitle(f"Simulated decluttering, {args.rounds} rounds of {args.num_objects} objects, "
+                 f"mean over training seeds {', '.join(map(str, args.seeds))}; 95 % intervals "
+                 "over seeds and rounds")  # fmt: skip
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -204,70 +318,74 @@ def update_page(page: Path, table: str) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", default="runs", help="folder of the baselines' training runs")
-    parser.add_argument("--out", default="out/bench", help="folder of the per-cell benchmark runs")
+    parser.add_argument("--runs", default="runs", help="folder of the training runs")
+    parser.add_argument("--prefix", type=parse_prefix, action="append", default=None,
+                        help="GRIPPER=PREFIX: the runs of GRIPPER are PREFIX-REP-sSEED (default: "
+                        + " ".join(f"{g}={p}" for g, p in PREFIXES.items()) + ")")  # fmt: skip
+    parser.add_argument("--grippers", nargs="+", choices=GRIPPERS, default=list(GRIPPERS),
+                        help="Table 1's grippers (default: both)")  # fmt: skip
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2],
+                        help="training seeds (default: 0 1 2)")  # fmt: skip
+    parser.add_argument("--objects", nargs="+", default=list(OBJECTS),
+                        help="Table 1's object sets, piles (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--field", nargs="+", type=parse_field, default=[parse_field(f) for f in FIELD],
+                        help="the field's table: OBJECTS:pile|packed … (default: "
+                        + " ".join(FIELD) + ")")  # fmt: skip
+    parser.add_argument("--field-gripper", choices=GRIPPERS, default="franka",
+                        help="the field's table's gripper (default: franka, VGN's hand)")  # fmt: skip
     parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
     parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
     add_parallel_options(parser, "rounds")
     parser.set_defaults(workers=2)
-    parser.add_argument(
-        "--collate-only", action="store_true", help="tabulate the cells already run; run none"
-    )
+    parser.add_argument("--collate-only", action="store_true",
+                        help="tabulate the cells already played; play none")  # fmt: skip
+    parser.add_argument("--out", default="out/bench/table", help="folder of the cells")
     parser.add_argument("--result", default="benchmarks/results/declutter", help="result stem")
-    parser.add_argument(
-        "--figure", default="docs/figures/declutter_comparison.png", help="bar chart path"
-    )
-    parser.add_argument(
-        "--docs",
-        default="docs/results.md",
-        help="page whose tables (between the declutter-table markers) are replaced",
-    )
+    parser.add_argument("--figure", default="docs/figures/declutter_comparison.png",
+                        help="bar chart path")  # fmt: skip
+    parser.add_argument("--docs", default="docs/results.md",
+                        help="page whose text between the declutter-table markers is replaced")  # fmt: skip
     args = parse_args(
-        parser,
-        outputs=("out", "result", "figure", "docs"),
-        quick={"rounds": 1, "num_objects": 1, "workers": 1},
-        also=", the shipped models only",
-    )
+        parser, outputs=("out", "result", "figure", "docs"),
+        quick={"rounds": 1, "num_objects": 1, "workers": 1, "seeds": [0, 1],
+               "grippers": ["robotiq-2f85"], "field_gripper": "robotiq-2f85",
+               "objects": ["household-test"], "field": [("household-test", "packed")]},
+        also=f", {SHIPPED} for every run, a copy of the page",
+    )  # fmt: skip
     if args.quick:  # the page's copy, so that its markers are still checked
         shutil.copyfile(parser.get_default("docs"), args.docs)
+    prefixes = {**PREFIXES, **dict(args.prefix or ())}
 
-    rows = []
-    for gripper, short in GRIPPERS.items():
-        for rep, threshold in ROWS:
-            shipped_only = args.quick and rep != "bingham2d"
-            model = None if shipped_only else model_for(gripper, rep, Path(args.runs))
-            for objects in OBJECTS:
-                key = [gripper, rep, threshold]
-                if model is None:
-                    rows.append({"key": key, "objects": objects, "model": model, "summary": None})
-                    continue
-                options = () if threshold else (("confidence_threshold", 0.0),)
-                config = BenchmarkConfig(
-                    model=model,
-                    objects=objects,
-                    num_objects=args.num_objects,
-                    rounds=args.rounds,
-                    seed=0,
-                    options=options,
-                )
-                folder = Path(args.out) / short / (rep + ("" if threshold else "-noconf")) / objects
-                print(f"{gripper} {rep}{'' if threshold else ' (no threshold)'} on {objects}")
-                summary = cell(config, folder, parallel_from_args(args), args.collate_only)
-                rows.append({"key": key, "objects": objects, "model": model, "summary": summary})
-
-    table = markdown(rows)
-    print(table)
+    played = {cell: play(cell, args, prefixes) for cell in grid(args)}
+    rows = [row(played, g, rep, threshold, objects, "pile")
+            for g in args.grippers for objects in args.objects for rep, threshold in ROWS]  # fmt: skip
+    field = [row(played, args.field_gripper, rep, True, objects, scene)
+             for objects, scene in args.field for rep in REPS]  # fmt: skip
+    leads = []
+    for g, objects in itertools.product(args.grippers, args.objects):
+        first, *others = [r for r in rows if (r["gripper"], r["objects"]) == (g, objects)]
+        leads += [m for other in others if (m := lead(played, first, other))]
+    waiting = [p["waiting"] for p in played.values() if p["waiting"]]
+    table = markdown(rows, leads, field, args, waiting)
+    print(table, end="")
     write_result(
         args.result,
-        "declutter comparison: SR / CR per representation, gripper, objects",
-        "PYTHONPATH=src python benchmarks/declutter_table.py",
+        "Table 1 over training seeds: SR / CR per gripper, object set and representation (mean "
+        "over seeds, hierarchical intervals), bingham2d's paired leads, failure modes, and the "
+        "field's pile/packed table",
+        f"PYTHONPATH=src python benchmarks/declutter_table.py --runs {args.runs} --out "
+        f"{args.out} --seeds {' '.join(map(str, args.seeds))}",
         rows,
         table,
+        leads=leads,
+        field=field,
+        waiting=sorted(set(waiting)),
         rounds=args.rounds,
         num_objects=args.num_objects,
-        seed=0,
+        seeds=list(args.seeds),
+        prefixes=prefixes,
     )
-    figure(rows, args.figure, args.rounds, args.num_objects)
+    figure(rows, args.figure, args)
     update_page(Path(args.docs), table)
 
 

@@ -2,7 +2,9 @@
 
     PYTHONPATH=src python benchmarks/seed_check.py [--workers 2] [--backend ray [--ray-address HOST:PORT]] [--quick [DIR]]
 
-The comparison (`declutter_table.py`) trains every detector once (``--seed 0``). This script
+The one-seed comparison on household objects (``declutter_table.py`` as it was at 7403154;
+``seed_spread.py`` and today's ``declutter_table.py`` do this over three seeds on VGN's
+objects) trained every detector once (``--seed 0``). This script
 benchmarks the second runs of the Robotiq ``bingham2d`` and ``rotmat6d``, trained with
 
     symgrasp train --data data/robotiq-train --rep REP --gripper robotiq-2f85 \\
@@ -11,7 +13,7 @@ benchmarks the second runs of the Robotiq ``bingham2d`` and ``rotmat6d``, traine
 on the same 100 rounds as the table (cells in ``out/bench/seed1/robotiq/REP/OBJECTS``, read
 back when present), and compares ``bingham2d`` with ``rotmat6d`` within each training seed on
 the same rounds (`symgrasp.benchmark.compare.paired_change`). The seed-0 cells are the table's
-(``out/bench/robotiq/REP/OBJECTS``; run ``declutter_table.py`` first). ``--quick`` needs no
+(``out/bench/robotiq/REP/OBJECTS``; run that ``declutter_table.py`` first). ``--quick`` needs no
 training run: the shipped Robotiq model stands in for every run, and it plays the seed-0 cells
 too, one round of one object per cell.
 """
@@ -61,10 +63,12 @@ def main() -> None:
                 seed=0,
             )
             seed0 = Path(args.out) / "robotiq" / rep / objects / "rounds.jsonl"
-            if args.quick:  # the seed-0 cell that declutter_table.py would have played
+            if args.quick:  # the seed-0 cell that the one-seed table would have played
                 run_or_reuse(config, seed0.parent, parallel_from_args(args))
             if not seed0.exists():
-                raise SystemExit(f"error: {seed0} is missing; run declutter_table.py first")
+                raise SystemExit(
+                    f"error: {seed0} is missing; run declutter_table.py of 7403154 first"
+                )
             rounds[rep, 0, objects] = [json.loads(x) for x in seed0.read_text().splitlines()]
             folder = Path(args.out) / "seed1" / "robotiq" / rep / objects
             rounds[rep, 1, objects] = run_or_reuse(config, folder, parallel_from_args(args))
