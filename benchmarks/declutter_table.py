@@ -294,11 +294,12 @@ def figure(rows: list[dict], path: str | Path, args: argparse.Namespace) -> None
     for i in range(len(grippers)):
         axes[i, 0].set_ylabel("%")
     axes[0, 0].plot([], [], color="k", lw=2, label="the paper (its simulator)")
-    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="lower center", ncol=4, fontsize=9)
-    fig.suptitle(f"Simulated decluttering, {args.rounds} rounds of {args.num_objects} objects, "
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="lower center",
+               ncol=4 if len(objects) > 1 else 2, fontsize=9)  # fmt: skip
+    fig.suptitle(f"Simulated decluttering, {args.rounds} rounds of {args.num_objects} objects\n"
                  f"mean over training seeds {', '.join(map(str, args.seeds))}; 95 % intervals "
-                 "over seeds and rounds")  # fmt: skip
-    fig.tight_layout(rect=(0, 0.05, 1, 1))
+                 "over seeds and rounds", fontsize=10)  # fmt: skip
+    fig.tight_layout(rect=(0, 0.05 if len(objects) > 1 else 0.1, 1, 1))
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
