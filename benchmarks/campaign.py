@@ -1,7 +1,7 @@
 """Run a plan of long commands (datasets, training runs, benchmarks) that outlives any session.
 
-    PYTHONPATH=src python benchmarks/campaign.py run PLAN.toml [--root DIR] [--cores 2]
-    PYTHONPATH=src python benchmarks/campaign.py status PLAN.toml [--root DIR]
+    PYTHONPATH=src python benchmarks/campaign.py run PLAN.toml [PLAN.toml ...] [--root DIR] [--cores 2]
+    PYTHONPATH=src python benchmarks/campaign.py status PLAN.toml [PLAN.toml ...] [--root DIR]
     PYTHONPATH=src python benchmarks/campaign.py run --quick [DIR]
 
 A plan is a TOML file of steps, each a shell command with the cores it uses and the steps it
@@ -21,7 +21,9 @@ needs (``benchmarks/campaigns/*.toml``)::
     cores = 1                   # OMP_NUM_THREADS of the command
     run = "symgrasp train --data {data} ... --resume"
 
-``run`` starts every step whose needs are done, in the plan's order, as long as their cores fit
+Several plan files make one plan, in order: a later file uses the vars of the earlier ones and
+its steps may need theirs (a campaign built on another's runs). ``run`` starts every step
+whose needs are done, in the plan's order, as long as their cores fit
 in ``--cores``, and returns when nothing more can start. A step is done when it exited 0 with
 the same command: ``ROOT/done/NAME`` holds the command it finished, so an edited command runs
 again. Every command must resume its own work (symgrasp's ``--resume``), because a session's
@@ -42,6 +44,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from common import parse_args, write_result
 
@@ -61,18 +64,46 @@ class Step:
     run: str
     cores: int = 1
     needs: tuple[str, ...] = field(default=())
+    plan: Path = Path("plan.toml")
+    """The file that defines it."""
 
 
-def read_plan(path: Path, root: Path) -> list[Step]:
-    """The steps of the plan file ``path`` with ``{root}`` and its ``[vars]`` filled in."""
-    try:
-        plan = tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as error:
-        raise SystemExit(f"error: plan {path}: {error}") from None
-    values = {"root": str(root)}
-    for key, value in plan.get("vars", {}).items():
-        # one line, as a step's command: a line break inside a shell command would end it
-        values[key] = " ".join(str(value).split()).format(**values)
+def read_plan(paths: list[Path], root: Path) -> list[Step]:
+    """The steps of the plan files ``paths``, in order, with ``{root}`` and their ``[vars]``
+    filled in. A later file sees the vars of the earlier ones (and may not define them again)
+    and its steps may need theirs: a campaign that builds on another's runs is a second file."""
+    values, defined_in = {"root": str(root)}, {}
+    steps: list[Step] = []
+    for path in paths:
+        try:
+            plan = tomllib.loads(path.read_text())
+        except (OSError, tomllib.TOMLDecodeError) as error:
+            raise SystemExit(f"error: plan {path}: {error}") from None
+        for key, value in plan.get("vars", {}).items():
+            if key in values:
+                where = defined_in.get(key, "--root")
+                raise SystemExit(f"error: plan {path}: var {key!r} is already defined by {where}")
+            # one line, as a step's command: a line break inside a shell command would end it
+            values[key] = " ".join(str(value).split()).format(**values)
+            defined_in[key] = str(path)
+        steps += _steps(path, plan, values)
+    names = [step.name for step in steps]
+    for step in steps:
+        missing = [need for need in step.needs if need not in names[: names.index(step.name)]]
+        if missing:
+            raise SystemExit(
+                f"error: plan {step.plan}: step {step.name!r} needs {missing}, which are not "
+                "steps listed before it"
+            )
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise SystemExit(f"error: plan {', '.join(map(str, paths))}: step names repeat: "
+                         f"{', '.join(repeated)}")  # fmt: skip
+    return steps
+
+
+def _steps(path: Path, plan: dict[str, Any], values: dict[str, str]) -> list[Step]:
+    """The steps of one plan file, their commands filled in from ``values``."""
     steps = []
     for entry in plan.get("step", []):
         unknown = set(entry) - {"name", "run", "cores", "needs"}
@@ -86,19 +117,8 @@ def read_plan(path: Path, root: Path) -> list[Step]:
         except KeyError as error:
             raise SystemExit(f"error: plan {path}: step {entry['name']!r} uses {error}, "
                              f"which [vars] does not define") from None  # fmt: skip
-        steps.append(
-            Step(entry["name"], run, int(entry.get("cores", 1)), tuple(entry.get("needs", ())))
-        )
-    names = [step.name for step in steps]
-    for step in steps:
-        missing = [need for need in step.needs if need not in names[: names.index(step.name)]]
-        if missing:
-            raise SystemExit(
-                f"error: plan {path}: step {step.name!r} needs {missing}, which are not "
-                "steps listed before it"
-            )
-    if len(set(names)) != len(names):
-        raise SystemExit(f"error: plan {path}: step names repeat")
+        steps.append(Step(entry["name"], run, int(entry.get("cores", 1)),
+                          tuple(entry.get("needs", ())), path))  # fmt: skip
     return steps
 
 
@@ -195,7 +215,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("action", nargs="?", default="run", choices=("run", "status"),
                         help="run the plan (default), or list its steps' state")  # fmt: skip
-    parser.add_argument("plan", nargs="?", type=Path, help="the plan's TOML file")
+    parser.add_argument("plan", nargs="*", type=Path,
+                        help="the plan's TOML files: a later file may use the vars and need "
+                        "the steps of an earlier one")  # fmt: skip
     parser.add_argument("--root", type=Path, default=Path("out/campaign"),
                         help="folder of the plan's outputs, logs and markers ({root} in commands; "
                         "default: out/campaign)")  # fmt: skip
@@ -204,9 +226,9 @@ def main() -> None:
     parser.add_argument("--result", default="benchmarks/results/campaign", help="stem")
     args = parse_args(parser, outputs=("root", "result"), quick={})
     if args.quick:
-        args.plan = args.quick / "plan.toml"
-        args.plan.write_text(QUICK_PLAN.format(python=shlex.quote(sys.executable)))
-    elif args.plan is None:
+        args.plan = [args.quick / "plan.toml"]
+        args.plan[0].write_text(QUICK_PLAN.format(python=shlex.quote(sys.executable)))
+    elif not args.plan:
         parser.error("the plan's TOML file is needed")
     root = args.root.resolve()
     steps = read_plan(args.plan, root)

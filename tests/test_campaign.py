@@ -30,12 +30,12 @@ def test_steps_run_after_their_needs_and_a_changed_command_runs_again(tmp_path):
         _step("fast", append.format(0, "f")),
         _step("last", append.format(0, "l"), needs=["slow", "fast"], cores=2),
     ])  # fmt: skip
-    steps = campaign.read_plan(_plan(tmp_path, text), tmp_path)
+    steps = campaign.read_plan([_plan(tmp_path, text)], tmp_path)
     assert campaign.run(steps, tmp_path, cores=2) == {n: "done" for n in ("fast", "slow", "last")}
     assert log.read_text() == "fsl"  # slow and fast side by side, last after both
     assert campaign.run(steps, tmp_path, cores=2) == {n: "done" for n in ("slow", "fast", "last")}
     assert log.read_text() == "fsl"  # done: nothing ran again
-    changed = campaign.read_plan(_plan(tmp_path, text.replace('"l"', '"L"')), tmp_path)
+    changed = campaign.read_plan([_plan(tmp_path, text.replace('"l"', '"L"'))], tmp_path)
     campaign.run(changed, tmp_path, cores=2)
     assert log.read_text() == "fslL"
 
@@ -46,7 +46,7 @@ def test_a_var_written_over_lines_is_one_command(tmp_path):
     text = (f'[vars]\nwrite = """{sys.executable} -c \'import sys; open(sys.argv[1], "w")'
             f'.write(sys.argv[2])\'\n  {{root}}/out.txt"""\n'
             '[[step]]\nname = "a"\nrun = "{write} second-line"\n')  # fmt: skip
-    steps = campaign.read_plan(_plan(tmp_path, text), tmp_path)
+    steps = campaign.read_plan([_plan(tmp_path, text)], tmp_path)
     assert "\n" not in steps[0].run
     assert campaign.run(steps, tmp_path, cores=1) == {"a": "done"}
     assert (tmp_path / "out.txt").read_text() == "second-line"
@@ -59,11 +59,29 @@ def test_one_core_runs_steps_one_at_a_time_and_a_failure_holds_its_dependants(tm
         _step("other", 'open("{root}/other.txt", "w")'),
         _step("big", "pass", cores=2),
     ])  # fmt: skip
-    outcome = campaign.run(campaign.read_plan(_plan(tmp_path, text), tmp_path), tmp_path, cores=1)
+    outcome = campaign.run(campaign.read_plan([_plan(tmp_path, text)], tmp_path), tmp_path, cores=1)
     assert outcome["broken"] == "failed (exit 2)" and outcome["other"] == "done"
     assert outcome["after"].startswith("waiting") and not (tmp_path / "after.txt").exists()
     assert outcome["big"].startswith("waiting")  # never fits in one core
     assert (tmp_path / "failed" / "broken").read_text().startswith("exit 2")
+
+
+def test_a_second_plan_file_uses_the_first_ones_vars_and_steps(tmp_path):
+    touch = "import sys; open(sys.argv[1], sys.argv[2])"
+    first = tmp_path / "first.toml"
+    first.write_text(f"[vars]\npy = '''{sys.executable} -c '{touch}' '''\n"
+                     '[[step]]\nname = "make"\nrun = "{py} {root}/a w"\n')  # fmt: skip
+    second = tmp_path / "second.toml"
+    second.write_text('[[step]]\nname = "use"\nneeds = ["make"]\nrun = "{py} {root}/a r"\n')
+    steps = campaign.read_plan([first, second], tmp_path)
+    assert [(s.name, s.plan) for s in steps] == [("make", first), ("use", second)]
+    assert campaign.run(steps, tmp_path, cores=1) == {"make": "done", "use": "done"}
+    with pytest.raises(SystemExit, match=r"step 'use' uses 'py', which \[vars\] does not"):
+        campaign.read_plan([second, first], tmp_path)  # the first file's vars come after
+    again = tmp_path / "again.toml"
+    again.write_text('[vars]\npy = "python3"\n')
+    with pytest.raises(SystemExit, match=f"plan {again}: var 'py' is already defined by {first}"):
+        campaign.read_plan([first, again], tmp_path)
 
 
 @pytest.mark.parametrize(
@@ -80,4 +98,4 @@ def test_one_core_runs_steps_one_at_a_time_and_a_failure_holds_its_dependants(tm
 )  # fmt: skip
 def test_a_bad_plan_is_one_line_naming_the_file_and_step(tmp_path, text, message):
     with pytest.raises(SystemExit, match=message):
-        campaign.read_plan(_plan(tmp_path, text), tmp_path)
+        campaign.read_plan([_plan(tmp_path, text)], tmp_path)

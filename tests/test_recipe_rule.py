@@ -40,7 +40,7 @@ def test_a_factor_is_adopted_only_when_its_net_change_is_positive_for_every_seed
 
 def test_the_plan_trains_every_factor_and_hands_its_options_to_the_recipe_study():
     steps = {s.name: s for s in campaign.read_plan(
-        ROOT / "benchmarks" / "campaigns" / "robust_training.toml", Path("/root"))}  # fmt: skip
+        [ROOT / "benchmarks" / "campaigns" / "robust_training.toml"], Path("/root"))}  # fmt: skip
     words = shlex.split(steps["recipe-study"].run)
     flags = dict(recipe.parse_flags(words[i + 1]) for i, w in enumerate(words) if w == "--flags")
     baseline, *factors = recipe.FACTORS
