@@ -3,8 +3,8 @@ pile/packed table → benchmarks/results/declutter.{json,md}, docs/figures/declu
 and docs/results.md (between its markers).
 
     PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/declutter_table.py --runs ROOT/runs \\
-        [--out ROOT/bench/table] [--seeds 0 1 2] [--rounds 100] [--workers 2] [--collate-only] \\
-        [--quick [DIR]]
+        [--out ROOT/bench/table] [--grippers G ...] [--reps REP ...] [--seeds 0 1 2] \\
+        [--rounds 100] [--workers 2] [--collate-only | --play-only] [--quick [DIR]]
 
 Every cell is one training run (``--runs/PREFIX-REP-sSEED``, the prefix per gripper from
 ``--prefix``) whose ``best.pt`` the declutter validation chose (``symgrasp select RUN --by
@@ -27,6 +27,10 @@ and picks up runs as they are selected; a run not yet selected is listed as wait
   representation with its threshold; the published numbers of VGN, GIGA and EdgeGraspNet on
   those scenes, their sources and how their protocols differ are in docs/benchmark.md
   ("Published numbers on VGN's scenes").
+
+A campaign plays each run's cells in a step of its own as soon as the run is selected
+(``--play-only --grippers G --reps REP --seeds S``, ``--field`` left empty for a hand that is
+not the field's) and collates once at the end (``--collate-only``).
 
 ``--quick``: the shipped Robotiq model stands in for every run; two seeds, one round of one
 household-test object (pile and packed), the Robotiq only, a copy of the page updated.
@@ -105,9 +109,9 @@ def grid(args: argparse.Namespace) -> list[Cell]:
     """Every cell of both tables, each once (the field's pile cells are Table 1's)."""
     cells = [Cell(g, rep, seed, objects, "pile", threshold)
              for g, (rep, threshold), objects, seed
-             in itertools.product(args.grippers, ROWS, args.objects, args.seeds)]  # fmt: skip
+             in itertools.product(args.grippers, args.rows, args.objects, args.seeds)]  # fmt: skip
     cells += [Cell(args.field_gripper, rep, seed, objects, scene)
-              for (objects, scene), rep, seed in itertools.product(args.field, REPS, args.seeds)]  # fmt: skip
+              for (objects, scene), rep, seed in itertools.product(args.field, args.reps, args.seeds)]  # fmt: skip
     return list(dict.fromkeys(cells))
 
 
@@ -209,7 +213,7 @@ def markdown(rows: list[dict], leads: list[dict], field: list[dict], args: argpa
                  f"{' / '.join(map(str, seeds))}):", "",
                  f"| representation | {head} | {paper} |",
                  "|---|" + "---|" * (3 * len(args.objects))]  # fmt: skip
-        for rep, threshold in ROWS:
+        for rep, threshold in args.rows:
             cells, theirs = [], []
             for objects in args.objects:
                 r = next(x for x in mine if (x["rep"], x["threshold"], x["objects"])
@@ -237,10 +241,12 @@ def markdown(rows: list[dict], leads: list[dict], field: list[dict], args: argpa
             text.append(f"| {label(r['rep'], r['threshold'])} | {r['objects']} | "
                         + " | ".join(str(r["modes"][m]) for m in MODES) + f" | {share} |")  # fmt: skip
         text.append("")
+    if not args.field:
+        return "\n".join(text) + _waiting(waiting)
     text += [f"### The field's protocol ({args.field_gripper}, VGN's objects)", "",
              "| representation | " + " | ".join(f"{o} ({s}) SR % | CR %" for o, s in args.field)
              + " |", "|---|" + "---|" * (2 * len(args.field))]  # fmt: skip
-    for rep in REPS:
+    for rep in args.reps:
         cells = []
         for objects, scene in args.field:
             r = next(
@@ -250,10 +256,13 @@ def markdown(rows: list[dict], leads: list[dict], field: list[dict], args: argpa
         text.append(f"| `{rep}` | " + " | ".join(cells) + " |")
     text += ["", "Published numbers on these scenes, from other simulators and protocols: "
              "`docs/benchmark.md`, \"Published numbers on VGN's scenes\"."]  # fmt: skip
-    if waiting:
-        text += ["", f"Waiting for {len(waiting)} cells of the runs "
-                 f"{', '.join(sorted(set(waiting)))}."]  # fmt: skip
-    return "\n".join(text) + "\n"
+    return "\n".join(text) + "\n" + _waiting(waiting)
+
+
+def _waiting(waiting: list[str]) -> str:
+    if not waiting:
+        return ""
+    return f"\nWaiting for {len(waiting)} cells of the runs {', '.join(sorted(set(waiting)))}.\n"
 
 
 def figure(rows: list[dict], path: str | Path, args: argparse.Namespace) -> None:
@@ -269,7 +278,7 @@ def figure(rows: list[dict], path: str | Path, args: argparse.Namespace) -> None
                              3.5 * len(grippers)), sharey=True, squeeze=False)  # fmt: skip
     for (i, gripper), (j, obj) in itertools.product(enumerate(grippers), enumerate(objects)):
         ax = axes[i, j]
-        for k, (rep, threshold) in enumerate(ROWS):
+        for k, (rep, threshold) in enumerate(args.rows):
             r = next(x for x in rows if (x["gripper"], x["rep"], x["threshold"], x["objects"])
                      == (gripper, rep, threshold, obj))  # fmt: skip
             paper = PAPER.get((gripper, rep, threshold), {}).get(obj)
@@ -286,7 +295,7 @@ def figure(rows: list[dict], path: str | Path, args: argparse.Namespace) -> None
                 dots = [100 * s[name] for s in r["per_seed"].values()]
                 ax.plot([x] * len(dots), dots, "o", ms=3, color="k", alpha=0.6,
                         label="one training seed" if k == 0 and m == 0 else None)  # fmt: skip
-        ax.set_xticks(range(len(ROWS)), [rep + ("" if t else "\nno thr.") for rep, t in ROWS],
+        ax.set_xticks(range(len(args.rows)), [r + ("" if t else "\nno thr.") for r, t in args.rows],
                       fontsize=8)  # fmt: skip
         ax.set_title(f"{gripper}, {obj}")
         ax.set_ylim(0, 100)
@@ -325,21 +334,28 @@ def main() -> None:
                         + " ".join(f"{g}={p}" for g, p in PREFIXES.items()) + ")")  # fmt: skip
     parser.add_argument("--grippers", nargs="+", choices=GRIPPERS, default=list(GRIPPERS),
                         help="Table 1's grippers (default: both)")  # fmt: skip
+    parser.add_argument("--reps", nargs="+", choices=REPS, default=list(REPS),
+                        help="representations (default: all; bingham2d brings its "
+                        "no-threshold row)")  # fmt: skip
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2],
                         help="training seeds (default: 0 1 2)")  # fmt: skip
     parser.add_argument("--objects", nargs="+", default=list(OBJECTS),
                         help="Table 1's object sets, piles (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--field", nargs="+", type=parse_field, default=[parse_field(f) for f in FIELD],
-                        help="the field's table: OBJECTS:pile|packed … (default: "
-                        + " ".join(FIELD) + ")")  # fmt: skip
+    parser.add_argument("--field", nargs="*", type=parse_field, default=[parse_field(f) for f in FIELD],
+                        help="the field's table: OBJECTS:pile|packed …, none for no such "
+                        "table (default: " + " ".join(FIELD) + ")")  # fmt: skip
     parser.add_argument("--field-gripper", choices=GRIPPERS, default="franka",
                         help="the field's table's gripper (default: franka, VGN's hand)")  # fmt: skip
     parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
     parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
     add_parallel_options(parser, "rounds")
     parser.set_defaults(workers=2)
-    parser.add_argument("--collate-only", action="store_true",
-                        help="tabulate the cells already played; play none")  # fmt: skip
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--collate-only", action="store_true",
+                      help="tabulate the cells already played; play none")  # fmt: skip
+    mode.add_argument("--play-only", action="store_true",
+                      help="play the cells and write nothing (a campaign step per run); an "
+                      "error when a cell's run has not been selected")  # fmt: skip
     parser.add_argument("--out", default="out/bench/table", help="folder of the cells")
     parser.add_argument("--result", default="benchmarks/results/declutter", help="result stem")
     parser.add_argument("--figure", default="docs/figures/declutter_comparison.png",
@@ -356,17 +372,25 @@ def main() -> None:
     if args.quick:  # the page's copy, so that its markers are still checked
         shutil.copyfile(parser.get_default("docs"), args.docs)
     prefixes = {**PREFIXES, **dict(args.prefix or ())}
+    args.rows = [(rep, threshold) for rep, threshold in ROWS if rep in args.reps]
 
     played = {cell: play(cell, args, prefixes) for cell in grid(args)}
+    waiting = [p["waiting"] for p in played.values() if p["waiting"]]
+    if args.play_only:
+        if waiting:
+            raise SystemExit(
+                f"error: not played, runs not selected: {', '.join(sorted(set(waiting)))}"
+            )
+        return
     rows = [row(played, g, rep, threshold, objects, "pile")
-            for g in args.grippers for objects in args.objects for rep, threshold in ROWS]  # fmt: skip
+            for g in args.grippers for objects in args.objects for rep, threshold in args.rows]  # fmt: skip
     field = [row(played, args.field_gripper, rep, True, objects, scene)
-             for objects, scene in args.field for rep in REPS]  # fmt: skip
+             for objects, scene in args.field for rep in args.reps]  # fmt: skip
     leads = []
     for g, objects in itertools.product(args.grippers, args.objects):
         first, *others = [r for r in rows if (r["gripper"], r["objects"]) == (g, objects)]
-        leads += [m for other in others if (m := lead(played, first, other))]
-    waiting = [p["waiting"] for p in played.values() if p["waiting"]]
+        if (first["rep"], first["threshold"]) == ROWS[0]:
+            leads += [m for other in others if (m := lead(played, first, other))]
     table = markdown(rows, leads, field, args, waiting)
     print(table, end="")
     write_result(
