@@ -148,3 +148,25 @@ def test_killed_benchmarks_resume_to_the_uninterrupted_result(tmp_path, without_
     assert without_timings(resumed) == without_timings(whole)
     results = [json.loads((tmp_path / n / "results.json").read_text()) for n in ("killed", "whole")]
     assert without_timings(results[0]) == without_timings(results[1])
+
+
+def test_a_model_file_overwritten_by_other_weights_is_refused_not_reused(played, tmp_path):
+    # A run selected again writes other weights to the same best.pt: the rounds its folder
+    # holds were played by the old weights and must not be taken for the new ones.
+    from symgrasp.detect.pretrained import shipped_path
+
+    model = tmp_path / "best.pt"
+    model.write_bytes(shipped_path("bingham2d-robotiq-2f85").read_bytes())
+    config = BenchmarkConfig(model=str(model), rounds=2)
+    out = tmp_path / "cell"
+    runner.run_benchmark(config, out)
+    assert len(runner.saved_rounds(config, out)) == 2
+    model.write_bytes(shipped_path("bingham2d-franka").read_bytes())
+    del played[:]
+    for call in (lambda: runner.saved_rounds(config, out),
+                 lambda: runner.run_benchmark(config, out, resume=True)):  # fmt: skip
+        with pytest.raises(ValueError, match=f"out {out} holds rounds of another model file"):
+            call()
+    assert played == []
+    (out / runner.MODEL_SHA).unlink()  # a folder from before the record: taken as it is
+    assert len(runner.saved_rounds(config, out)) == 2

@@ -10,6 +10,8 @@ CR = successes / objects presented); their 95 % intervals come from a bootstrap 
 Layout of a benchmark folder (`run_benchmark`)::
 
     config.json     the configuration, written (atomically) before any round runs
+    model.sha256    the SHA-256 of the model file it plays: a file of the same name with other
+                    weights (a run selected again) is refused, not taken for the old one
     rounds.jsonl    one line per round, appended as each finishes; in seed order at the end
     results.json    configuration and summary, derived from rounds.jsonl at the end
     results.md      the summary as a Markdown table row
@@ -34,8 +36,13 @@ from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.declutter import Round, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES
 from symgrasp.config import BenchmarkConfig, ParallelConfig
+from symgrasp.detect.pretrained import resolve_model
+from symgrasp.model.checkpoint import file_sha256
 from symgrasp.objects.sets import resolve
 from symgrasp.parallel import Executor, Failure, Job, open_executor
+
+MODEL_SHA = "model.sha256"
+"""The file of a benchmark folder that records the SHA-256 of the model file it plays."""
 
 BOOTSTRAP = 2000
 """Bootstrap resamples of the rounds for the confidence intervals."""
@@ -227,8 +234,9 @@ def recorded_config(out: str | Path) -> dict[str, Any] | None:
 
 def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) -> None:
     """Raise ValueError unless ``out`` may take ``config``'s rounds: it holds no benchmark, or
-    ``resume`` is set and it holds one of ``config``. Reads at most one small file, so the CLI
-    calls it before it loads a model or starts workers."""
+    ``resume`` is set and it holds one of ``config`` played by the same model file. Reads a
+    small file and hashes the model file, so the CLI calls it before it loads a model or starts
+    workers."""
     out = Path(out)
     if not any((out / name).exists() for name in ("config.json", "rounds.jsonl", "results.json")):
         return
@@ -251,6 +259,21 @@ def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) ->
             f"out {out} holds a benchmark of another configuration (its {', '.join(differ)} "
             "differ); choose another out (--out)"
         )
+    _check_model(config, out)
+
+
+def _check_model(config: BenchmarkConfig, out: Path) -> None:
+    """ValueError when ``out`` recorded another model file's SHA-256 than ``config.model``'s
+    now (folders from before the record are taken as they are)."""
+    recorded = out / MODEL_SHA
+    if recorded.exists():
+        now = file_sha256(resolve_model(config.model))
+        if recorded.read_text().strip() != now:
+            raise ValueError(
+                f"out {out} holds rounds of another model file: {config.model} has changed since "
+                f"they were played (SHA-256 {recorded.read_text().strip()[:12]}…, now "
+                f"{now[:12]}…); choose another out (--out) or delete it to play them again"
+            )
 
 
 def read_rounds(path: str | Path) -> dict[int, dict[str, Any]]:
@@ -311,6 +334,7 @@ def run_benchmark(
     # a cluster is joined (or refused) before anything is written, and not at all for no rounds
     with open_executor(parallel if missing else ParallelConfig()) as executor:
         if not (out / "config.json").exists():
+            _write_text(out / MODEL_SHA, file_sha256(resolve_model(config.model)) + "\n")
             _write_text(out / "config.json", json.dumps(asdict(config), indent=1) + "\n")
         _write_rounds(path, done.values())  # without a torn last line, so appends start afresh
         if missing:
@@ -332,6 +356,7 @@ def saved_rounds(config: BenchmarkConfig, out: str | Path) -> list[dict[str, Any
     else None (no benchmark, an unfinished one, or another configuration's)."""
     if recorded_config(out) != _plain(config):
         return None
+    _check_model(config, Path(out))
     done = read_rounds(Path(out) / "rounds.jsonl")
     seeds = round_seeds(config)
     return [done[seed] for seed in seeds] if all(seed in done for seed in seeds) else None

@@ -12,6 +12,7 @@ and tensors only.
 
 from __future__ import annotations
 
+import hashlib
 import pickle
 import zipfile
 from pathlib import Path
@@ -73,3 +74,12 @@ def load_model(
     model = GraspNet(NetworkConfig(**state["network"]))
     model.load_state_dict(state["model"])
     return model.to(map_location).eval(), state
+
+
+def file_sha256(path: str | Path) -> str:
+    """The SHA-256 of a checkpoint file's bytes (hex): what tells two files of one name apart."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as file:
+        for block in iter(lambda: file.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()

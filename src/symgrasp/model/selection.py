@@ -275,14 +275,6 @@ def find_checkpoints(run_dir: str | Path) -> list[tuple[int, Path]]:
     return sorted(kept.items())
 
 
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as file:
-        for block in iter(lambda: file.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def _number(text: Any) -> Any:
     try:
         return float(text)
@@ -309,7 +301,9 @@ class _Cache:
     atomically after each new piece."""
 
     def __init__(self, folder: Path, path: Path, epoch: int) -> None:
-        self.sha = _sha256(path)
+        from symgrasp.model.checkpoint import file_sha256
+
+        self.sha = file_sha256(path)
         self.id = f"{path.stem}-{self.sha[:12]}"  # as checkpoint_id
         self.file = folder / f"{self.id}.json"
         self.data = {"checkpoint": path.name, "epoch": epoch, "sha256": self.sha}
@@ -373,7 +367,9 @@ def checkpoint_measures(
 def checkpoint_id(path: str | Path) -> str:
     """A checkpoint's name for caches: its file stem and the start of its SHA-256, so that a
     file overwritten by other weights is never taken for the old one."""
-    return f"{Path(path).stem}-{_sha256(Path(path))[:12]}"
+    from symgrasp.model.checkpoint import file_sha256
+
+    return f"{Path(path).stem}-{file_sha256(path)[:12]}"
 
 
 def select_checkpoint(
