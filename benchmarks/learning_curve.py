@@ -73,8 +73,8 @@ def curve(study: dict[str, Any], by: str, bench: Path) -> list[dict[str, Any]]:
 def markdown(cells: list[dict[str, Any]]) -> str:
     text = [
         "| training scenes | run | chosen checkpoint (measure) | test SR % [95 % CI] | "
-        "test CR % | grasps | best test SR % of the run | SR / CR change vs the largest "
-        "(paired, same rounds) |",
+        "test CR % | grasps | best test SR % of the run | SR / CR change vs "
+        f"{cells[-1]['run']} (paired, same rounds) |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for c in cells:
@@ -101,6 +101,14 @@ def figure(path: Path, cells: list[dict[str, Any]]) -> None:
 
     fig, axis = plt.subplots(figsize=(5.2, 3.4), constrained_layout=True)
     sizes = [c["train_scenes"] or 1 for c in cells]
+    ticks = sorted(set(sizes))
+    # runs of one size (other training seeds) side by side, named
+    shared = {size: [i for i, s in enumerate(sizes) if s == size] for size in ticks}
+    for size, members in shared.items():
+        for k, i in enumerate(members if len(members) > 1 else []):
+            sizes[i] = size * 1.08 ** (k - (len(members) - 1) / 2)
+            axis.annotate(cells[i]["run"], (sizes[i], 100 * cells[i]["test_sr"]), fontsize=6,
+                          xytext=(3, -8), textcoords="offset points")  # fmt: skip
     sr = [100 * c["test_sr"] for c in cells]
     errors = [[s - 100 * c["test_sr_ci95"][0] for s, c in zip(sr, cells, strict=True)],
               [100 * c["test_sr_ci95"][1] - s for s, c in zip(sr, cells, strict=True)]]  # fmt: skip
@@ -109,7 +117,7 @@ def figure(path: Path, cells: list[dict[str, Any]]) -> None:
     axis.scatter(sizes, [100 * c["best_test_sr"] for c in cells], marker="_", s=120,
                  color="grey", label="best checkpoint of the run (not knowable)")  # fmt: skip
     axis.set_xscale("log")
-    axis.set_xticks(sorted(set(sizes)), [str(s) for s in sorted(set(sizes))])
+    axis.set_xticks(ticks, [str(s) for s in ticks])
     axis.set_xticks([], minor=True)  # the log axis' own minor labels collide with the sizes
     axis.set_xlabel("training scenes")
     axis.set_ylabel("declutter SR % (vgn-pile-test)")
