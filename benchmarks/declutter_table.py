@@ -165,10 +165,8 @@ def lead(played: dict[Cell, dict], a: dict[str, Any], b: dict[str, Any]) -> dict
         return None
 
     def runs(r: dict[str, Any]) -> list[list[dict]]:
-        return [next(p["rounds"] for c, p in played.items()
-                     if (c.gripper, c.rep, c.threshold, c.objects, c.scene, c.seed)
-                     == (r["gripper"], r["rep"], r["threshold"], r["objects"], r["scene"], s))
-                for s in r["seeds"]]  # fmt: skip
+        return [played[Cell(r["gripper"], r["rep"], s, r["objects"], r["scene"],
+                            r["threshold"])]["rounds"] for s in r["seeds"]]  # fmt: skip
 
     runs_a, runs_b = runs(a), runs(b)
     shared = common_rounds(*runs_a, *runs_b)
