@@ -88,6 +88,27 @@ def test_gl_and_raycast_depth_agree():
     assert np.median(np.abs(gl - ray)[both]) < 1e-3
 
 
+@pytest.mark.skipif(not gl_available(), reason="no OpenGL backend (EGL/OSMesa) here")
+@pytest.mark.parametrize("tight", ["model-sized", "full after one geom"])
+def test_a_tight_gl_scene_draws_what_mujocos_default_scene_draws(monkeypatch, tight):
+    # The renderer's scene holds the model's geoms and a margin instead of 10 000; a scene that
+    # fills up is drawn again in a roomy one, so the depth never loses a geom either way.
+    from symgrasp.objects.sets import make_scene
+    from symgrasp.sim import render
+
+    world, T = make_scene("pile", "household-test", 5, 3), default_extrinsic()
+    monkeypatch.setattr(render, "SCENE_MARGIN", render.ROOMY_SCENE)
+    roomy = GLRenderer(SMALL).render(world, T)
+    monkeypatch.setattr(render, "SCENE_MARGIN", 64 if tight == "model-sized" else 1 - (
+        world.model.ngeom + world.model.nsite + world.model.ntendon))  # fmt: skip
+    renderer = GLRenderer(SMALL)
+    depth = renderer.render(world, T)
+    assert (depth > 0).mean() > 0.5
+    np.testing.assert_array_equal(depth, roomy)
+    expected = render.ROOMY_SCENE if tight == "full after one geom" else world.model.ngeom + 64
+    assert renderer._renderer.scene.maxgeom == expected
+
+
 def _plane_depth(distance: float) -> np.ndarray:
     return np.full((SMALL.height, SMALL.width), distance, dtype=np.float32)
 

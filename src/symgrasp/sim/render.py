@@ -21,6 +21,11 @@ VISIBLE_GROUPS = np.array([1, 1, 0, 0, 1, 1], dtype=np.uint8)
 """Geom groups a camera sees: not the hand (2) nor hidden geoms (3: table plane, walls)."""
 assert VISIBLE_GROUPS[HAND_GROUP] == VISIBLE_GROUPS[HIDDEN_GROUP] == 0
 
+SCENE_MARGIN = 64
+"""Scene geoms a GL renderer holds beyond its model's geoms, sites and tendons."""
+ROOMY_SCENE = 10_000
+"""Scene geoms of a renderer whose tight scene filled up (``mujoco.Renderer``'s default)."""
+
 MAX_DEPTH = 3.0
 """Farthest surface reported [m]; anything beyond reads as 0 (no return)."""
 
@@ -88,11 +93,17 @@ class GLRenderer:
         self._option = mujoco.MjvOption()
         self._option.geomgroup[:] = VISIBLE_GROUPS
 
-    def _renderer_for(self, model: mujoco.MjModel) -> mujoco.Renderer:
-        if self._model is not model:  # worlds rebuild their model when objects change
+    def _renderer_for(self, model: mujoco.MjModel, roomy: bool = False) -> mujoco.Renderer:
+        """The renderer of ``model`` (worlds rebuild their model when objects change). Its scene
+        holds the model's geoms, sites and tendons and ``SCENE_MARGIN`` more, not
+        ``mujoco.Renderer``'s 10 000 (allocating those took a third of each rebuild's
+        renderer); ``roomy`` asks for the 10 000 after a scene filled up."""
+        if self._model is not model or roomy:
             if self._renderer is not None:
                 self._renderer.close()
-            self._renderer = mujoco.Renderer(model, self.intrinsic.height, self.intrinsic.width)
+            tight = model.ngeom + model.nsite + model.ntendon + SCENE_MARGIN
+            self._renderer = mujoco.Renderer(model, self.intrinsic.height, self.intrinsic.width,
+                                             max_geom=ROOMY_SCENE if roomy else tight)  # fmt: skip
             self._renderer.enable_depth_rendering()
             self._model = model
         return self._renderer
@@ -109,11 +120,14 @@ class GLRenderer:
     def _render(self, world: World, T_world_camera: np.ndarray, depth: bool) -> np.ndarray:
         T = _check_extrinsic(T_world_camera)
         renderer = self._renderer_for(world.model)
+        renderer.update_scene(world.data, scene_option=self._option)
+        if renderer.scene.ngeom >= renderer.scene.maxgeom:  # full: geoms may have been dropped
+            renderer = self._renderer_for(world.model, roomy=True)
+            renderer.update_scene(world.data, scene_option=self._option)
         if depth:
             renderer.enable_depth_rendering()
         else:
             renderer.disable_depth_rendering()
-        renderer.update_scene(world.data, scene_option=self._option)
         k = self.intrinsic
         for cam in renderer.scene.camera:
             near = cam.frustum_near
