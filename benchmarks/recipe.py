@@ -112,14 +112,15 @@ def main() -> None:
     )  # fmt: skip
     factors = dict(args.factor or (QUICK_FACTORS if args.quick else FACTORS).items())
     flags = dict(args.flags or (QUICK_FLAGS.items() if args.quick and not args.factor else ()))
-    missing = [f for f in list(factors)[1:] if f not in flags]
+    others = list(factors)[1:]  # the first is the baseline
+    missing = [f for f in others if f not in flags]
     if flags and missing:
         parser.error(f"--flags: no options for factor(s) {', '.join(missing)}")
-    unknown = [f for f in flags if f not in list(factors)[1:]]
+    unknown = [f for f in flags if f not in others]
     if unknown:
         parser.error(
             f"--flags: {', '.join(unknown)} is not a factor other than the baseline "
-            f"({', '.join(list(factors)[1:]) or 'none'})"
+            f"({', '.join(others) or 'none'})"
         )
     validation = sel.DeclutterValidation(
         objects=args.objects, rounds=args.rounds, seed=args.seed, num_objects=args.num_objects

@@ -265,15 +265,15 @@ def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) ->
 def _check_model(config: BenchmarkConfig, out: Path) -> None:
     """ValueError when ``out`` recorded another model file's SHA-256 than ``config.model``'s
     now (folders from before the record are taken as they are)."""
-    recorded = out / MODEL_SHA
-    if recorded.exists():
-        now = file_sha256(resolve_model(config.model))
-        if recorded.read_text().strip() != now:
-            raise ValueError(
-                f"out {out} holds rounds of another model file: {config.model} has changed since "
-                f"they were played (SHA-256 {recorded.read_text().strip()[:12]}…, now "
-                f"{now[:12]}…); choose another out (--out) or delete it to play them again"
-            )
+    if not (out / MODEL_SHA).exists():
+        return
+    played, now = (out / MODEL_SHA).read_text().strip(), file_sha256(resolve_model(config.model))
+    if played != now:
+        raise ValueError(
+            f"out {out} holds rounds of another model file: {config.model} has changed since "
+            f"they were played (SHA-256 {played[:12]}…, now {now[:12]}…); choose another out "
+            "(--out) or delete it to play them again"
+        )
 
 
 def read_rounds(path: str | Path) -> dict[int, dict[str, Any]]:

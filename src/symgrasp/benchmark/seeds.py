@@ -57,6 +57,16 @@ def _check(runs: list[list[dict[str, Any]]], name: str) -> None:
         raise ValueError(f"{name}: expected one or more runs, each with one or more rounds")
 
 
+def _check_aligned(runs: list[list[dict[str, Any]]], name: str) -> None:
+    """ValueError unless every run holds the same round seeds in order and none crashed (what
+    `common_rounds` leaves)."""
+    seeds = [r["seed"] for r in runs[0]]
+    if any([r["seed"] for r in run] != seeds for run in runs):
+        raise ValueError(f"{name}: every run must hold the same round seeds in order")
+    if any("error" in r for run in runs for r in run):
+        raise ValueError(f"{name}: leave out crashed rounds from every run first")
+
+
 def seed_ratios(runs: list[list[dict[str, Any]]], seed: int = 0) -> dict[str, list[float]]:
     """SR and CR of a detector trained with ``len(runs)`` seeds: ``{name: [mean over seeds, low,
     high]}``, the interval by the hierarchical bootstrap (module docstring), and
@@ -100,11 +110,7 @@ def seed_paired_change(
     round seeds differ."""
     _check(runs_a, "runs_a")
     _check(runs_b, "runs_b")
-    seeds = [r["seed"] for r in runs_a[0]]
-    if any([r["seed"] for r in run] != seeds for run in [*runs_a, *runs_b]):
-        raise ValueError("runs_a, runs_b: every run must hold the same round seeds in order")
-    if any("error" in r for run in [*runs_a, *runs_b] for r in run):
-        raise ValueError("runs_a, runs_b: leave out crashed rounds from every run first")
+    _check_aligned([*runs_a, *runs_b], "runs_a, runs_b")
     a = np.stack([_counts(run) for run in runs_a])  # (seeds, 3, rounds)
     b = np.stack([_counts(run) for run in runs_b])
     rng = np.random.default_rng(seed)
@@ -113,7 +119,7 @@ def seed_paired_change(
         point = np.nanmean(_ratio(a[:, 0], a[:, row])) - np.nanmean(_ratio(b[:, 0], b[:, row]))
         changes = np.empty(BOOTSTRAP)
         for i in range(BOOTSTRAP):
-            picks = rng.integers(len(seeds), size=len(seeds))
+            picks = rng.integers(a.shape[2], size=a.shape[2])  # the rounds, shared
             da = a[rng.integers(len(a), size=len(a))][:, :, picks]
             db = b[rng.integers(len(b), size=len(b))][:, :, picks]
             changes[i] = np.nanmean(_ratio(da[:, 0], da[:, row])) - np.nanmean(
@@ -134,11 +140,7 @@ def spread_null(runs: list[list[dict[str, Any]]], seed: int = 0) -> dict[str, di
     _check(runs, "runs")
     if len(runs) < 2:
         raise ValueError(f"runs: a spread needs two or more runs, got {len(runs)}")
-    seeds = [r["seed"] for r in runs[0]]
-    if any([r["seed"] for r in run] != seeds for run in runs):
-        raise ValueError("runs: every run must hold the same round seeds in order")
-    if any("error" in r for run in runs for r in run):
-        raise ValueError("runs: leave out crashed rounds from every run first")
+    _check_aligned(runs, "runs")
     counts = np.stack([_counts(run) for run in runs])  # (runs, 3, rounds)
     n_runs, _, n_rounds = counts.shape
     rng = np.random.default_rng(seed)
