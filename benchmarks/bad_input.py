@@ -19,7 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import parse_args, write_result
+from common import add_result_option, parse_args, write_result
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
@@ -74,7 +74,7 @@ def main() -> None:
     parser.add_argument(
         "--cases", type=int, default=0, help="play only the first N of each table (0: all)"
     )
-    parser.add_argument("--result", default="benchmarks/results/bad_input", help="output stem")
+    add_result_option(parser, "bad_input")
     args = parse_args(parser, outputs=("result",), quick={"cases": 2})
 
     from symgrasp.detect import GraspDetector

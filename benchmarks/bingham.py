@@ -15,8 +15,6 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
-import os
-import platform
 import statistics
 import sys
 import time
@@ -24,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import cpu_model, parse_args
+from common import machine, parse_args
 from tqdm import tqdm
 
 from symgrasp.bingham import Bingham, eigh3, log_normalizer, nll, triu_to_sym
@@ -33,16 +31,6 @@ from symgrasp.bingham.reference import log_normalizer_mpmath
 
 RESULTS = Path(__file__).parent / "results" / "bingham.json"
 METHODS = {3: ["quadrature", "paper"], 4: ["bessel", "paper"]}
-
-
-def machine() -> dict:
-    return {
-        "cpu": cpu_model(),
-        "cores": os.cpu_count(),
-        "torch_threads": torch.get_num_threads(),
-        "torch": torch.__version__,
-        "python": platform.python_version(),
-    }
 
 
 def random_eigenvalues(batch: int, d: int, seed: int) -> torch.Tensor:

@@ -223,8 +223,12 @@ def main() -> None:
                         "default: out/campaign)")  # fmt: skip
     parser.add_argument("--cores", type=int, default=os.cpu_count() or 1,
                         help="cores the running steps may use together (default: all)")  # fmt: skip
-    parser.add_argument("--result", default="benchmarks/results/campaign", help="stem")
-    args = parse_args(parser, outputs=("root", "result"), quick={})
+    args = parse_args(
+        parser,
+        outputs=("root",),
+        quick={},
+        also="a plan of four small steps, one failing, run twice",
+    )
     if args.quick:
         args.plan = [args.quick / "plan.toml"]
         args.plan[0].write_text(QUICK_PLAN.format(python=shlex.quote(sys.executable)))
@@ -240,7 +244,7 @@ def main() -> None:
     if args.quick:  # again: only what failed runs
         again = run(steps, root, args.cores)
         command = " ".join(["python", *sys.argv])
-        write_result(args.result, "campaign driver, quick plan", command, [],
+        write_result(args.quick / "campaign", "campaign driver, quick plan", command, [],
                      steps={"first run": outcome, "second run": again})  # fmt: skip
         return
     failed = [name for name, state in status(steps, root).items() if state != "done"]

@@ -5,10 +5,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
+import sys
 import time
 from collections.abc import Callable
 from datetime import datetime, timezone
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +19,9 @@ from symgrasp.atomic import write_atomic
 
 QUICK_DIR = Path("out/bench-quick")
 """Where ``--quick`` writes when given no folder."""
+
+LOAD_AT_START = os.getloadavg()
+"""The 1/5/15-minute load averages when the script started (it imports this module first)."""
 
 
 def parse_args(
@@ -27,20 +33,29 @@ def parse_args(
     the command line sets them, and moves the ``outputs`` (options naming a file, stem or
     folder) into DIR under their default's name; setting one of those is an error, so a quick
     run never writes into benchmarks/results/ or docs/. ``also`` tells the help what else
-    quick mode does."""
+    quick mode does. An option without a help text is refused: ``--help`` explains every
+    option."""
 
     def option(dest: str) -> str:
         return "--" + dest.replace("_", "-")
 
-    sizes = " ".join(f"{option(dest)} {value}" for dest, value in quick.items())
+    unexplained = [a.option_strings[0] if a.option_strings else a.dest
+                   for a in parser._actions if not a.help]  # fmt: skip
+    if unexplained:
+        raise ValueError(f"give every option a help text; missing: {', '.join(unexplained)}")
+    sizes = "; ".join(
+        filter(None, [" ".join(f"{option(dest)} {value}" for dest, value in quick.items()), also])
+    )
     parser.add_argument(
         "--quick",
         nargs="?",
         const=QUICK_DIR,
         type=Path,
         metavar="DIR",
-        help=f"a smoke run in seconds, its numbers meaningless: {sizes}{also}; writes every "
-        f"output under DIR (default: {QUICK_DIR}), never into benchmarks/results/ or docs/",
+        help="a smoke run in seconds, its numbers meaningless"
+        + (f" ({sizes})" if sizes else "")
+        + f"; writes every output under DIR (default: {QUICK_DIR}), never into "
+        "benchmarks/results/ or docs/",
     )
     args = parser.parse_args()
     if args.quick:
@@ -56,6 +71,18 @@ def parse_args(
     return args
 
 
+def add_result_option(parser: argparse.ArgumentParser, name: str) -> None:
+    """``--result STEM``, where `write_result` writes, by default ``benchmarks/results/NAME``."""
+    default = f"benchmarks/results/{name}"
+    parser.add_argument(
+        "--result",
+        default=default,
+        metavar="STEM",
+        help="where the result goes: STEM.json (the numbers, the command, the machine and its "
+        f"load) and STEM.md (its tables, if it has any) (default: {default})",
+    )
+
+
 def cpu_model() -> str:
     """The CPU's model name from /proc/cpuinfo, else what `platform` knows."""
     try:
@@ -65,6 +92,31 @@ def cpu_model() -> str:
     except OSError:
         pass
     return platform.processor() or "unknown"
+
+
+def machine() -> dict[str, Any]:
+    """What a number was measured on: the CPU and its logical cores, the platform, the versions
+    of Python, torch and MuJoCo, torch's CPU threads (when the script imported torch), and the
+    1/5/15-minute load averages when the script started and now (a timing on a shared 2-core
+    machine means something only when the machine was idle)."""
+
+    def installed(package: str) -> str | None:
+        try:
+            return version(package)
+        except PackageNotFoundError:
+            return None
+
+    torch = sys.modules.get("torch")
+    return {
+        "cpu": cpu_model(),
+        "logical_cpus": os.cpu_count(),
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "torch": installed("torch"),
+        "mujoco": installed("mujoco"),
+        "torch_threads": torch.get_num_threads() if torch is not None else None,
+        "load_average_1_5_15min": {"start": LOAD_AT_START, "end": os.getloadavg()},
+    }
 
 
 def best_seconds(run: Callable[[], object], repeats: int) -> float:
@@ -86,13 +138,14 @@ def write_result(
     table: str | None = None,
     **fields: Any,
 ) -> None:
-    """Write ``stem.json``: what was measured, the command, ``fields``, the machine, the date
-    and the ``cells``; and ``stem.md`` with the Markdown ``table`` when one is given."""
+    """Write ``stem.json``: what was measured, the command, ``fields``, the machine (with its
+    load), the date and the ``cells``; and ``stem.md`` with the Markdown ``table`` when one is
+    given."""
     result = {
         "benchmark": benchmark,
         "command": command,
         **fields,
-        "machine": {"cpu": cpu_model(), "python": platform.python_version()},
+        "machine": machine(),
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "cells": cells,
     }

@@ -22,18 +22,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import shutil
 import statistics
 import tempfile
 import time
 from datetime import datetime, timezone
-from importlib.metadata import version
 from pathlib import Path
 
 import torch
-from common import parse_args
+from common import machine, parse_args
 
 from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
 from symgrasp.data.card import dataset_card
@@ -73,7 +70,6 @@ def main() -> None:
     quick = {"pool": 3, "scenes": 4, "workers": 1, "validate": 4, "grasps": 10, "directions": 4}
     args = parse_args(parser, outputs=("out",), quick=quick)
     torch.set_num_threads(1)
-    load = os.getloadavg()
     tmp = Path(tempfile.mkdtemp(prefix="symgrasp_data_bench_"))
     result: dict = {
         "command": "PYTHONPATH=src python benchmarks/data.py "
@@ -81,15 +77,7 @@ def main() -> None:
         f"--workers {args.workers} --validate {args.validate} --grasps {args.grasps} "
         f"--directions {args.directions}",
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "machine": {
-            "platform": platform.platform(),
-            "processor": platform.processor() or platform.machine(),
-            "cpus": os.cpu_count(),
-            "load_average_at_start": load,
-            "torch": torch.__version__,
-            "mujoco": version("mujoco"),
-            "depth_renderer": make_renderer().name,
-        },
+        "depth_renderer": make_renderer().name,
     }
     try:
         database = DatabaseConfig(grasps=args.grasps, directions=args.directions)
@@ -134,6 +122,7 @@ def main() -> None:
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    result["machine"] = machine()
     Path(args.out).write_text(json.dumps(result, indent=1) + "\n")
     print(
         json.dumps(

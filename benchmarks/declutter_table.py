@@ -45,7 +45,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from common import parse_args, write_result
+from common import add_result_option, parse_args, write_result
 
 from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.compare import paired_change
@@ -355,7 +355,7 @@ def main() -> None:
                       help="play the cells and write nothing (a campaign step per run); an "
                       "error when a cell's run has not been selected")  # fmt: skip
     parser.add_argument("--out", default="out/bench/table", help="folder of the cells")
-    parser.add_argument("--result", default="benchmarks/results/declutter", help="result stem")
+    add_result_option(parser, "declutter")
     parser.add_argument("--figure", default="docs/figures/declutter_comparison.png",
                         help="bar chart path")  # fmt: skip
     parser.add_argument("--docs", default="docs/results.md",
@@ -365,7 +365,7 @@ def main() -> None:
         quick={"rounds": 1, "num_objects": 1, "workers": 1, "seeds": [0, 1],
                "grippers": ["robotiq-2f85"], "field_gripper": "robotiq-2f85",
                "objects": ["household-test"], "field": [("household-test", "packed")]},
-        also=f", {SHIPPED} for every run, a copy of the page",
+        also=f"{SHIPPED} for every run, a copy of the page",
     )  # fmt: skip
     if args.quick:  # the page's copy, so that its markers are still checked
         shutil.copyfile(parser.get_default("docs"), args.docs)

@@ -204,7 +204,7 @@ def main() -> None:
         "--out", default="benchmarks/results/decomposition.json", help="result file (JSON)"
     )
     args = parse_args(
-        parser, outputs=("out",), quick={"points": 2000}, also=", the cup and 2 settings only"
+        parser, outputs=("out",), quick={"points": 2000}, also="the cup and 2 settings only"
     )
     procedural = {"cup": cup(), "bowl": bowl()}
     meshes = {name: (mesh, None, cavity) for name, (mesh, cavity) in procedural.items()}
@@ -218,7 +218,6 @@ def main() -> None:
     }
     if args.quick:
         meshes = {"cup": meshes["cup"]}
-    load_before = os.getloadavg()
     cells = []
     for name, (mesh, shipped, cavity) in meshes.items():
         probes = probe(mesh, args.points, cavity)
@@ -254,7 +253,6 @@ def main() -> None:
         summary=summary,
         points=args.points,
         cavity_margin_m=CAVITY_MARGIN,
-        load_average={"before": load_before, "after": os.getloadavg()},
         threads=os.cpu_count(),
     )
     print(table, end="")

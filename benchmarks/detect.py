@@ -15,15 +15,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import statistics
 import time
 from datetime import datetime, timezone
 from pathlib import Path
 
-import torch
-from common import cpu_model, parse_args
+from common import machine, parse_args
 
 from symgrasp.detect import GraspDetector
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
@@ -41,7 +38,6 @@ def main() -> None:
     parser.add_argument("--out", default="benchmarks/results/detect.json", help="result file")
     args = parse_args(parser, outputs=("out",), quick={"repeats": 2})
 
-    load_before = os.getloadavg()
     detector = GraspDetector.from_pretrained(args.model, device="cpu")
     world = pile_scene(object_set("household-test", 5, seed=0), seed=0, gripper=detector.gripper)
     intrinsic, T = CameraIntrinsic(), default_extrinsic()
@@ -62,14 +58,7 @@ def main() -> None:
         "command": "PYTHONPATH=src python benchmarks/detect.py "
         f"--model {args.model} --repeats {args.repeats}",
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "machine": {
-            "cpu": cpu_model(),
-            "logical_cpus": os.cpu_count(),
-            "torch_threads": torch.get_num_threads(),
-            "torch": torch.__version__,
-            "platform": platform.platform(),
-        },
-        "load_average_1_5_15min": {"before": load_before, "after": os.getloadavg()},
+        "machine": machine(),
         "model": args.model,
         "depth_renderer": renderer.name,
         "grasps_returned": len(grasps),

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import os
 import time
 
 import numpy as np
@@ -219,7 +218,6 @@ def main() -> None:
         outputs=("out",),
         quick={"objects": 1, "grasps": 3, "direction_grasps": 1, "scenes": 1},
     )
-    load = os.getloadavg()
     cells = [measure(gripper, args) for gripper in GRIPPERS]
     write_result(
         str(args.out).removesuffix(".json"),
@@ -228,8 +226,6 @@ def main() -> None:
         f"--direction-grasps {args.direction_grasps} --scenes {args.scenes}",
         cells,
         objects=OBJECTS,
-        load_average_at_start=load,
-        load_average_at_end=os.getloadavg(),
     )
 
 

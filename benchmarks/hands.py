@@ -42,7 +42,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-from common import parse_args, write_result
+from common import add_result_option, parse_args, write_result
 
 from symgrasp.sim.grippers import FRANKA, PREFIX, ROBOTIQ_2F85, GripperSpec
 from symgrasp.sim.world import world_xml
@@ -659,10 +659,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--reference", type=Path, default=Path("../shared/reference/menagerie"),
                         help="folder holding Menagerie's robotiq_2f85/ and franka_hand/")  # fmt: skip
-    parser.add_argument("--result", default="benchmarks/results/hands", help="output stem")
-    parser.add_argument("--figure", default="docs/figures/hands_reference.png", help="picture")
+    add_result_option(parser, "hands")
+    parser.add_argument(
+        "--figure",
+        default="docs/figures/hands_reference.png",
+        help="the picture of both hands beside their references (default: %(default)s)",
+    )
     args = parse_args(
-        parser, outputs=("result", "figure"), quick={}, also=" (geometry and 0.2 s of closing only)"
+        parser, outputs=("result", "figure"), quick={}, also="geometry and 0.2 s of closing only"
     )
     cells, masks = [], {}
     for name, spec in HANDS.items():

@@ -27,7 +27,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from common import parse_args, write_result
+from common import add_result_option, parse_args, write_result
 
 from symgrasp.benchmark.compare import paired_change, paired_rounds
 from symgrasp.model import selection as sel
@@ -137,10 +137,14 @@ def main() -> None:
     parser.add_argument("--bench", default=None,
                         help="the folder the study played its test rounds into (its --out; "
                         "default: the one the study recorded)")  # fmt: skip
-    parser.add_argument("--result", default="benchmarks/results/learning_curve", help="stem")
-    parser.add_argument("--figure", default="docs/figures/learning_curve.png", help="figure")
+    add_result_option(parser, "learning_curve")
+    parser.add_argument(
+        "--figure",
+        default="docs/figures/learning_curve.png",
+        help="the picture of the curve (default: %(default)s)",
+    )
     args = parse_args(parser, outputs=("result", "figure"), quick={},
-                      also="; runs selection.py --quick into DIR/study first")  # fmt: skip
+                      also="runs selection.py --quick into DIR/study first")  # fmt: skip
     study_path = Path(args.study)
     if args.quick:
         done = subprocess.run([sys.executable, str(Path(__file__).with_name("selection.py")),

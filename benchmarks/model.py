@@ -23,7 +23,6 @@ import argparse
 import csv
 import json
 import os
-import platform
 import statistics
 import sys
 import time
@@ -31,7 +30,7 @@ from pathlib import Path
 
 import torch
 import torch.nn.functional as F
-from common import best_seconds, cpu_model, parse_args
+from common import best_seconds, machine, parse_args
 
 from symgrasp import rotation
 from symgrasp.model import GraspNet, NetworkConfig, count_flops, count_parameters, grasp_losses
@@ -168,7 +167,6 @@ def main() -> None:
     torch.set_num_threads(args.threads)
     dataset = SyntheticGraspDataset(args.batch, seed=0)
     batch = collate_scenes([dataset[i] for i in range(args.batch)])
-    load_before = os.getloadavg()
     results = {}
     for name in rotation.NAMES:
         results[name] = bench(name, batch, args.repeats)
@@ -181,15 +179,7 @@ def main() -> None:
     report = {
         "benchmark": "grasp detection network: size, CPU latency and training throughput",
         "command": " ".join(["python", *sys.argv]),
-        "machine": {
-            "cpu": cpu_model(),
-            "logical_cpus": os.cpu_count(),
-            "torch_threads": args.threads,
-            "torch": torch.__version__,
-            "python": platform.python_version(),
-            "platform": platform.platform(),
-        },
-        "load_average_1_5_15min": {"before": load_before, "after": os.getloadavg()},
+        "machine": machine(),
         "batch": args.batch,
         "valid_voxels_in_batch": len(batch["voxel_index"]),
         "repeats": args.repeats,

@@ -30,7 +30,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from common import parse_args, write_result
+from common import add_result_option, parse_args, write_result
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.compare import paired_change, paired_rounds
@@ -104,11 +104,11 @@ def main() -> None:
     add_parallel_options(parser, "rounds")
     parser.set_defaults(workers=2)
     parser.add_argument("--out", default="out/bench/recipe", help="judging benchmark folders")
-    parser.add_argument("--result", default="benchmarks/results/recipe", help="stem")
+    add_result_option(parser, "recipe")
     args = parse_args(
         parser, outputs=("out", "result"),
         quick={"rounds": 1, "num_objects": 1, "workers": 1, "objects": "household-train"},
-        also=f", {SHIPPED} for every run",
+        also=f"{SHIPPED} for every run",
     )  # fmt: skip
     factors = dict(args.factor or (QUICK_FACTORS if args.quick else FACTORS).items())
     flags = dict(args.flags or (QUICK_FLAGS.items() if args.quick and not args.factor else ()))

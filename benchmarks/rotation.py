@@ -14,12 +14,11 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import sys
 from pathlib import Path
 
 import torch
-from common import best_seconds, cpu_model, parse_args
+from common import best_seconds, machine, parse_args
 
 from symgrasp import rotation
 from symgrasp.bingham import eigh3, log_normalizer, triu_to_sym
@@ -80,10 +79,22 @@ def bingham2d_breakdown(batch: int, repeats: int) -> dict[str, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--batch", type=int, default=65_536)
-    parser.add_argument("--threads", type=int, nargs="+", default=[1])
-    parser.add_argument("--repeats", type=int, default=7)
-    parser.add_argument("--output", type=Path, default=RESULTS)
+    parser.add_argument(
+        "--batch", type=int, default=65_536, help="rotations per timed call (default: 65 536)"
+    )
+    parser.add_argument(
+        "--threads",
+        type=int,
+        nargs="+",
+        default=[1],
+        help="torch CPU thread counts to time, one run each (default: 1)",
+    )
+    parser.add_argument(
+        "--repeats", type=int, default=7, help="timed repeats, the fastest kept (default: 7)"
+    )
+    parser.add_argument(
+        "--output", type=Path, default=RESULTS, help=f"where to write the JSON (default: {RESULTS})"
+    )
     args = parse_args(parser, outputs=("output",), quick={"batch": 1024, "repeats": 1})
 
     runs = []
@@ -124,13 +135,7 @@ def main() -> None:
             for key, value in os.environ.items()
             if key.startswith(("MALLOC_", "OMP_", "MKL_")) or key == "PYTHONPATH"
         },
-        "machine": {
-            "cpu": cpu_model(),
-            "logical_cpus": os.cpu_count(),
-            "torch": torch.__version__,
-            "python": platform.python_version(),
-            "platform": platform.platform(),
-        },
+        "machine": machine(),
         "batch": args.batch,
         "dtype": "float32",
         "repeats": args.repeats,

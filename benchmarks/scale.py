@@ -23,12 +23,11 @@ machine, the least disturbed):
 from __future__ import annotations
 
 import argparse
-import os
 import shutil
 import time
 from pathlib import Path
 
-from common import parse_args, write_result
+from common import add_result_option, parse_args, write_result
 
 from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
 from symgrasp.parallel import Job, open_executor
@@ -102,13 +101,12 @@ def main() -> None:
     parser.add_argument("--directions", type=int, default=32, help="score directions")
     parser.add_argument("--noop", type=int, default=2000, help="no-op tasks (default: 2000)")
     parser.add_argument("--out", default="out/bench-scale", help="work folder")
-    parser.add_argument("--result", default="benchmarks/results/scale", help="result stem")
+    add_result_option(parser, "scale")
     args = parse_args(
         parser,
         outputs=("out", "result"),
         quick={"scenes": 4, "pool": 2, "grasps": 10, "directions": 4, "noop": 40, "repeats": 1},
     )
-    load_at_start = os.getloadavg()
     database = DatabaseConfig(grasps=args.grasps, directions=args.directions)
     cfg = SceneConfig(pool_size=args.pool, database=database)
     from symgrasp.data.generate import generate
@@ -159,9 +157,6 @@ def main() -> None:
         table,
         same_bytes=len({r["dataset_hash"] for r in runs}) == 1,
         one_million_scenes=million,
-        cpus=os.cpu_count(),
-        load_average_at_start=load_at_start,
-        load_average_at_end=os.getloadavg(),
     )
 
 

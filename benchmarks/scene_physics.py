@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import time
 
 import numpy as np
@@ -99,7 +98,6 @@ def main() -> None:
         f"python benchmarks/scene_physics.py --scenes {args.scenes}",
         cells,
         penetration_m=PENETRATION,
-        load_average=os.getloadavg(),
     )
     for cell in cells:
         print(cell)

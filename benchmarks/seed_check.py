@@ -24,7 +24,7 @@ import argparse
 import json
 from pathlib import Path
 
-from common import parse_args, write_result
+from common import add_result_option, parse_args, write_result
 
 from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
@@ -43,12 +43,12 @@ def main() -> None:
     parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
     add_parallel_options(parser, "rounds")
     parser.set_defaults(workers=2)
-    parser.add_argument("--result", default="benchmarks/results/seed_check", help="stem")
+    add_result_option(parser, "seed_check")
     args = parse_args(
         parser,
         outputs=("out", "result"),
         quick={"rounds": 1, "num_objects": 1, "workers": 1},
-        also=f", {SHIPPED} for every training run",
+        also=f"{SHIPPED} for every training run",
     )
 
     rounds = {}

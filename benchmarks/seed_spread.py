@@ -33,7 +33,7 @@ import argparse
 import itertools
 from typing import Any
 
-from common import parse_args, write_result
+from common import add_result_option, parse_args, write_result
 
 from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.compare import paired_change
@@ -135,12 +135,12 @@ def main() -> None:
     add_parallel_options(parser, "rounds")
     parser.set_defaults(workers=2)
     parser.add_argument("--out", default="out/bench/table", help="benchmark cell folders")
-    parser.add_argument("--result", default="benchmarks/results/seed_spread", help="stem")
+    add_result_option(parser, "seed_spread")
     args = parse_args(
         parser, outputs=("out", "result"),
         quick={"rounds": 1, "num_objects": 1, "workers": 1, "seeds": [0, 1],
                "objects": ["household-test"]},
-        also=f", {SHIPPED} for every run",
+        also=f"{SHIPPED} for every run",
     )  # fmt: skip
     parallel = parallel_from_args(args)
     cells, rounds = [], {}

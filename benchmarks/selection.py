@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import parse_args, write_result
+from common import add_result_option, parse_args, write_result
 from scipy.stats import spearmanr
 
 from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
@@ -250,14 +250,14 @@ def main() -> None:
     add_parallel_options(parser, "rounds")
     parser.set_defaults(workers=2)
     parser.add_argument("--out", default="out/bench/selection", help="test benchmark folders")
-    parser.add_argument("--result", default="benchmarks/results/selection", help="stem")
+    add_result_option(parser, "selection")
     parser.add_argument("--figure", default="docs/figures/selection.png", help="scatter figure")
     args = parse_args(
         parser,
         outputs=("out", "result", "figure"),
         quick={"val_rounds": 1, "test_rounds": 1, "num_objects": 1, "workers": 1,
                "val_objects": "household-train", "test_objects": "household-test"},
-        also=f", two runs made from {SHIPPED}, revalidated on one synthetic scene",
+        also=f"two runs made from {SHIPPED}, revalidated on one synthetic scene",
     )  # fmt: skip
 
     datasets = None

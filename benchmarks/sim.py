@@ -15,18 +15,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import statistics
 import sys
 import time
 from collections.abc import Callable
 from datetime import datetime, timezone
-from importlib.metadata import version
 from pathlib import Path
 
 import numpy as np
-import torch
-from common import cpu_model, parse_args
+from common import machine, parse_args
 
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, default_extrinsic
 from symgrasp.sim import World, execute_grasp, get_gripper, make_scene
@@ -58,28 +55,11 @@ def _box_world(gripper: str) -> tuple[World, np.ndarray]:
     return world, top_grasp(np.array([0.15, 0.15, z]))
 
 
-def _machine() -> dict[str, object]:
-    return {
-        "cpu": cpu_model(),
-        "cores": os.cpu_count(),
-        "torch_threads": torch.get_num_threads(),
-        "platform": platform.platform(),
-        "python": platform.python_version(),
-        "mujoco": version("mujoco"),
-        "torch": torch.__version__,
-        "mujoco_gl": os.environ.get("MUJOCO_GL", ""),
-        "gl_available": gl_available(),
-        "load_average_1min_at_start": os.getloadavg()[0],
-    }
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=20, help="timed runs per case")
     parser.add_argument("--out", default="benchmarks/results/sim.json", help="JSON output path")
     args = parse_args(parser, outputs=("out",), quick={"repeats": 2})
-    machine = _machine()  # before the load we create ourselves
-
     results: dict[str, object] = {}
     for gripper in ("franka", "robotiq-2f85"):
         outcomes = []
@@ -134,7 +114,11 @@ def main() -> None:
     report = {
         "command": " ".join(command),
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "machine": machine,
+        "machine": {
+            **machine(),
+            "mujoco_gl": os.environ.get("MUJOCO_GL", ""),
+            "gl_available": gl_available(),
+        },
         "results": results,
     }
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)

@@ -20,7 +20,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from common import parse_args, write_result
+from common import add_result_option, parse_args, write_result
 
 from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import (
@@ -71,12 +71,12 @@ def main() -> None:
     add_parallel_options(parser, "rounds")
     parser.set_defaults(workers=2)
     parser.add_argument("--out", default="out/validity_sweep", help="per-cell benchmark folders")
-    parser.add_argument("--result", default="benchmarks/results/validity_sweep", help="stem")
+    add_result_option(parser, "validity_sweep")
     args = parse_args(
         parser,
         outputs=("out", "result"),
         quick={"rounds": 1, "num_objects": 1, "workers": 1},
-        also=f", on {SETS[0][0]} only",
+        also=f"on {SETS[0][0]} only",
     )
 
     rows = []

@@ -19,7 +19,7 @@ from collections import defaultdict
 from typing import Any
 
 import numpy as np
-from common import parse_args, write_result
+from common import add_result_option, parse_args, write_result
 from tqdm import tqdm
 
 from symgrasp.benchmark.declutter import first_free
@@ -78,7 +78,7 @@ def tolerance(trials: list[list[bool]], seed: int = 0) -> dict[str, Any]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=200, help="rounds (seeds 0…) per cell")
-    parser.add_argument("--result", default="benchmarks/results/yaw_tolerance", help="stem")
+    add_result_option(parser, "yaw_tolerance")
     args = parse_args(parser, outputs=("result",), quick={"rounds": 1})
 
     cells = []

@@ -1,7 +1,8 @@
 """Every script in benchmarks/ runs in its ``--quick`` mode (seconds, tiny sizes, the real code
-paths), so a benchmark that no longer runs fails `make test`; and a quick run leaves the
-committed results and the docs alone."""
+paths), so a benchmark that no longer runs fails `make test`; a quick run leaves the
+committed results and the docs alone, and its result names the machine and its load."""
 
+import argparse
 import json
 import os
 import subprocess
@@ -66,8 +67,23 @@ def test_quick_run_writes_its_result_and_nothing_committed(script, tmp_path):
         cwd=ROOT, env=env, capture_output=True, text=True,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr[-3000:]
-    assert key in json.loads((tmp_path / name).read_text())
+    result = json.loads((tmp_path / name).read_text())
+    assert key in result
+    load = result["machine"]["load_average_1_5_15min"]
+    assert len(load["start"]) == len(load["end"]) == 3
     assert _committed() == before
+
+
+def test_an_option_without_help_is_refused(monkeypatch):
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    from common import parse_args
+
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--explained", help="what it is")
+    parser.add_argument("--silent")
+    monkeypatch.setattr(sys, "argv", ["script"])
+    with pytest.raises(ValueError, match="--silent"):
+        parse_args(parser, outputs=(), quick={})
 
 
 def test_sim_runs_without_pythonpath(tmp_path):
