@@ -29,8 +29,11 @@ the same command: ``ROOT/done/NAME`` holds the command it finished, so an edited
 again. Every command must resume its own work (symgrasp's ``--resume``), because a session's
 end kills whatever runs: the next ``run`` starts those steps again and they continue where they
 stopped. A failed step is recorded in ``ROOT/failed/NAME`` (exit code, time) and run again by the
-next ``run``; the steps needing it wait. Output goes to ``ROOT/logs/NAME.log``. ``--quick``
-runs a three-step plan of Python one-liners (one failing) twice and writes ``campaign.json``.
+next ``run``; the steps needing it wait. A running step has ``ROOT/running/NAME`` (its process
+id and start time): ``status`` tells a running step from one whose driver was killed, and a
+second ``run`` on the same root while the first still runs a step is refused. Output goes to
+``ROOT/logs/NAME.log``. ``--quick`` runs a four-step plan of Python one-liners (one failing)
+twice and writes ``campaign.json``.
 """
 
 from __future__ import annotations
@@ -127,6 +130,29 @@ def is_done(step: Step, root: Path) -> bool:
     return marker.exists() and marker.read_text() == step.run
 
 
+def _now() -> datetime.datetime:
+    return datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process
+        return True
+    return True
+
+
+def _running(root: Path) -> dict[str, tuple[int, str]]:
+    """The steps with a running marker: name → (process id, start time)."""
+    markers = {}
+    for marker in sorted((root / "running").glob("[!.]*")):
+        pid, started = marker.read_text().split()
+        markers[marker.name] = (int(pid), started)
+    return markers
+
+
 def _mark(folder: Path, name: str, text: str) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     temporary = folder / f".{name}.tmp"
@@ -136,24 +162,31 @@ def _mark(folder: Path, name: str, text: str) -> None:
 
 def run(steps: list[Step], root: Path, cores: int) -> dict[str, str]:
     """Run the plan's missing steps (see the module docstring); each step's outcome."""
+    for name, (pid, started) in _running(root).items():
+        if _alive(pid):
+            raise SystemExit(f"error: step {name!r} is still running (process {pid}, started "
+                             f"{started}): another campaign.py runs on {root}; stop it first")  # fmt: skip
+        (root / "running" / name).unlink()  # its driver was killed: the step resumes below
     outcome = {step.name: "done" for step in steps if is_done(step, root)}
-    running: dict[str, tuple[Step, subprocess.Popen]] = {}
+    running: dict[str, tuple[Step, subprocess.Popen, datetime.datetime]] = {}
     (root / "logs").mkdir(parents=True, exist_ok=True)
     while True:
-        for name, (step, process) in list(running.items()):
+        for name, (step, process, started) in list(running.items()):
             if process.poll() is None:
                 continue
             del running[name]
-            stamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+            now = _now()
             if process.returncode == 0:
                 _mark(root / "done", name, step.run)
                 (root / "failed" / name).unlink(missing_ok=True)
                 outcome[name] = "done"
             else:
-                _mark(root / "failed", name, f"exit {process.returncode} at {stamp}\n")
+                _mark(root / "failed", name, f"exit {process.returncode} at {now.isoformat()}\n")
                 outcome[name] = f"failed (exit {process.returncode})"
-            print(f"{stamp} {name}: {outcome[name]}", flush=True)
-        free = cores - sum(step.cores for step, _ in running.values())
+            (root / "running" / name).unlink(missing_ok=True)
+            minutes = (now - started).total_seconds() / 60
+            print(f"{now.isoformat()} {name}: {outcome[name]} after {minutes:.0f} min", flush=True)
+        free = cores - sum(step.cores for step, _, _ in running.values())
         for step in steps:
             ready = all(outcome.get(need) == "done" for need in step.needs)
             if step.name in outcome or step.name in running or not ready or step.cores > free:
@@ -165,7 +198,9 @@ def run(steps: list[Step], root: Path, cores: int) -> dict[str, str]:
             process = subprocess.Popen(step.run, shell=True, stdout=log, stderr=subprocess.STDOUT,
                                        env=environment, start_new_session=True)  # fmt: skip
             log.close()
-            running[step.name] = (step, process)
+            started = _now()
+            _mark(root / "running", step.name, f"{process.pid} {started.isoformat()}\n")
+            running[step.name] = (step, process, started)
             free -= step.cores
             print(f"started {step.name} ({step.cores} cores): {step.run}", flush=True)
         if not running:
@@ -177,12 +212,17 @@ def run(steps: list[Step], root: Path, cores: int) -> dict[str, str]:
 
 
 def status(steps: list[Step], root: Path) -> dict[str, str]:
-    """Each step's state on disk: done, failed, or not yet."""
-    states = {}
+    """Each step's state on disk: done, running, stopped with its driver, failed, or not yet."""
+    states, running = {}, _running(root)
     for step in steps:
         failed = root / "failed" / step.name
         if is_done(step, root):
             states[step.name] = "done"
+        elif step.name in running:
+            pid, started = running[step.name]
+            states[step.name] = (f"running since {started} (process {pid})" if _alive(pid) else
+                                 f"stopped (started {started}; its driver was killed): the "
+                                 "next run resumes it")  # fmt: skip
         elif failed.exists():
             states[step.name] = "failed: " + failed.read_text().strip()
         else:
@@ -227,7 +267,7 @@ def main() -> None:
         parser,
         outputs=("root",),
         quick={},
-        also="a plan of four small steps, one failing, run twice",
+        also="a plan of four one-liners, one failing, run twice",
     )
     if args.quick:
         args.plan = [args.quick / "plan.toml"]

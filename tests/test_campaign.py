@@ -1,7 +1,10 @@
 """benchmarks/campaign.py: a plan's steps run in dependency order within the cores, resume by
 their done markers, run again when their command changes, and a bad plan is one clear line."""
 
+import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -99,3 +102,32 @@ def test_a_second_plan_file_uses_the_first_ones_vars_and_steps(tmp_path):
 def test_a_bad_plan_is_one_line_naming_the_file_and_step(tmp_path, text, message):
     with pytest.raises(SystemExit, match=message):
         campaign.read_plan([_plan(tmp_path, text)], tmp_path)
+
+
+def test_status_tells_a_running_step_from_one_whose_driver_died(tmp_path):
+    release = tmp_path / "release"
+    until = f'lambda: os.path.exists("{release}")'
+    text = _step("wait", f"import os, time; [time.sleep(0.05) for _ in iter({until}, True)]")
+    steps = campaign.read_plan([_plan(tmp_path, text)], tmp_path)
+    driver = threading.Thread(target=campaign.run, args=(steps, tmp_path, 1))
+    driver.start()
+    try:
+        for _ in range(200):
+            if (tmp_path / "running" / "wait").exists():
+                break
+            time.sleep(0.05)
+        assert campaign.status(steps, tmp_path)["wait"].startswith("running since")
+        with pytest.raises(SystemExit, match="'wait' is still running"):
+            campaign.run(steps, tmp_path, cores=1)  # a second driver on the same root
+    finally:
+        release.touch()
+        driver.join()
+    assert campaign.status(steps, tmp_path) == {"wait": "done"}
+    assert not (tmp_path / "running" / "wait").exists()
+
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()  # a process id that no longer runs: a driver killed with its step
+    again = campaign.read_plan([_plan(tmp_path, _step("again", "pass"))], tmp_path)
+    (tmp_path / "running" / "again").write_text(f"{gone.pid} 2026-01-01T00:00:00+00:00\n")
+    assert campaign.status(again, tmp_path)["again"].startswith("stopped")
+    assert campaign.run(again, tmp_path, cores=1) == {"again": "done"}
