@@ -65,10 +65,10 @@ class Step:
 
     name: str
     run: str
+    plan: Path
+    """The file that defines it."""
     cores: int = 1
     needs: tuple[str, ...] = field(default=())
-    plan: Path = Path("plan.toml")
-    """The file that defines it."""
 
 
 def read_plan(paths: list[Path], root: Path) -> list[Step]:
@@ -120,8 +120,8 @@ def _steps(path: Path, plan: dict[str, Any], values: dict[str, str]) -> list[Ste
         except KeyError as error:
             raise SystemExit(f"error: plan {path}: step {entry['name']!r} uses {error}, "
                              f"which [vars] does not define") from None  # fmt: skip
-        steps.append(Step(entry["name"], run, int(entry.get("cores", 1)),
-                          tuple(entry.get("needs", ())), path))  # fmt: skip
+        steps.append(Step(entry["name"], run, path, int(entry.get("cores", 1)),
+                          tuple(entry.get("needs", ()))))  # fmt: skip
     return steps
 
 
