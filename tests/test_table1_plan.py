@@ -1,6 +1,7 @@
 """The campaign plans behind Table 1 (benchmarks/campaigns/robust_training.toml, then
-table1.toml): read together, they train, select and play every run of the table, and the
-collation waits for all of them."""
+table1.toml): read together, they train, select and play every run of the table, the
+collation waits for all of them, and the analysis figures are drawn from seed 0 of every
+Robotiq representation."""
 
 import sys
 from pathlib import Path
@@ -30,3 +31,14 @@ def test_every_run_of_the_table_is_trained_selected_and_played_before_the_collat
         assert words[words.index("--grippers") + 1] == gripper
         assert words[words.index("--seeds") + 1] == run[-1]
         assert ("--field" in words) == (gripper == "robotiq-2f85")
+
+
+def test_the_figures_come_from_seed_0_of_every_robotiq_representation():
+    steps = {s.name: s for s in campaign.read_plan(
+        [PLANS / "robust_training.toml", PLANS / "table1.toml"], Path("/root"))}  # fmt: skip
+    figures = steps["figures"]
+    assert set(figures.needs) == {f"select-final-{rep}-s0" for rep in declutter_table.REPS}
+    for rep in declutter_table.REPS:
+        assert f"--model {rep}=/root/runs/final-{rep}-s0/best.pt" in figures.run
+    assert "distribution --model /root/runs/final-bingham2d-s0/best.pt" in figures.run
+    assert figures.run.count("--out /root/results/figures") == 2  # never into docs/

@@ -27,11 +27,12 @@ from symgrasp.workspace import VOXEL_SIZE
 
 @pytest.fixture(scope="module")
 def checkpoints(tmp_path_factory):
-    """Untrained bingham2d and rotmat6d checkpoints (validity ≈ 0.01 everywhere)."""
+    """Untrained checkpoints of the four representations of Table 1 (validity ≈ 0.01
+    everywhere)."""
     root = tmp_path_factory.mktemp("models")
     torch.manual_seed(0)
     paths = {}
-    for rep in ("bingham2d", "rotmat6d"):
+    for rep in ("bingham2d", "rotmat6d", "quaternion", "bingham3d"):
         net = GraspNet(NetworkConfig(rep))
         paths[rep] = root / f"{rep}.pt"
         save_checkpoint(paths[rep], {
@@ -135,12 +136,11 @@ def test_spread_is_zero_at_a_point_mass_and_45_degrees_for_a_uniform_azimuth():
 
 
 def test_continuity_command_draws_a_panel_per_model(checkpoints, tmp_path):
-    specs = [f"{rep}={path}" for rep, path in checkpoints.items()]
-    main(["figures", "continuity", "--model", specs[0], "--model", specs[1], "--validity", "0",
-          "--out", str(tmp_path)])  # fmt: skip
+    models = [word for rep, path in checkpoints.items() for word in ("--model", f"{rep}={path}")]
+    main(["figures", "continuity", *models, "--validity", "0", "--out", str(tmp_path)])
     record = json.loads((tmp_path / "rotation_continuity.json").read_text())
     assert record["layer"] == 7 and "--model bingham2d=" in record["command"]
-    assert set(record["models"]) == {"bingham2d", "rotmat6d"}
+    assert set(record["models"]) == set(checkpoints)
     for rep, stats in record["models"].items():
         assert stats["representation"] == rep and stats["valid_voxels"] == 40 * 40
         assert stats["sign_invariant"] == (rep == "bingham2d")
