@@ -2,7 +2,7 @@
 benchmarks/results/learning_curve.{json,md}, docs/figures/learning_curve.png.
 
     PYTHONPATH=src python benchmarks/learning_curve.py \\
-        [--study benchmarks/results/selection.json] [--by declutter_sr] [--bench DIR]
+        [--study benchmarks/results/selection.json] [--by declutter] [--bench DIR]
         [--quick [DIR]]
 
 Reads the model-selection study (``benchmarks/selection.py``: every kept checkpoint of each
@@ -131,7 +131,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--study", default="benchmarks/results/selection.json",
                         help="result of benchmarks/selection.py (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--by", default="declutter_sr",
+    parser.add_argument("--by", default="declutter",
                         help="the selection measure that chooses each run's checkpoint, as "
                         "symgrasp select --by (default: %(default)s)")  # fmt: skip
     parser.add_argument("--bench", default=None,

@@ -6,7 +6,7 @@ declutter rounds no checkpoint was chosen by → benchmarks/results/recipe.{json
         [--workers 2] [--quick [DIR]]
 
 Every run has been selected first (``symgrasp select RUN --by declutter``: its best.pt is the
-checkpoint with the best declutter validation, 200 rounds on training objects from seed
+checkpoint with the best declutter validation SR + CR, 200 rounds on training objects from seed
 1 000 000). Choosing the best of several noisy validations flatters the winner, so each run's
 best.pt is judged again on **other** rounds: ``--rounds`` rounds of 5 ``--objects`` (training
 objects, default vgn-pile-train) from ``--seed`` (2 000 000), the same rounds for every run
@@ -199,15 +199,15 @@ def markdown(cells: list[dict[str, Any]], verdicts: dict[str, Any], baseline: st
         return f"{point:+.1f} [{low:+.1f}, {high:+.1f}]"
 
     text = [
-        f"| factor | run (training seed) | SR % [95 % CI] | CR % [95 % CI] | grasps | "
+        f"| factor | run (training seed) | SR % [95 % CI] | CR % [95 % CI] | SR + CR | grasps | "
         f"SR − {baseline}, same seed [paired 95 % CI] | CR − {baseline} |",
-        "|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for c in cells:
         text.append(
             f"| {c['factor']} | {c['run']} ({c['seed']}) | {pct(c['sr'], c['sr_ci95'])} | "
-            f"{pct(c['cr'], c['cr_ci95'])} | {c['grasps']} | {change(c.get('sr_change'))} | "
-            f"{change(c.get('cr_change'))} |"
+            f"{pct(c['cr'], c['cr_ci95'])} | {100 * (c['sr'] + c['cr']):.1f} | {c['grasps']} | "
+            f"{change(c.get('sr_change'))} | {change(c.get('cr_change'))} |"
         )
     text.append("")
     for factor, v in verdicts.items():

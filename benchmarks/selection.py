@@ -1,4 +1,4 @@
-"""Which validation measure ranks checkpoints as the declutter test SR does → benchmarks/results/selection.{json,md}, docs/figures/selection.png.
+"""Which validation measure ranks checkpoints as the declutter test does → benchmarks/results/selection.{json,md}, docs/figures/selection.png.
 
     PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/selection.py \\
         --runs runs/bingham2d-robotiq-seed0 runs/bingham2d-robotiq-seed1 [--revalidate] \\
@@ -20,9 +20,10 @@ and seeds are used here only to judge the candidates; this script selects nothin
 Per candidate: the Spearman rank correlation (scipy) with the test SR over all checkpoints,
 signed so that +1 means "orders the checkpoints exactly as the test SR does" (a lower loss
 counts as better), with a 95 % bootstrap interval over checkpoints (2 000 resamples); the same
-within each run; and, per run, the test SR of the checkpoint the candidate would choose next to
-the best test SR any checkpoint of that run reached. A scatter panel per candidate goes to
-``--figure``. ``--quick`` makes two 2-checkpoint "runs" from the shipped Robotiq model (itself,
+with the test CR and with the test SR + CR; the correlation with the test SR within each run;
+and, per run, the test SR and CR of the checkpoint the candidate would choose (and their means
+over the runs) next to the best test SR any checkpoint of that run reached. A scatter panel
+per candidate (against the test SR) goes to ``--figure``. ``--quick`` makes two 2-checkpoint "runs" from the shipped Robotiq model (itself,
 and copies with a shifted validity bias, a perturbed rotation head, a negated score head),
 revalidates them on one synthetic scene and plays one round of one object per declutter cell
 (household-train for validation, household-test for the test): no VGN meshes, no training.
@@ -86,10 +87,12 @@ def candidates(rows: list[dict[str, Any]]) -> list[str]:
 
 
 def correlations(rows: list[dict[str, Any]], measures: list[str]) -> dict[str, dict[str, Any]]:
-    """Per measure: signed ρ with the test SR (all checkpoints, interval, per run) and the test
-    SR of the checkpoint it would choose in each run."""
+    """Per measure: signed ρ with the test SR (all checkpoints, interval, per run), with the
+    test CR and with the test SR + CR (all checkpoints, interval), and the test SR and CR of the
+    checkpoint it would choose in each run, with their means over the runs."""
     runs = list(dict.fromkeys(row["run"] for row in rows))
     sr = np.array([row["test_sr"] for row in rows], dtype=float)
+    cr = np.array([row["test_cr"] for row in rows], dtype=float)
     result = {}
     for measure in measures:
         sign = sel.direction(measure)
@@ -102,15 +105,19 @@ def correlations(rows: list[dict[str, Any]], measures: list[str]) -> dict[str, d
                 pick = sel.choose([rows[i] for i in mine], measure, sign)
             except ValueError:
                 continue
-            picks[run] = {"checkpoint": pick["checkpoint"], "test_sr": pick["test_sr"]}
+            picks[run] = {key: pick[key] for key in ("checkpoint", "test_sr", "test_cr")}
         result[measure] = {
             "better": "higher" if sign > 0 else "lower",
             "spearman": spearman(x, sr),
             "ci95": bootstrap_interval(x, sr),
+            **{f"with_{name}": {"spearman": spearman(x, y), "ci95": bootstrap_interval(x, y)}
+               for name, y in (("test_cr", cr), ("test_sr_cr", sr + cr))},
             "checkpoints": int((np.isfinite(x) & np.isfinite(sr)).sum()),
             "per_run": per_run,
             "picks": picks,
-        }
+            "picks_mean": {key: float(np.mean([p[key] for p in picks.values()]))
+                           if picks else math.nan for key in ("test_sr", "test_cr")},
+        }  # fmt: skip
     return result
 
 
@@ -123,9 +130,10 @@ def markdown(result: dict[str, dict[str, Any]], rows: list[dict[str, Any]]) -> s
     best = {run: max((_float(r["test_sr"]) for r in rows if r["run"] == run), default=math.nan)
             for run in runs}  # fmt: skip
     text = [
-        "| measure | better | ρ with test SR, all checkpoints [95 % CI] | ρ within each run | "
-        "test SR % of its choice per run |",
-        "|---|---|---|---|---|",
+        "| measure | better | ρ with test SR, all checkpoints [95 % CI] | ρ with test CR | "
+        "ρ with test SR + CR | ρ with test SR within each run | test SR / CR % of its choice "
+        "per run | mean of its choices, SR / CR % |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     order = sorted(result, key=lambda m: -_float(result[m]["spearman"]) if
                    math.isfinite(_float(result[m]["spearman"])) else math.inf)  # fmt: skip
@@ -134,12 +142,19 @@ def markdown(result: dict[str, dict[str, Any]], rows: list[dict[str, Any]]) -> s
         lo, hi = r["ci95"]
         within = ", ".join(f"{_fmt(r['per_run'][run])}" for run in runs)
         picked = ", ".join(
-            f"{100 * _float(r['picks'][run]['test_sr']):.1f}" if run in r["picks"] else "–"
+            f"{100 * _float(r['picks'][run]['test_sr']):.1f} / "
+            f"{100 * _float(r['picks'][run]['test_cr']):.1f}" if run in r["picks"] else "–"
             for run in runs
+        )  # fmt: skip
+        others = " | ".join(
+            f"{_fmt(r[key]['spearman'])} [{_fmt(r[key]['ci95'][0])}, {_fmt(r[key]['ci95'][1])}]"
+            for key in ("with_test_cr", "with_test_sr_cr")
         )
+        mean = r["picks_mean"]
         text.append(
             f"| {measure} | {r['better']} | {_fmt(r['spearman'])} [{_fmt(lo)}, {_fmt(hi)}] "
-            f"(n = {r['checkpoints']}) | {within} | {picked} |"
+            f"(n = {r['checkpoints']}) | {others} | {within} | {picked} | "
+            f"{100 * mean['test_sr']:.1f} / {100 * mean['test_cr']:.1f} |"
         )
     text.append("")
     text.append(f"Runs, in order: {', '.join(runs)}; best test SR % per run: "
@@ -311,8 +326,8 @@ def main() -> None:
     }  # fmt: skip
     write_result(
         args.result,
-        "how well each candidate selection measure ranks checkpoints as the declutter test SR "
-        "does (signed Spearman ρ, bootstrap over checkpoints)",
+        "how well each candidate selection measure ranks checkpoints as the declutter test SR, "
+        "CR and SR + CR do (signed Spearman ρ, bootstrap over checkpoints)",
         f"PYTHONPATH=src python benchmarks/selection.py --val-rounds {args.val_rounds} "
         f"--out {args.out} --runs " + " ".join(settings["runs"]),
         rows,

@@ -903,10 +903,11 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--by", required=True, metavar="MEASURE",
-        help="declutter (the declutter validation's success ratio; declutter_cr its clear "
-        "ratio), val_loss, or a column of RUN_DIR/metrics.csv: higher is better for "
-        "validity_ap, the top-k shares (top1_valid, top5_correct, …) and declutter, lower for "
-        "losses (val_*), score_mae, angles (*_deg) and top_empty",
+        help="declutter (the declutter validation's success ratio plus clear ratio; "
+        "declutter_sr the success ratio alone, declutter_cr the clear ratio), val_loss, or a "
+        "column of RUN_DIR/metrics.csv: higher is better for validity_ap, the top-k shares "
+        "(top1_valid, top5_correct, …) and the declutter measures, lower for losses (val_*), "
+        "score_mae, angles (*_deg) and top_empty",
     )  # fmt: skip
     _add_shared(
         parser, "objects",
@@ -975,7 +976,7 @@ def _run_select(args: argparse.Namespace) -> None:
     for row in selection["checkpoints"]:
         extra = "".join(
             f"  {key} {row[key]:.3f}"
-            for key in ("declutter_sr", "declutter_cr")
+            for key in ("declutter_sr_cr", "declutter_sr", "declutter_cr")
             if key != measure and isinstance(row.get(key), float)
         )
         value = row.get(measure)

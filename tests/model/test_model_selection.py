@@ -130,7 +130,7 @@ def _rounds(rounds):
     return sel.DeclutterValidation(rounds=rounds)
 
 
-def test_declutter_selection_caches_each_checkpoint_and_breaks_ties_by_clear_ratio(
+def test_declutter_selection_caches_each_checkpoint_and_breaks_sr_ties_by_clear_ratio(
     run, monkeypatch
 ):
     calls = []
@@ -138,12 +138,17 @@ def test_declutter_selection_caches_each_checkpoint_and_breaks_ties_by_clear_rat
     monkeypatch.setattr(sel, "declutter_validation", _fake_declutter(calls, ratios))
     selection = sel.select_checkpoint(run, "declutter", validation=_rounds(3))
     assert calls == ["epoch_001.pt", "epoch_002.pt", "last.pt"]
-    assert selection["chosen"]["checkpoint"] == "last.pt"  # SR tie with epoch 2, higher CR
+    assert selection["by"] == "declutter_sr_cr" and selection["chosen"]["checkpoint"] == "last.pt"
     assert selection["declutter"]["seed"] == VALIDATION_SEED
     assert [r["declutter_sr"] for r in selection["checkpoints"]] == [0.5, 0.8, 0.8]
+    assert [r["declutter_sr_cr"] for r in selection["checkpoints"]] == pytest.approx(
+        [0.9, 1.3, 1.4]
+    )
     calls.clear()
     again = sel.select_checkpoint(run, "declutter", validation=_rounds(3))  # resumed: all cached
     assert calls == [] and again["chosen"] == selection["chosen"]
+    by_sr = sel.select_checkpoint(run, "declutter_sr", validation=_rounds(3))
+    assert calls == [] and by_sr["chosen"]["checkpoint"] == "last.pt"  # SR tie, higher CR
     # Cached numbers are reported when selecting by another measure.
     by_loss = sel.select_checkpoint(run, "val_loss", validation=_rounds(3))
     assert calls == [] and by_loss["checkpoints"][0]["declutter_sr"] == 0.5
@@ -155,6 +160,14 @@ def test_declutter_selection_caches_each_checkpoint_and_breaks_ties_by_clear_rat
     cached[0].unlink()  # a checkpoint whose result was lost: only it reruns
     sel.select_checkpoint(run, "declutter", validation=_rounds(3))
     assert calls == ["epoch_001.pt"]
+
+
+def test_a_checkpoint_that_hardly_grasps_wins_on_sr_alone_but_not_by_default(run, monkeypatch):
+    # As the EMA runs' first epochs did: one grasp in 200 rounds, lifted, SR 100 %.
+    ratios = {1: (1.0, 0.001), 2: (0.80, 0.45), 3: (0.75, 0.48)}
+    monkeypatch.setattr(sel, "declutter_validation", _fake_declutter([], ratios))
+    assert sel.select_checkpoint(run, "declutter_sr", copy=False)["chosen"]["epoch"] == 1
+    assert sel.select_checkpoint(run, "declutter", copy=False)["chosen"]["epoch"] == 2
 
 
 def test_a_changed_checkpoint_is_evaluated_again(run, monkeypatch):

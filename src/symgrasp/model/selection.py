@@ -62,11 +62,14 @@ __all__ = [
     "validation_metrics",
 ]
 
-ALIASES = {"declutter": "declutter_sr", "val_loss": "val_total"}
+ALIASES = {"declutter": "declutter_sr_cr", "val_loss": "val_total"}
 """Measure names ``--by`` also takes."""
 
-DECLUTTER_MEASURES = ("declutter_sr", "declutter_cr")
-"""Success and clear ratio of the declutter validation."""
+DECLUTTER_MEASURES = ("declutter_sr_cr", "declutter_sr", "declutter_cr")
+"""Of the declutter validation: success ratio plus clear ratio (what ``declutter`` selects by),
+the success ratio and the clear ratio. SR alone rewards a detector that hardly tries: the
+checkpoint that executes one grasp in 200 rounds and lifts it has SR 100 % (docs/model.md,
+"Model selection")."""
 
 BOOKKEEPING = ("epoch", "world_size", "global_batch_size", "lr", "seconds")
 """metrics.csv columns that describe a run rather than measure it."""
@@ -90,9 +93,9 @@ def direction(measure: str) -> int:
     if name in ("score_mae", "top_empty"):
         return -1
     raise ValueError(
-        f"--by: {measure!r} is not a measure to select by (no better direction); use declutter, "
-        "declutter_cr, val_loss, a loss (val_*), validity_ap, score_mae, an angle (*_deg) or a "
-        "top-k share (top1_valid, top5_correct, …)"
+        f"--by: {measure!r} is not a measure to select by (no better direction); use declutter "
+        "(SR + CR), declutter_sr, declutter_cr, val_loss, a loss (val_*), validity_ap, "
+        "score_mae, an angle (*_deg) or a top-k share (top1_valid, top5_correct, …)"
     )
 
 
@@ -330,8 +333,8 @@ def checkpoint_measures(
     """One row per kept checkpoint of ``run_dir`` (`find_checkpoints`, by epoch):
     ``checkpoint`` (file name), ``epoch``, ``sha256``, its metrics.csv row (recomputed by
     `validation_metrics` when ``revalidate`` is given), and the declutter validation's numbers
-    (``declutter_sr``, ``declutter_cr``, their ``_low``/``_high`` bounds, ``declutter_grasps``
-    …) when ``declutter`` is set or they are cached for the ``validation`` settings. Every
+    (``declutter_sr``, ``declutter_cr``, their ``_low``/``_high`` bounds, their sum
+    ``declutter_sr_cr``, ``declutter_grasps`` …) when ``declutter`` is set or they are cached for the ``validation`` settings. Every
     result is cached in ``run_dir/selection/`` (`select_checkpoint`)."""
     run = Path(run_dir)
     checkpoints = find_checkpoints(run)
@@ -385,10 +388,10 @@ def select_checkpoint(
     ``by``, write ``run_dir/selection.csv`` and ``selection.json`` and copy the choice to
     ``best.pt`` (unless ``copy`` is false); returns what ``selection.json`` holds.
 
-    ``by``: ``declutter`` (the declutter validation's SR; ``declutter_cr`` its CR), ``val_loss``
-    or a column of the run's ``metrics.csv`` (`direction` says which way is better). Ties go to
-    the earlier epoch (for ``declutter``, the higher CR first); checkpoints whose measure is
-    NaN are never chosen. The declutter validation (``validation``'s settings) runs when ``by``
+    ``by``: ``declutter`` (the declutter validation's SR + CR; ``declutter_sr`` its SR, with the
+    higher CR first among ties, ``declutter_cr`` its CR), ``val_loss`` or a column of the run's
+    ``metrics.csv`` (`direction` says which way is better). Ties go to the earlier epoch;
+    checkpoints whose measure is NaN (no grasp executed) are never chosen. The declutter validation (``validation``'s settings) runs when ``by``
     is a declutter measure; results already cached for these settings are reported either
     way. ``revalidate`` recomputes each checkpoint's validation metrics (`validation_metrics`)
     instead of reading metrics.csv, for metrics added after the run trained.
@@ -403,7 +406,7 @@ def select_checkpoint(
     columns -= set(BOOKKEEPING)
     if measure not in DECLUTTER_MEASURES and revalidate is None and measure not in columns:
         raise ValueError(
-            f"--by: {by!r} is neither declutter, declutter_cr, val_loss nor a column of "
+            f"--by: {by!r} is neither declutter, declutter_sr, declutter_cr, val_loss nor a column of "
             f"{run / 'metrics.csv'} or the checkpoints' history "
             f"({', '.join(sorted(columns)) or 'none'}); --revalidate "
             "recomputes the validation metrics, the top-k ones included"
@@ -458,6 +461,7 @@ def _declutter_columns(result: dict[str, Any]) -> dict[str, Any]:
         low, high = result[f"{name}_ci95"]
         columns.update({f"declutter_{short}": result[name], f"declutter_{short}_low": low,
                         f"declutter_{short}_high": high})  # fmt: skip
+    columns["declutter_sr_cr"] = columns["declutter_sr"] + columns["declutter_cr"]
     columns.update(declutter_grasps=result["executed"], declutter_rounds=result["rounds"],
                    declutter_errors=result["errors"])  # fmt: skip
     return columns
@@ -468,7 +472,7 @@ def _finite(value: Any) -> bool:
 
 
 def choose(table: list[dict[str, Any]], measure: str, sign: int) -> dict[str, Any]:
-    """The row with the best finite ``measure``; ties: higher CR (declutter SR), earlier."""
+    """The row with the best finite ``measure``; ties: higher CR (for declutter_sr), earlier."""
     candidates = [row for row in table if _finite(row.get(measure))]
     if not candidates:
         raise ValueError(
