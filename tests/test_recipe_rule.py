@@ -43,15 +43,23 @@ def test_the_plan_trains_every_factor_and_hands_its_options_to_the_recipe_study(
         [ROOT / "benchmarks" / "campaigns" / "robust_training.toml"], Path("/root"))}  # fmt: skip
     words = shlex.split(steps["recipe-study"].run)
     flags = dict(recipe.parse_flags(words[i + 1]) for i, w in enumerate(words) if w == "--flags")
-    baseline, *factors = recipe.FACTORS
+    _, *factors = recipe.FACTORS
     assert set(flags) == set(factors)
     for factor in factors:
         for run in recipe.FACTORS[factor]:
             assert run in steps, run
             assert f" {flags[factor]} --seed {recipe.training_seed(run)} " in steps[run].run
-            assert f"select-{run}" in steps["recipe-study"].needs
-    for run in recipe.FACTORS[baseline]:
-        assert f"select-{run}" in steps["recipe-study"].needs
+
+    def judging(step):  # the options that decide which rounds are played, and where
+        words = shlex.split(step.run)
+        return {w: words[i + 1] for i, w in enumerate(words)
+                if w in ("--runs", "--rounds", "--seed", "--objects", "--num-objects", "--out")}  # fmt: skip
+
+    for run in (run for runs in recipe.FACTORS.values() for run in runs):
+        judge = steps[f"judge-{run}"]  # played as soon as the run is selected, read back later
+        assert judge.needs == (f"select-{run}",) and f"--factor {run}={run} " in judge.run
+        assert judging(judge) == judging(steps["recipe-study"])
+        assert f"judge-{run}" in steps["recipe-study"].needs
     final = [s for name, s in steps.items() if name.startswith("final-")]
     assert final and all("$(cat /root/results/recipe.flags)" in s.run for s in final)
     assert all("recipe-study" in s.needs for s in final)
