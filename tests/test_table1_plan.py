@@ -42,3 +42,13 @@ def test_the_figures_come_from_seed_0_of_every_robotiq_representation():
         assert f"--model {rep}=/root/runs/final-{rep}-s0/best.pt" in figures.run
     assert "distribution --model /root/runs/final-bingham2d-s0/best.pt" in figures.run
     assert figures.run.count("--out /root/results/figures") == 2  # never into docs/
+
+
+def test_the_threshold_check_reads_seed_0_of_every_cell():
+    steps = {s.name: s for s in campaign.read_plan(
+        [PLANS / "robust_training.toml", PLANS / "table1.toml"], Path("/root"))}  # fmt: skip
+    check = steps["validity-calibration"]
+    runs = [f"{declutter_table.PREFIXES[g]}-{rep}-s0" for g in declutter_table.GRIPPERS
+            for rep in declutter_table.REPS]  # fmt: skip
+    assert set(check.needs) == {f"select-{run}" for run in runs}
+    assert all(f"/root/runs/{run}/best.pt" in check.run for run in runs)
