@@ -30,8 +30,9 @@ again. Every command must resume its own work (symgrasp's ``--resume``), because
 end kills whatever runs: the next ``run`` starts those steps again and they continue where they
 stopped. A failed step is recorded in ``ROOT/failed/NAME`` (exit code, time) and run again by the
 next ``run``; the steps needing it wait. A running step has ``ROOT/running/NAME`` (its process
-id and start time): ``status`` tells a running step from one whose driver was killed, and a
-second ``run`` on the same root while the first still runs a step is refused. Output goes to
+id, the boot and tick it started at, its start time): ``status`` tells a running step from one
+whose driver was killed (a process id reused after a restart included), and a second ``run``
+on the same root while the first still runs a step is refused. Output goes to
 ``ROOT/logs/NAME.log``. ``--quick`` runs a four-step plan of Python one-liners (one failing)
 twice and writes ``campaign.json``.
 """
@@ -134,7 +135,21 @@ def _now() -> datetime.datetime:
     return datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0)
 
 
-def _alive(pid: int) -> bool:
+def _identity(pid: int) -> str:
+    """Who process ``pid`` is: the boot and the process's start (clock ticks after boot), so a
+    process id reused after a restart is not taken for the step; ``-`` where /proc is missing."""
+    try:
+        boot = Path("/proc/sys/kernel/random/boot_id").read_text().strip()
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return "-"
+    return f"{boot}:{stat[stat.rindex(')') + 2 :].split()[19]}"  # field 22, starttime
+
+
+def _alive(pid: int, identity: str) -> bool:
+    """Whether the process a running marker names still runs."""
+    if identity != "-":
+        return _identity(pid) == identity
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -144,12 +159,12 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def _running(root: Path) -> dict[str, tuple[int, str]]:
-    """The steps with a running marker: name → (process id, start time)."""
+def _running(root: Path) -> dict[str, tuple[int, str, str]]:
+    """The steps with a running marker: name → (process id, its identity, start time)."""
     markers = {}
     for marker in sorted((root / "running").glob("[!.]*")):
-        pid, started = marker.read_text().split()
-        markers[marker.name] = (int(pid), started)
+        pid, identity, started = marker.read_text().split()
+        markers[marker.name] = (int(pid), identity, started)
     return markers
 
 
@@ -162,8 +177,8 @@ def _mark(folder: Path, name: str, text: str) -> None:
 
 def run(steps: list[Step], root: Path, cores: int) -> dict[str, str]:
     """Run the plan's missing steps (see the module docstring); each step's outcome."""
-    for name, (pid, started) in _running(root).items():
-        if _alive(pid):
+    for name, (pid, identity, started) in _running(root).items():
+        if _alive(pid, identity):
             raise SystemExit(f"error: step {name!r} is still running (process {pid}, started "
                              f"{started}): another campaign.py runs on {root}; stop it first")  # fmt: skip
         (root / "running" / name).unlink()  # its driver was killed: the step resumes below
@@ -199,7 +214,8 @@ def run(steps: list[Step], root: Path, cores: int) -> dict[str, str]:
                                        env=environment, start_new_session=True)  # fmt: skip
             log.close()
             started = _now()
-            _mark(root / "running", step.name, f"{process.pid} {started.isoformat()}\n")
+            marker = f"{process.pid} {_identity(process.pid)} {started.isoformat()}\n"
+            _mark(root / "running", step.name, marker)
             running[step.name] = (step, process, started)
             free -= step.cores
             print(f"started {step.name} ({step.cores} cores): {step.run}", flush=True)
@@ -219,8 +235,9 @@ def status(steps: list[Step], root: Path) -> dict[str, str]:
         if is_done(step, root):
             states[step.name] = "done"
         elif step.name in running:
-            pid, started = running[step.name]
-            states[step.name] = (f"running since {started} (process {pid})" if _alive(pid) else
+            pid, identity, started = running[step.name]
+            states[step.name] = (f"running since {started} (process {pid})"
+                                 if _alive(pid, identity) else
                                  f"stopped (started {started}; its driver was killed): the "
                                  "next run resumes it")  # fmt: skip
         elif failed.exists():

@@ -1,6 +1,7 @@
 """benchmarks/campaign.py: a plan's steps run in dependency order within the cores, resume by
 their done markers, run again when their command changes, and a bad plan is one clear line."""
 
+import os
 import subprocess
 import sys
 import threading
@@ -128,6 +129,10 @@ def test_status_tells_a_running_step_from_one_whose_driver_died(tmp_path):
     gone = subprocess.Popen([sys.executable, "-c", "pass"])
     gone.wait()  # a process id that no longer runs: a driver killed with its step
     again = campaign.read_plan([_plan(tmp_path, _step("again", "pass"))], tmp_path)
-    (tmp_path / "running" / "again").write_text(f"{gone.pid} 2026-01-01T00:00:00+00:00\n")
+    marker = tmp_path / "running" / "again"
+    marker.write_text(f"{gone.pid} {campaign._identity(gone.pid)} 2026-01-01T00:00:00+00:00\n")
+    assert campaign.status(again, tmp_path)["again"].startswith("stopped")
+    # a process id in use again, by another process (after a restart): not the step either
+    marker.write_text(f"{os.getpid()} old-boot:1 2026-01-01T00:00:00+00:00\n")
     assert campaign.status(again, tmp_path)["again"].startswith("stopped")
     assert campaign.run(again, tmp_path, cores=1) == {"again": "done"}
