@@ -216,6 +216,30 @@ def markdown(cells: list[dict[str, Any]], verdicts: dict[str, Any], baseline: st
             f"{100 * v['mean_sr_change']:+.1f}, CR {100 * v['mean_cr_change']:+.1f} points; "
             f"{'adopted' if v['adopted'] else 'not adopted'} (SR + CR change > 0 for every seed)"
         )
+    return "\n".join(text) + "\n" + evidence(cells, verdicts, baseline)
+
+
+def evidence(cells: list[dict[str, Any]], verdicts: dict[str, Any], baseline: str) -> str:
+    """The recipe's evidence as docs/model.md shows it: per factor, its options, the training
+    seeds, SR / CR of the baseline's run (before) and of the factor's (after) per seed, the
+    paired SR + CR change per seed, and the verdict."""
+    if not verdicts:
+        return ""
+    runs = {(c["factor"], c["seed"]): c for c in cells}
+    text = ["", f"| factor | change | training seeds | before ({baseline}): SR / CR % | after: SR / "
+            "CR % | SR + CR change, points | adopted |", "|---|---|---|---|---|---|---|"]  # fmt: skip
+    for factor, v in verdicts.items():
+        before, after, change = [], [], []
+        for seed in v["seeds"]:
+            b, a = runs[baseline, seed], runs[factor, seed]
+            before.append(f"{100 * b['sr']:.1f} / {100 * b['cr']:.1f}")
+            after.append(f"{100 * a['sr']:.1f} / {100 * a['cr']:.1f}")
+            change.append(f"{100 * (a['sr_change'][0] + a['cr_change'][0]):+.1f}")
+        text.append(
+            f"| {factor} | `{v.get('flags') or '–'}` | {', '.join(map(str, v['seeds']))} | "
+            f"{'; '.join(before)} | {'; '.join(after)} | {'; '.join(change)} | "
+            f"{'**yes**' if v['adopted'] else 'no'} |"
+        )
     return "\n".join(text) + "\n"
 
 

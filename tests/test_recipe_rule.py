@@ -76,3 +76,17 @@ def test_flags_must_name_exactly_the_factors(tmp_path):
     assert typo.returncode == 2 and "--flags: emma is not a factor" in typo.stderr
     short = run(*every[1:])
     assert short.returncode == 2 and "no options for factor(s) cosine" in short.stderr
+
+
+def test_the_evidence_table_shows_before_after_and_the_net_change_per_seed():
+    cells = [
+        {"factor": "baseline", "seed": 0, "sr": 0.80, "cr": 0.40},
+        {"factor": "baseline", "seed": 1, "sr": 0.78, "cr": 0.45},
+        {**_cell("ema", 0, 0.02, 0.01), "sr": 0.82, "cr": 0.41},
+        {**_cell("ema", 1, -0.03, 0.01), "sr": 0.75, "cr": 0.46},
+    ]
+    verdicts = recipe.verdict(cells, "baseline")
+    verdicts["ema"]["flags"] = "--ema 0.999"
+    row = recipe.evidence(cells, verdicts, "baseline").strip().splitlines()[-1]
+    assert row == ("| ema | `--ema 0.999` | 0, 1 | 80.0 / 40.0; 78.0 / 45.0 | 82.0 / 41.0; "
+                   "75.0 / 46.0 | +3.0; -2.0 | no |")  # fmt: skip
