@@ -204,3 +204,16 @@ def test_a_heavy_mesh_object_rests_on_a_light_one_without_sinking_into_it(heavy)
     world.step(2.0)
     assert world.at_rest()
     assert world.object_positions()[1][2] > TABLE_HEIGHT + 0.01 - 0.003
+
+
+def test_a_part_builds_its_hull_mesh_once_and_hands_out_copies():
+    rng = np.random.default_rng(0)
+    part = ConvexPart(rng.normal(size=(30, 3)) * 0.02)
+    assert "_mesh" not in vars(part)
+    first = part.mesh()
+    assert "_mesh" in vars(part)  # kept for the next scene that asks
+    assert first.is_watertight and first.volume == pytest.approx(part.volume)
+    first.apply_translation([1.0, 0.0, 0.0])  # a caller's change stays with its copy
+    second = part.mesh()
+    assert second is not first and second.bounds[1, 0] < 0.1
+    np.testing.assert_array_equal(second.faces, part._mesh.faces)

@@ -156,10 +156,14 @@ class ConvexPart:
         """This part scaled by ``factor`` about the object origin."""
         return ConvexPart(self.vertices * factor)
 
+    @functools.cached_property
+    def _mesh(self) -> trimesh.Trimesh:
+        return trimesh.Trimesh(self.vertices, self._hull.simplices, process=True).convex_hull
+
     def mesh(self) -> trimesh.Trimesh:
-        """Surface mesh of the hull in the object frame, faces wound outward."""
-        hull = self._hull
-        return trimesh.Trimesh(self.vertices, hull.simplices, process=True).convex_hull
+        """Surface mesh of the hull in the object frame, faces wound outward (a copy of one
+        computed once per part: every scene built from a part asks for it again)."""
+        return self._mesh.copy()
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         """Whether points (N, 3) in the object frame lie strictly inside the hull, (N,)."""
