@@ -978,7 +978,7 @@ def _run_select(args: argparse.Namespace) -> None:
             f"  {key} {row[key]:.3f}"
             for key in ("declutter_sr_cr", "declutter_sr", "declutter_cr")
             if key != measure and isinstance(row.get(key), float)
-        )
+        ) + (f"  grasps {row['declutter_grasps']}" if "declutter_grasps" in row else "")
         value = row.get(measure)
         shown = f"{value:.4g}" if isinstance(value, int | float) else "—"
         print(f"{row['checkpoint']:>16}  epoch {row['epoch']:>4}  {measure} {shown}{extra}")

@@ -258,6 +258,15 @@ def test_the_command_line_selects_and_says_what_it_chose(run, capsys):
     assert load_checkpoint(run / "best.pt")["epoch"] == chosen["epoch"]
 
 
+def test_the_command_line_shows_each_checkpoints_declutter_numbers(run, capsys, monkeypatch):
+    ratios = {1: (1.0, 0.001), 2: (0.80, 0.45), 3: (0.75, 0.48)}
+    monkeypatch.setattr(sel, "declutter_validation", _fake_declutter([], ratios))
+    main(["select", str(run), "--by", "declutter", "--rounds", "3", "--dry-run"])
+    lines = capsys.readouterr().out.splitlines()
+    assert "declutter_sr_cr 1.001  declutter_sr 1.000  declutter_cr 0.001  grasps 8" in lines[0]
+    assert lines[-1].startswith("chosen: epoch_002.pt")
+
+
 def test_training_and_selection_modules_do_not_load_the_simulator():
     import subprocess
     import sys
