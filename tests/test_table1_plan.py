@@ -52,3 +52,15 @@ def test_the_threshold_check_reads_seed_0_of_every_cell():
             for rep in declutter_table.REPS]  # fmt: skip
     assert set(check.needs) == {f"select-{run}" for run in runs}
     assert all(f"/root/runs/{run}/best.pt" in check.run for run in runs)
+
+
+def test_every_baseline_cell_is_exported_under_its_name_from_seed_0():
+    steps = {s.name: s for s in campaign.read_plan(
+        [PLANS / "robust_training.toml", PLANS / "table1.toml"], Path("/root"))}  # fmt: skip
+    export = steps["export-baselines"]
+    for gripper in declutter_table.GRIPPERS:
+        for rep in (r for r in declutter_table.REPS if r != "bingham2d"):
+            run = f"{declutter_table.PREFIXES[gripper]}-{rep}-s0"
+            assert f"select-{run}" in export.needs
+            assert (f"export /root/runs/{run}/best.pt /root/results/models/{rep}-{gripper}.pt"
+                    in export.run)  # fmt: skip
