@@ -163,8 +163,11 @@ def _running(root: Path) -> dict[str, tuple[int, str, str]]:
     """The steps with a running marker: name → (process id, its identity, start time)."""
     markers = {}
     for marker in sorted((root / "running").glob("[!.]*")):
-        pid, identity, started = marker.read_text().split()
-        markers[marker.name] = (int(pid), identity, started)
+        fields = marker.read_text().split()
+        if len(fields) != 3 or not fields[0].isdigit():
+            raise SystemExit(f"error: running marker {marker} holds {' '.join(fields)!r}, not "
+                             "'PID IDENTITY STARTED'; delete it if its step is not running")  # fmt: skip
+        markers[marker.name] = (int(fields[0]), fields[1], fields[2])
     return markers
 
 

@@ -136,3 +136,11 @@ def test_status_tells_a_running_step_from_one_whose_driver_died(tmp_path):
     marker.write_text(f"{os.getpid()} old-boot:1 2026-01-01T00:00:00+00:00\n")
     assert campaign.status(again, tmp_path)["again"].startswith("stopped")
     assert campaign.run(again, tmp_path, cores=1) == {"again": "done"}
+
+
+def test_a_malformed_running_marker_is_one_line_naming_the_file(tmp_path):
+    steps = campaign.read_plan([_plan(tmp_path, _step("step", "pass"))], tmp_path)
+    (tmp_path / "running").mkdir()
+    (tmp_path / "running" / "step").write_text("12345\n")  # written by an older driver
+    with pytest.raises(SystemExit, match=r"running marker .*step holds '12345'"):
+        campaign.status(steps, tmp_path)
