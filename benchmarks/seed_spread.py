@@ -94,6 +94,8 @@ def markdown(
             f"| `{r['rep']}` | {r['objects']} | {_mean(sr)} | {100 * sr['spread']:.1f} ({mark}) "
             f"| {floor} | {_mean(cr)} |"
         )
+    if not pairings:  # one representation: nothing to compare
+        return "\n".join(text) + "\n"
     text += ["", "| pairing (seeds) | objects | SR change [paired 95 % CI] | CR change |",
              "|---|---|---|---|"]  # fmt: skip
     for p in pairings:
