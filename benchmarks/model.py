@@ -33,10 +33,18 @@ import torch.nn.functional as F
 from common import best_seconds, machine, parse_args
 
 from symgrasp import rotation
-from symgrasp.model import GraspNet, NetworkConfig, count_flops, count_parameters, grasp_losses
+from symgrasp.model import (
+    GraspNet,
+    NetworkConfig,
+    TrainConfig,
+    count_flops,
+    count_parameters,
+    grasp_losses,
+)
 from symgrasp.model.checkpoint import load_checkpoint
 from symgrasp.model.loss import at_voxels
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
+from symgrasp.model.train import accumulate_gradient, collate_chunks
 
 RESULTS = Path(__file__).parent / "results" / "model.json"
 
@@ -106,33 +114,45 @@ def stages(name: str, batch: dict[str, torch.Tensor], repeats: int) -> dict[str,
     return {stage: statistics.median(values) for stage, values in times.items()}
 
 
-def real_batches(data: Path, batch: int, repeats: int) -> dict[str, object]:
+def real_batches(
+    data: Path, batch: int, micro_batches: list[int], repeats: int
+) -> dict[str, object]:
     """Loading + augmenting ``batch`` scenes of ``data``'s training split, and a whole
-    ``bingham2d`` step on them: medians over ``repeats`` batches [ms]."""
+    ``bingham2d`` step on them (`symgrasp.model.train`'s: collated in chunks of each of
+    ``micro_batches`` scenes, forward and backward per chunk, Adam), the chunk sizes taking
+    turns on the same scenes: medians over ``repeats`` batches [ms]."""
     from symgrasp.data.dataset import GraspDataset, collate_scenes
 
     dataset = GraspDataset(data, split="train", augment=True, seed=0)
     model = GraspNet(NetworkConfig("bingham2d")).train()
     optimizer = torch.optim.Adam(model.parameters(), lr=1e-4)
-    load, step, voxels = [], [], []
+    config = TrainConfig(data=str(data), out="unused", lr=1e-4)
+    load, voxels = [], []
+    step: dict[int, list[float]] = {size: [] for size in micro_batches}
     for repeat in range(repeats + 1):
         start = time.perf_counter()
-        scenes = collate_scenes(
-            [dataset[(repeat * batch + i) % len(dataset)] for i in range(batch)]
-        )
+        items = [dataset[(repeat * batch + i) % len(dataset)] for i in range(batch)]
+        scenes = collate_scenes(items)
         loaded = time.perf_counter()
-        losses = grasp_losses(model(scenes["tsdf"]), scenes, model.representation)
-        optimizer.zero_grad(set_to_none=True)
-        losses["total"].backward()
-        optimizer.step()
-        if repeat:  # the first is a warm-up
+        for size in micro_batches:
+            begin = time.perf_counter()
+            optimizer.zero_grad(set_to_none=True)
+            accumulate_gradient(
+                model, model, collate_chunks(collate_scenes, size, items), config, 1, 1
+            )
+            optimizer.step()
+            if repeat:  # the first is a warm-up
+                step[size].append(1e3 * (time.perf_counter() - begin))
+        if repeat:
             load.append(1e3 * (loaded - start))
-            step.append(1e3 * (time.perf_counter() - loaded))
             voxels.append(len(scenes["voxel_index"]))
     return {
         "dataset": str(data),
         "load_and_augment_ms": statistics.median(load),
-        "bingham2d_step_ms": statistics.median(step),
+        "bingham2d_step_ms": statistics.median(step[micro_batches[0]]),
+        "bingham2d_step_ms_by_micro_batch": {
+            size: statistics.median(t) for size, t in step.items()
+        },
         "valid_voxels_per_batch": statistics.median(voxels),
     }
 
@@ -160,11 +180,18 @@ def main() -> None:
     parser.add_argument(
         "--data", type=Path, help="a dataset folder: time loading its batches and steps on them"
     )
+    parser.add_argument(
+        "--micro-batch", type=int, nargs="+", metavar="M",
+        help="with --data: scenes per forward/backward pass of a step on real batches "
+        "(symgrasp train --micro-batch; 0 = the whole batch), each timed in turn on the same "
+        "scenes (default: 0 and every other divisor of --batch)",
+    )  # fmt: skip
     parser.add_argument("--run", type=Path, help="a finished training run folder to tabulate")
     parser.add_argument("--output", type=Path, default=RESULTS, help="where to write the JSON")
     args = parse_args(parser, outputs=("output",), quick={"threads": 1, "repeats": 1, "batch": 1})
 
     torch.set_num_threads(args.threads)
+    micro = args.micro_batch or [0, *(m for m in range(1, args.batch) if args.batch % m == 0)]
     dataset = SyntheticGraspDataset(args.batch, seed=0)
     batch = collate_scenes([dataset[i] for i in range(args.batch)])
     results = {}
@@ -185,7 +212,9 @@ def main() -> None:
         "repeats": args.repeats,
         "statistic": "best of repeats after a warm-up (the machine is shared)",
         "representations": results,
-        "real_batches": real_batches(args.data, args.batch, args.repeats) if args.data else None,
+        "real_batches": real_batches(args.data, args.batch, micro, args.repeats)
+        if args.data
+        else None,
         "reference_run": reference_run(args.run) if args.run else None,
     }
     args.output.parent.mkdir(parents=True, exist_ok=True)

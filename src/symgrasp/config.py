@@ -307,7 +307,13 @@ class TrainConfig:
     epochs: int = 10
     """Epochs to train."""
     batch_size: int = 4
-    """Scenes per batch."""
+    """Scenes per batch (per optimizer step)."""
+    micro_batch: int = 0
+    """Scenes per forward and backward pass (0: the whole batch). Each batch is trained in
+    chunks of this many scenes whose gradients add up to the whole batch's: GroupNorm normalises
+    every scene alone and each chunk's loss is weighted by its share of the batch's labelled
+    voxels. Only speed and memory change, up to float rounding; small chunks stay in the CPU's
+    cache (docs/model.md: a batch of 16 in chunks of 2 steps ≈ 1.8× faster on 2 cores)."""
     lr: float = 1e-3
     """Adam learning rate (the peak of a schedule)."""
     seed: int = 0
@@ -364,6 +370,7 @@ class TrainConfig:
             raise ValueError(f"data and out must be folder paths, got {self.data!r}, {self.out!r}")
         check_range("epochs", self.epochs, 1, 100_000)
         check_range("batch_size", self.batch_size, 1, 4096)
+        check_range("micro_batch", self.micro_batch, 0, 4096)
         check_range("lr", self.lr, 1e-12, 10.0, integer=False)
         check_range("seed", self.seed, 0, SEED_MAX)
         check_range("workers", self.workers, 0, 64)

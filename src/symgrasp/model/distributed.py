@@ -4,7 +4,7 @@
 runs N ranks of the one training loop (`symgrasp.model.train`). ``batch_size`` stays the
 global batch: every rank draws the same seeded shuffle of the epoch and takes its disjoint
 slice of each global batch (`ShardedBatches`), and each rank's loss is weighted by its share of
-the batch's labelled voxels (`pooled_share`), so the averaged gradient is the one process's
+the batch's labelled voxels (`pooled_voxels`), so the averaged gradient is the one process's
 gradient of the whole batch and the run is the same, up to float rounding, for any N.
 """
 
@@ -88,16 +88,17 @@ class ShardedBatches(Sampler[list[int]]):
         return math.ceil(self.size / self.batch_size)
 
 
-def pooled_share(voxels: int, device: torch.device) -> float:
-    """This rank's share of its global batch's loss: max(n, 1) / max(N, 1) for n labelled
-    voxels here and N over all ranks (1 alone). The losses are means over a batch's labelled
-    voxels (the validity sum divided by their number), so Σ over ranks of loss × share is the
-    loss of the whole batch."""
+def pooled_voxels(voxels: int, device: torch.device) -> int:
+    """The labelled voxels of the whole global batch: ``voxels`` (this rank's) summed over all
+    ranks (``voxels`` alone). The losses are means over a batch's labelled voxels (the validity
+    sum divided by their number), so weighting the loss of each part of the batch (a rank's
+    slice, a chunk of it) by max(n, 1) / max(N, 1) for its n and this N makes the weighted sum
+    the loss of the whole batch."""
     if not dist.is_initialized():
-        return 1.0
+        return voxels
     total = torch.tensor([voxels], dtype=torch.float64, device=device)
     dist.all_reduce(total)
-    return max(voxels, 1) / max(total.item(), 1.0)
+    return round(total.item())
 
 
 def sum_over_ranks(values: dict[str, float], device: torch.device) -> dict[str, float]:

@@ -3,7 +3,9 @@
 ``train(TrainConfig(...))`` reads ``symgrasp.data.dataset.GraspDataset`` (train and val splits
 of ``config.data``; ``train_scenes``, ``val_scenes``: the first N of a split), trains `GraspNet` with Adam
 (AdamW with ``weight_decay``) on `grasp_losses`, the lr of each step from
-`symgrasp.model.schedule`, validates after every epoch and writes into ``config.out``:
+`symgrasp.model.schedule`, each batch passed in chunks of ``micro_batch`` scenes whose
+gradients add up to the batch's (`accumulate_gradient`), validates after every epoch and
+writes into ``config.out``:
 
 - ``last.pt`` after every epoch, ``best.pt`` at the lowest validation loss (`checkpoint`) and,
   with ``keep_every`` N, ``epoch_NNN.pt`` every N epochs;
@@ -32,7 +34,9 @@ the world size, the global batch and the learning rate.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import functools
 import math
 import time
 from collections.abc import Callable
@@ -58,7 +62,8 @@ from symgrasp.model.schedule import learning_rate
 from symgrasp.sim.grippers import get_gripper, same_name_note
 
 Tensor = torch.Tensor
-Collate = Callable[[list[dict[str, Tensor]]], dict[str, Tensor]]
+Batch = dict[str, Tensor]
+Collate = Callable[[list[dict[str, Tensor]]], Batch]
 
 
 def open_dataset(config: TrainConfig) -> tuple[Dataset, Dataset, Collate]:
@@ -169,7 +174,10 @@ def train(
     model = net if world == 1 else distributed.data_parallel(net)
 
     train_loader = DataLoader(
-        train_set, batch_sampler=batches, collate_fn=collate, num_workers=config.workers
+        train_set,
+        batch_sampler=batches,
+        collate_fn=functools.partial(collate_chunks, collate, config.micro_batch),
+        num_workers=config.workers,
     )
     val_loader = DataLoader(
         val_set, batch_size=config.batch_size, collate_fn=collate, num_workers=config.workers
@@ -335,20 +343,12 @@ def _train_epoch(
     batches); the mean of each loss over the global batches and the lr of the last step.
     ``model`` is ``net`` or its DistributedDataParallel wrapper."""
     model.train()
-    device = next(net.parameters()).device
     sums: dict[str, float] = {}
-    shown = 0.0  # this rank's running mean, for the progress bar
+    shown = 0.0  # running mean, for the progress bar
     total, lr = config.epochs * len(loader), config.lr
-    validity = config.validity
-    for step, batch in enumerate(loader, start=1):
-        batch = _to(batch, device)
-        with _autocast(device):
-            output = model(batch["tsdf"])
-        losses = grasp_losses(output, batch, net.representation, config.loss_weights, validity)
-        _check_finite(losses["total"], f"training loss at step {step}", config)
-        share = distributed.pooled_share(len(batch["voxel_index"]), device)  # 1 alone
+    for step, chunks in enumerate(loader, start=1):
         optimizer.zero_grad(set_to_none=True)
-        (losses["total"] * (share * world)).backward()  # DDP divides the gradient sum by world
+        losses = accumulate_gradient(model, net, chunks, config, world, step)
         lr = learning_rate(config, epoch * len(loader) + step - 1, total)
         for group in optimizer.param_groups:
             group["lr"] = lr
@@ -356,12 +356,55 @@ def _train_epoch(
         if average is not None:
             average.update(net)
         for key, value in losses.items():
-            sums[key] = sums.get(key, 0.0) + value.item() * share
-        shown += (losses["total"].item() - shown) / step
+            sums[key] = sums.get(key, 0.0) + value
+        shown += (losses["total"] * world - shown) / step  # data-parallel: about the batch's
         bar.set_postfix(loss=f"{shown:.4f}")
         bar.update()
-    sums = distributed.sum_over_ranks(sums, device)
+    sums = distributed.sum_over_ranks(sums, device=next(net.parameters()).device)
     return {key: value / max(len(loader), 1) for key, value in sums.items()}, lr
+
+
+def collate_chunks(collate: Collate, size: int, items: list[dict[str, Tensor]]) -> list[Batch]:
+    """``items`` (this rank's slice of a global batch) collated in chunks of ``size`` scenes
+    (0: one chunk)."""
+    size = size or len(items)
+    return [collate(items[start : start + size]) for start in range(0, len(items), size)]
+
+
+def accumulate_gradient(
+    model: torch.nn.Module,
+    net: GraspNet,
+    chunks: list[Batch],
+    config: TrainConfig,
+    world: int,
+    step: int,
+) -> dict[str, float]:
+    """Forward and backward passes over ``chunks`` (this rank's slice of one global batch, in
+    chunks of ``config.micro_batch`` scenes), adding to the weights' ``grad`` the gradient of
+    the whole global batch's loss; returns this rank's part of each loss (summed over the ranks:
+    the batch's loss). Each chunk's losses are means over its n labelled voxels and are weighted
+    by max(n, 1) / max(N, 1), N the global batch's (`distributed.pooled_voxels`), so their sum is
+    the batch's loss; the network (GroupNorm) treats every scene alone."""
+    device = next(net.parameters()).device
+    counts = [len(chunk["voxel_index"]) for chunk in chunks]
+    pooled = distributed.pooled_voxels(sum(counts), device)
+    parts: dict[str, float] = {}
+    for i, (chunk, count) in enumerate(zip(chunks, counts, strict=True)):
+        chunk = _to(chunk, device)
+        share = max(count, 1) / max(pooled, 1)
+        # data-parallel: the ranks average their gradients once, after the last chunk
+        synced = world == 1 or i == len(chunks) - 1
+        with contextlib.nullcontext() if synced else model.no_sync():
+            with _autocast(device):
+                output = model(chunk["tsdf"])
+            losses = grasp_losses(
+                output, chunk, net.representation, config.loss_weights, config.validity
+            )
+            _check_finite(losses["total"], f"training loss at step {step}", config)
+            (losses["total"] * (share * world)).backward()  # DDP divides the gradient sum by world
+        for key, value in losses.items():
+            parts[key] = parts.get(key, 0.0) + value.item() * share
+    return parts
 
 
 @torch.no_grad()
