@@ -31,8 +31,8 @@ def test_demo_clears_a_small_pile_and_writes_its_pictures(tmp_path, capsys):
 
 
 def test_demo_says_which_failures_were_a_wrong_yaw(tmp_path, capsys):
-    # seed 4: the shipped model's second grasp hits a neighbour on its way in; turned, it holds
-    main(["demo", "--out", str(tmp_path), "--seed", "4"])
+    # seed 3: the shipped model's first two grasps fail; turned about their approach, they hold
+    main(["demo", "--out", str(tmp_path), "--seed", "3"])
     modes = json.loads((tmp_path / "summary.json").read_text())["modes"]
     printed = capsys.readouterr().out
     assert "wrong_yaw" in modes
