@@ -24,9 +24,9 @@ and picks up runs as they are selected; a run not yet selected is listed as wait
 - **Failure modes** per representation, pooled over seeds (`symgrasp.benchmark.failures`).
 - **The field's table**: VGN's protocol objects, ``--field`` (``vgn-pile-test`` pile and
   ``vgn-packed-test`` packed) with the ``--field-gripper`` (Franka, VGN's hand), every
-  representation with its threshold; the published numbers of VGN, GIGA and EdgeGraspNet on
-  those scenes, their sources and how their protocols differ are in docs/benchmark.md
-  ("Published numbers on VGN's scenes").
+  representation with its threshold, and below them the published numbers of VGN, GIGA and
+  EdgeGraspNet on those scenes (``PUBLISHED``; how their protocols differ: docs/benchmark.md,
+  "Published numbers on VGN's scenes").
 
 A campaign plays each run's cells in a step of its own as soon as the run is selected
 (``--play-only --grippers G --reps REP --seeds S``, ``--field`` left empty for a hand that is
@@ -78,6 +78,24 @@ PAPER = {  # Table 1 of the paper, SR / CR [%], on its own simulator and objects
     ("franka", "bingham3d", True): {"vgn-pile-test": (39.1, 39.8), "large-box": (20.5, 23.4)},
 }  # fmt: skip
 """The paper's "VGN Dataset" column is its subset of VGN's meshes; ours is VGN's pile test set."""
+PUBLISHED = (  # GSR / DR [%], mean ± SD as reported, 5 objects per round, on VGN's test meshes
+    ("GPD", {"pile": ("17.7 ± 2.3", "9.2 ± 1.3"), "packed": ("35.4 ± 1.9", "30.7 ± 2.0")}, "GIGA"),
+    ("SHAF", {"pile": ("50.7 ± 1.7", "42.6 ± 2.8"), "packed": ("56.6 ± 2.0", "58.0 ± 3.0")}, "GIGA"),
+    ("VGN (single view)", {"pile": ("60.7 ± 4.2", "44.0 ± 4.9"), "packed": ("74.5 ± 1.3", "79.2 ± 2.3")}, "GIGA"),
+    ("GIGA-Aff", {"pile": ("67.8 ± 3.0", "49.7 ± 1.9"), "packed": ("77.2 ± 2.3", "78.9 ± 1.7")}, "GIGA"),
+    ("GIGA", {"pile": ("69.3 ± 3.3", "49.8 ± 3.9"), "packed": ("83.5 ± 2.4", "84.3 ± 2.2")}, "GIGA"),
+    ("GIGA (HR, 60³ queries)", {"pile": ("69.8 ± 3.2", "51.1 ± 2.8"), "packed": ("87.9 ± 3.0", "86.0 ± 3.2")}, "GIGA"),
+    ("GIGA-High", {"pile": ("74.1 ± 1.5", None), "packed": ("88.5 ± 2.0", None)}, "EGN"),
+    ("PointNetGPD", {"pile": ("75.6 ± 2.3", None), "packed": (None, None)}, "EGN"),
+    ("EdgeGraspNet", {"pile": ("89.9 ± 1.8", "92.8 ± 1.6"), "packed": ("92.0 ± 1.4", None)}, "EGN"),
+    ("VN-EdgeGraspNet", {"pile": ("92.3 ± 1.5", None), "packed": ("92.3 ± 1.2", None)}, "EGN"),
+)  # fmt: skip
+"""Published grasp-success (GSR ≈ our SR) and declutter (DR ≈ our CR) rates on VGN's pile and
+packed test scenes, from other simulators and protocols. Sources: GIGA = Jiang et al., RSS 2021
+(arXiv 2104.01542v2), Table I; EGN = Huang et al., Edge Grasp Network, ICRA 2023 (arXiv
+2211.00191v1), Table I (EdgeGraspNet's packed GSR: Table III, 64-4k), read through a reading
+note. What each protocol does and how it differs from ours: docs/benchmark.md, "Published
+numbers on VGN's scenes"."""
 SHIPPED = "bingham2d-robotiq-2f85"
 
 
@@ -252,8 +270,14 @@ def markdown(rows: list[dict], leads: list[dict], field: list[dict], args: argpa
             )
             cells += [_mean(r, "success_ratio", seeds), _mean(r, "clear_ratio", seeds)]
         text.append(f"| `{rep}` | " + " | ".join(cells) + " |")
-    text += ["", "Published numbers on these scenes, from other simulators and protocols: "
-             "`docs/benchmark.md`, \"Published numbers on VGN's scenes\"."]  # fmt: skip
+    for method, numbers, source in PUBLISHED:
+        cells = [v or "–" for _, scene in args.field for v in numbers.get(scene, (None, None))]
+        text.append(f"| *{method}* ({source}) | " + " | ".join(cells) + " |")
+    text += ["", "Rows in italics: published GSR / DR (mean ± SD as reported) on VGN's test "
+             "scenes with 5 objects per round, from other simulators and protocols (GIGA: Jiang "
+             "et al., RSS 2021, Table I; EGN: Huang et al., ICRA 2023, Table I); sources and "
+             "how each protocol differs from ours: `docs/benchmark.md`, \"Published numbers on "
+             "VGN's scenes\"."]  # fmt: skip
     return "\n".join(text) + "\n" + _waiting(waiting)
 
 
