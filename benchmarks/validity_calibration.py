@@ -71,6 +71,9 @@ def _mean(values: torch.Tensor) -> float | None:
 
 
 def markdown(cells: list[dict[str, Any]], threshold: float) -> str:
+    def name(model: str) -> str:  # a checkpoint by its run: RUN/best.pt
+        return "/".join(Path(model).parts[-2:]) if model.endswith(".pt") else model
+
     def pct(value: float | None, digits: int = 2) -> str:
         return "–" if value is None else f"{100 * value:.{digits}f}"
 
@@ -78,7 +81,7 @@ def markdown(cells: list[dict[str, Any]], threshold: float) -> str:
             f"precision there % | recall % |", "|---|---|---|---|---|---|---|"]  # fmt: skip
     for c in cells:
         text.append(
-            f"| {c['model']} | {c['scenes']} | {pct(c['label_rate'], 3)} | "
+            f"| {name(c['model'])} | {c['scenes']} | {pct(c['label_rate'], 3)} | "
             f"{pct(c['mean_prediction'], 3)} | {pct(c['kept_share'], 3)} | "
             f"{pct(c['precision'], 1)} | {pct(c['recall'], 1)} |"
         )
@@ -86,7 +89,7 @@ def markdown(cells: list[dict[str, Any]], threshold: float) -> str:
              "| checkpoint | " + " | ".join(f"{b['from']}–{b['to']}" for b in cells[0]["bins"])
              + " |", "|---|" + "---|" * len(cells[0]["bins"])]  # fmt: skip
     for c in cells:
-        text.append(f"| {c['model']} | " + " | ".join(
+        text.append(f"| {name(c['model'])} | " + " | ".join(
             f"{pct(b['mean_prediction'], 1)} / {pct(b['label_rate'], 1)} [{b['voxels']}]"
             for b in c["bins"]) + " |")  # fmt: skip
     return "\n".join(text) + "\n"
