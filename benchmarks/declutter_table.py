@@ -1,6 +1,7 @@
 """The paper's Table 1 on VGN's objects with three training seeds per cell, and the field's
-pile/packed table → benchmarks/results/declutter.{json,md}, docs/figures/declutter_comparison.png
-and docs/results.md (between its markers).
+pile/packed table → benchmarks/results/declutter.{json,md}, docs/figures/declutter_comparison.png,
+docs/results.md (between its markers) and the rounds behind them,
+benchmarks/results/declutter_rounds.tar.gz.
 
     PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/declutter_table.py --runs ROOT/runs \\
         [--out ROOT/bench/table] [--grippers G ...] [--reps REP ...] [--seeds 0 1 2] \\
@@ -32,6 +33,14 @@ A campaign plays each run's cells in a step of its own as soon as the run is sel
 (``--play-only --grippers G --reps REP --seeds S``, ``--field`` left empty for a hand that is
 not the field's) and collates once at the end (``--collate-only``).
 
+Every collation also packs the rounds it collated into ``--archive``
+(benchmarks/results/declutter_rounds.tar.gz, the same bytes for the same rounds). Unpacked into
+``--out``, they collate again on a machine without the training runs, to the same tables and
+the same archive::
+
+    mkdir -p out/bench/table && tar xzf benchmarks/results/declutter_rounds.tar.gz -C out/bench/table
+    PYTHONPATH=src python benchmarks/declutter_table.py --collate-only
+
 ``--quick``: the shipped Robotiq model stands in for every run; two seeds, one round of one
 household-test object (pile and packed), the Robotiq only, a copy of the page updated.
 """
@@ -39,18 +48,22 @@ household-test object (pile and packed), the Robotiq only, a copy of the page up
 from __future__ import annotations
 
 import argparse
+import gzip
+import io
 import itertools
 import shutil
+import tarfile
 from collections import Counter
 from pathlib import Path
 from typing import Any
 
 from common import add_result_option, parse_args, write_result
 
+from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.failures import MODES
-from symgrasp.benchmark.runner import run_or_reuse, saved_rounds, summarise
+from symgrasp.benchmark.runner import recorded_config, run_or_reuse, saved_rounds, summarise
 from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios
 from symgrasp.cli import add_parallel_options, parallel_from_args
 from symgrasp.detect.pretrained import shipped_path
@@ -97,6 +110,8 @@ packed test scenes, from other simulators and protocols. Sources: GIGA = Jiang e
 note. What each protocol does and how it differs from ours: docs/benchmark.md, "Published
 numbers on VGN's scenes"."""
 SHIPPED = "bingham2d-robotiq-2f85"
+ARCHIVED = ("config.json", "model.sha256", "rounds.jsonl")
+"""What ``--archive`` keeps of a cell folder: enough to collate it again (`stored_rounds`)."""
 
 
 def parse_prefix(text: str) -> tuple[str, str]:
@@ -141,8 +156,9 @@ def play(cell: Cell, args: argparse.Namespace, prefixes: dict[str, str]) -> dict
     else:
         try:
             model = selected_checkpoint(run)
-        except ValueError:  # not trained, or not selected yet
-            return {"rounds": None, "waiting": f"{run.name} (not selected)"}
+        except ValueError:  # not trained, or not selected yet: stored rounds, if any
+            stored = stored_rounds(cell, args) if args.collate_only else None
+            return {"rounds": stored, "waiting": None if stored else f"{run.name} (not selected)"}
     config = cell.config(model, args.rounds, args.num_objects)
     folder = cell.folder(args.out)
     if args.collate_only:
@@ -151,6 +167,36 @@ def play(cell: Cell, args: argparse.Namespace, prefixes: dict[str, str]) -> dict
     print(f"{cell.gripper} {label(cell.rep, cell.threshold)} seed {cell.seed} on {cell.objects} "
           f"({cell.scene})")  # fmt: skip
     return {"rounds": run_or_reuse(config, folder, parallel_from_args(args)), "waiting": None}
+
+
+def stored_rounds(cell: Cell, args: argparse.Namespace) -> list[dict] | None:
+    """The cell's rounds as stored in its folder (e.g. unpacked from ``--archive``) when its
+    training run is not on this machine: the cell's benchmark with the model it recorded,
+    whose file is not here to hash again."""
+    folder = cell.folder(args.out)
+    recorded = recorded_config(folder)
+    if recorded is None:
+        return None
+    config = cell.config(recorded["model"], args.rounds, args.num_objects)
+    return saved_rounds(config, folder, check_model=False)
+
+
+def write_archive(path: Path, played: dict[Cell, dict], args: argparse.Namespace) -> None:
+    """The collated cells' records (``ARCHIVED`` files of each cell folder) as one gzipped
+    tar, paths relative to ``--out``, byte for byte the same for the same records."""
+
+    def write(file: Any) -> None:
+        with gzip.GzipFile(filename="", fileobj=file, mode="wb", mtime=0) as packed:
+            with tarfile.open(fileobj=packed, mode="w", format=tarfile.PAX_FORMAT) as tar:
+                folders = sorted(c.folder(args.out) for c, p in played.items() if p["rounds"])
+                for source in (folder / name for folder in folders for name in ARCHIVED):
+                    if source.exists():
+                        data = source.read_bytes()
+                        info = tarfile.TarInfo(str(source.relative_to(args.out)))
+                        info.size, info.mode = len(data), 0o644
+                        tar.addfile(info, io.BytesIO(data))
+
+    write_atomic(path, write)
 
 
 def row(played: dict[Cell, dict], gripper: str, rep: str, threshold: bool, objects: str,
@@ -384,8 +430,11 @@ def main() -> None:
                         help="bar chart path")  # fmt: skip
     parser.add_argument("--docs", default="docs/results.md",
                         help="page whose text between the declutter-table markers is replaced")  # fmt: skip
+    parser.add_argument("--archive", default="benchmarks/results/declutter_rounds.tar.gz",
+                        help="the collated cells' rounds as one .tar.gz; unpacked into --out, "
+                        "they collate again without the training runs")  # fmt: skip
     args = parse_args(
-        parser, outputs=("out", "result", "figure", "docs"),
+        parser, outputs=("out", "result", "figure", "docs", "archive"),
         quick={"rounds": 1, "num_objects": 1, "workers": 1, "seeds": [0, 1],
                "grippers": ["robotiq-2f85"], "field_gripper": "robotiq-2f85",
                "objects": ["household-test"], "field": [("household-test", "packed")]},
@@ -434,6 +483,7 @@ def main() -> None:
     )
     figure(rows, args.figure, args)
     update_page(Path(args.docs), table)
+    write_archive(Path(args.archive), played, args)
 
 
 if __name__ == "__main__":

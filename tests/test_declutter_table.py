@@ -1,8 +1,13 @@
 """benchmarks/declutter_table.py's statistics from cells whose rounds are known by
-construction: each seed's ratios, the failure modes pooled over seeds, and bingham2d's lead
-counted over every pairing of training seeds on the same rounds."""
+construction: each seed's ratios, the failure modes pooled over seeds, bingham2d's lead
+counted over every pairing of training seeds on the same rounds, and stored rounds that
+collate again without the training runs."""
 
+import argparse
+import dataclasses
+import json
 import sys
+import tarfile
 from pathlib import Path
 
 import pytest
@@ -62,3 +67,36 @@ def test_the_lead_counts_every_pairing_of_seeds_on_the_same_rounds(played):
     change, low, high = lead["change"]["success_ratio"]
     assert change == pytest.approx(2 / 3 - 1 / 2)
     assert low < 0 < high  # one seed of three is worse in every round: the seed decides
+
+
+def _store(cell, out, rounds, model):
+    """A cell folder as `run_benchmark` leaves it: its configuration and its rounds."""
+    folder = cell.folder(out)
+    folder.mkdir(parents=True)
+    config = cell.config(model, rounds=len(rounds), num_objects=5)
+    (folder / "config.json").write_text(json.dumps(dataclasses.asdict(config)))
+    (folder / "rounds.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rounds))
+
+
+def test_stored_rounds_collate_again_without_the_runs_and_archive_byte_for_byte(tmp_path):
+    cells = {Cell("franka", "bingham2d", 0, "large-box"): _rounds([[HIT, YAW]] * 4),
+             Cell("franka", "rotmat6d", 0, "large-box"): _rounds([[YAW]] * 4),
+             Cell("franka", "rotmat6d", 1, "large-box"): _rounds([[HIT]] * 3)}  # fmt: skip
+    for cell, rounds in cells.items():
+        _store(cell, tmp_path / "played", rounds, tmp_path / "runs" / "gone.pt")
+    args = argparse.Namespace(runs=tmp_path / "no-runs", out=tmp_path / "played", rounds=4,
+                              num_objects=5, quick=None, collate_only=True)  # fmt: skip
+    played = {cell: table.play(cell, args, table.PREFIXES) for cell in cells}
+    short = Cell("franka", "rotmat6d", 1, "large-box")  # 3 of the 4 rounds: waits
+    assert played[short] == {"rounds": None, "waiting": "final-franka-rotmat6d-s1 (not selected)"}
+    assert all(played[c]["rounds"] == cells[c] for c in cells if c != short)
+
+    table.write_archive(tmp_path / "a.tar.gz", played, args)
+    with tarfile.open(tmp_path / "a.tar.gz") as tar:
+        assert len(tar.getnames()) == 4  # config and rounds of the two complete cells
+        tar.extractall(tmp_path / "unpacked", filter="data")
+    args.out = tmp_path / "unpacked"
+    again = {cell: table.play(cell, args, table.PREFIXES) for cell in cells}
+    assert again == played
+    table.write_archive(tmp_path / "b.tar.gz", again, args)
+    assert (tmp_path / "a.tar.gz").read_bytes() == (tmp_path / "b.tar.gz").read_bytes()

@@ -351,12 +351,17 @@ def run_benchmark(
     return summary
 
 
-def saved_rounds(config: BenchmarkConfig, out: str | Path) -> list[dict[str, Any]] | None:
+def saved_rounds(
+    config: BenchmarkConfig, out: str | Path, check_model: bool = True
+) -> list[dict[str, Any]] | None:
     """The round records of ``config`` in seed order when ``out`` holds every one of them,
-    else None (no benchmark, an unfinished one, or another configuration's)."""
+    else None (no benchmark, an unfinished one, or another configuration's). ValueError when
+    the model file has changed since they were played; ``check_model=False`` skips that check,
+    for stored rounds whose model file is not on this machine."""
     if recorded_config(out) != _plain(config):
         return None
-    _check_model(config, Path(out))
+    if check_model:
+        _check_model(config, Path(out))
     done = read_rounds(Path(out) / "rounds.jsonl")
     seeds = round_seeds(config)
     return [done[seed] for seed in seeds] if all(seed in done for seed in seeds) else None
