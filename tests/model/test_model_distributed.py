@@ -8,7 +8,7 @@ import torch
 
 from symgrasp.model import TrainConfig, train
 from symgrasp.model.checkpoint import load_checkpoint, load_model
-from symgrasp.model.distributed import ShardedBatches, launch
+from symgrasp.model.distributed import ShardedBatches, launch, start
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 
 SMALL = (2, 2, 4, 4)
@@ -40,7 +40,8 @@ def _rows(run):
 
 def test_two_processes_follow_the_one_process_loss_curve_and_resume(tmp_path):
     data = (SyntheticGraspDataset(8), SyntheticGraspDataset(2, seed=9), collate_scenes)
-    config = dict(data="synthetic", batch_size=4, widths=SMALL, features=4, lr=3e-3)
+    # gloo on the CPU: two ranks need two GPUs, and CI has none
+    config = dict(data="synthetic", batch_size=4, widths=SMALL, features=4, lr=3e-3, device="cpu")
     train(TrainConfig(out=str(tmp_path / "one"), epochs=2, **config), data)
     two = str(tmp_path / "two")
     launch(train, (TrainConfig(out=two, epochs=1, **config), data), 2)
@@ -55,13 +56,15 @@ def test_two_processes_follow_the_one_process_loss_curve_and_resume(tmp_path):
     # (in chunks of one scene oneDNN blocks the convolutions otherwise: float32 outputs move by
     # up to 1e-3); Adam turns float noise in near-zero gradients into steps of ±lr, which moved
     # the validation losses by up to 1.3e-4 and validity AP, a ranking of nearly tied voxels,
-    # by 2e-4. Plain DDP (each rank's mean loss, no voxel share) is 2e-2 off in training and
-    # 1e-1 in the validation score loss.
+    # by 2e-4 on the 2-core AMD EPYC; on a 16-core Intel Xeon (8 threads a rank) AP moved by
+    # 3e-3 of its 0.0036, 1.1e-5 absolute. Plain DDP (each rank's mean loss, no voxel share)
+    # is 2e-2 off in training and 1e-1 in the validation score loss.
     for a, b in zip(one, two, strict=True):
         for key in ("train_total", "train_validity", "train_score", "train_rotation"):
             assert float(b[key]) == pytest.approx(float(a[key]), rel=1e-3), key
-        for key in ("val_total", "val_score", "val_rotation", "validity_ap"):
+        for key in ("val_total", "val_score", "val_rotation"):
             assert float(b[key]) == pytest.approx(float(a[key]), rel=2e-3), key
+        assert float(b["validity_ap"]) == pytest.approx(float(a["validity_ap"]), abs=5e-5)
     assert float(one[1]["train_total"]) != pytest.approx(float(one[0]["train_total"]), rel=1e-4)
     states = [load_checkpoint(tmp_path / run / "last.pt") for run in ("one", "two")]
     assert states[1]["world_size"] == 2 and states[1]["config"]["batch_size"] == 4
@@ -76,10 +79,30 @@ def test_two_processes_follow_the_one_process_loss_curve_and_resume(tmp_path):
         torch.testing.assert_close(getattr(two, name), getattr(one, name), rtol=0, atol=2e-2)
 
 
+def test_a_rank_without_a_gpu_of_its_own_is_told_how_many_there_are(monkeypatch):
+    monkeypatch.setenv("WORLD_SIZE", "2")
+    monkeypatch.setenv("LOCAL_WORLD_SIZE", "2")
+    monkeypatch.setenv("LOCAL_RANK", "1")
+    monkeypatch.setattr(torch.cuda, "device_count", lambda: 1)
+    with pytest.raises(ValueError, match=r"2 training processes .* it has 1: pass --nproc 1"):
+        start(torch.device("cuda"))
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here")
+def test_more_ranks_than_gpus_is_a_value_error_before_training(tmp_path):
+    data = (SyntheticGraspDataset(4), SyntheticGraspDataset(1, seed=9), collate_scenes)
+    ranks = torch.cuda.device_count() + 1
+    config = TrainConfig(data="synthetic", out=str(tmp_path), epochs=1, batch_size=2 * ranks,
+                         widths=SMALL, features=4, device="cuda")  # fmt: skip
+    with pytest.raises(ValueError, match=f"it has {ranks - 1}: pass --nproc {ranks - 1}"):
+        launch(train, (config, data), ranks)
+    assert not (tmp_path / "last.pt").exists()
+
+
 def test_a_ranks_bad_input_is_a_value_error(tmp_path):
     data = (SyntheticGraspDataset(4), SyntheticGraspDataset(1, seed=9), collate_scenes)
     config = TrainConfig(data="synthetic", out=str(tmp_path), epochs=1, batch_size=2,
-                         widths=SMALL, features=4, gripper="franka")  # fmt: skip
+                         widths=SMALL, features=4, gripper="franka", device="cpu")  # fmt: skip
     with pytest.raises(ValueError, match="produced for the gripper 'robotiq-2f85'"):
         launch(train, (config, data), 2)
 
@@ -99,7 +122,7 @@ def test_torchrun_and_nproc_train_a_dataset_folder_alike(tmp_path):
     main(["data", "generate", "--objects", "blocks", "--gripper", "franka", "--pool-size", "2",
           "--grasps", "40", "--directions", "8", "--scenes", "12", "--out", data])  # fmt: skip
     argv = ["train", "--data", data, "--gripper", "franka", "--epochs", "2", "--batch-size", "2",
-            "--widths", "2", "2", "4", "4", "--features", "4"]  # fmt: skip
+            "--widths", "2", "2", "4", "4", "--features", "4", "--device", "cpu"]  # fmt: skip
     torchrun = shutil.which("torchrun", path=str(Path(sys.executable).parent))
     subprocess.run([torchrun, "--nproc-per-node", "2", "-m", "symgrasp", *argv, "--out",
                     str(tmp_path / "torchrun")], check=True)  # fmt: skip

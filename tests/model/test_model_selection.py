@@ -49,7 +49,7 @@ def trained(tmp_path_factory):
     for epochs in (1, 2, 3):
         config = TrainConfig(
             data="synthetic", out=str(run), epochs=epochs, batch_size=2, widths=SMALL,
-            features=4, lr=3e-3, resume=epochs > 1,
+            features=4, lr=3e-3, resume=epochs > 1, device="cpu",
         )  # fmt: skip
         train(config, data)
         if epochs < 3:

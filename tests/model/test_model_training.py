@@ -45,9 +45,11 @@ def _data(gripper="robotiq-2f85", scenes=3, stop_at=None):
 
 
 def _config(tmp_path, name="run", **kwargs):
+    # on the CPU: the oracles below recompute in float32 what CUDA would train under bfloat16
     defaults = dict(
-        data="synthetic", out=str(tmp_path / name), epochs=2, batch_size=2, widths=SMALL, features=4
-    )
+        data="synthetic", out=str(tmp_path / name), epochs=2, batch_size=2, widths=SMALL,
+        features=4, device="cpu",
+    )  # fmt: skip
     return TrainConfig(**{**defaults, **kwargs})
 
 

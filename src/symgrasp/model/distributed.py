@@ -31,7 +31,14 @@ def start(device: torch.device) -> tuple[int, int, torch.device]:
     if world == 1:
         return 0, 1, device
     if device.type == "cuda" and device.index is None:
-        device = torch.device("cuda", int(os.environ.get("LOCAL_RANK", "0")))
+        local, gpus = int(os.environ.get("LOCAL_RANK", "0")), torch.cuda.device_count()
+        if local >= gpus:
+            raise ValueError(
+                f"{os.environ.get('LOCAL_WORLD_SIZE', local + 1)} training processes on this "
+                f"machine need a GPU each, it has {gpus}: pass --nproc {gpus} or less, or "
+                "--device cpu"
+            )
+        device = torch.device("cuda", local)
         torch.cuda.set_device(device)
     if not dist.is_initialized():
         dist.init_process_group("nccl" if device.type == "cuda" else "gloo")
