@@ -100,6 +100,16 @@ def test_every_option_has_help():
     check(build_parser(), "symgrasp")
 
 
+@pytest.mark.parametrize("command", [["demo"], ["detect"], ["bench", "declutter"]])
+def test_the_help_of_model_names_every_shipped_model(command, capsys):
+    from symgrasp.names import PRETRAINED
+
+    with pytest.raises(SystemExit):
+        main([*command, "--help"])
+    usage = capsys.readouterr().out
+    assert all(name in usage for name in PRETRAINED), command
+
+
 def test_unknown_command_fails():
     with pytest.raises(SystemExit):
         main(["fly"])

@@ -40,6 +40,7 @@ from symgrasp.names import (
     MESH_OBJECT_SETS,
     MESH_UNITS,
     OBJECT_SETS,
+    PRETRAINED,
     REPRESENTATIONS,
     SCENES,
     SCHEDULES,
@@ -81,11 +82,15 @@ def _gripper(value: str) -> str:
 GRIPPER_METAVAR = "{" + ",".join(GRIPPERS) + "}|SPEC" + GRIPPER_SPEC_SUFFIX
 """How ``--gripper``'s value is shown in every help."""
 
+MODEL_METAVAR = "{" + ",".join(PRETRAINED) + "}|CHECKPOINT"
+"""How ``--model``'s value is shown in every help: a shipped model's name or a file."""
+
 SHARED = {
     "objects": ("--objects", {"type": _object_set, "metavar": "SET|FOLDER"}),
     "object_set": ("--objects", {"type": _object_set, "metavar": "SET|FOLDER"}),
     "scene": ("--scene", {"choices": SCENES}),
     "gripper": ("--gripper", {"type": _gripper, "metavar": GRIPPER_METAVAR}),
+    "model": ("--model", {"metavar": MODEL_METAVAR}),
     "representation": ("--rep", {"choices": REPRESENTATIONS}),
     "kinds": ("--kinds", {"choices": SCENES}),
     "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),
@@ -305,7 +310,10 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
         help="objects dropped on the table (default: 5)",
     )
     parser.add_argument(
-        "--model", default=None, help="a checkpoint path instead of the shipped model"
+        "--model",
+        default=None,
+        metavar=MODEL_METAVAR,
+        help="another shipped model or a checkpoint path instead of the gripper's bingham2d model",
     )
     _add_mesh_unit(parser)
     parser.set_defaults(run=_run_demo)
@@ -349,6 +357,7 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--model",
         default="bingham2d-robotiq-2f85",
+        metavar=MODEL_METAVAR,
         help="shipped model name or checkpoint path (default: bingham2d-robotiq-2f85)",
     )
     parser.add_argument("--out", required=True, help="output folder")
@@ -759,7 +768,10 @@ def _add_figures(subparsers: argparse._SubParsersAction) -> None:
         "object: voxels, mean confidence, mean angular spread) into --out.",
     )
     distribution.add_argument(
-        "--model", required=True, help="checkpoint path or shipped model name (a Bingham model)"
+        "--model",
+        required=True,
+        metavar=MODEL_METAVAR,
+        help="checkpoint path or shipped model name (a Bingham model)",
     )
     distribution.add_argument(
         "--samples", type=_integer(1, 1000), default=30, help="e_z drawn per voxel (default: 30)"
