@@ -22,6 +22,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "declutter_table": ("declutter.json", "cells"),
     "validity_sweep": ("validity_sweep.json", "cells"),
     "validity_calibration": ("validity_calibration.json", "cells"),
+    "eigen_gap": ("eigen_gap.json", "cells"),
     "yaw_tolerance": ("yaw_tolerance.json", "cells"),
     "seed_check": ("seed_check.json", "paired_lead"),
     "scene_physics": ("scene_physics.json", "cells"),

@@ -378,6 +378,44 @@ def test_bingham2d_samples_keep_the_approach_and_spread_when_uncertain():
     assert yaw.cos().mean().abs() < 0.1 and yaw.sin().mean().abs() < 0.1
 
 
+@pytest.mark.parametrize("name", DISTRIBUTIONS)
+def test_the_distribution_reads_a_from_its_channels_and_decodes_alike(name):
+    representation = rotation.get(name)
+    R = _rotations(4, seed=23)
+    pred = _ideal(name, R, kappa=50.0)
+    distribution = representation.distribution(pred)
+    line = R[..., 2] if name == "bingham2d" else _ideal("quaternion", R)
+    torch.testing.assert_close(distribution.A, 50.0 * _outer(line))
+    assert torch.equal(distribution.confidence, representation.decode(pred).confidence)
+
+
+def test_a_bingham_on_s3_fitted_to_both_flips_has_no_mode_about_the_approach():
+    """The closed form behind `bingham3d`'s yaw failures: R and R turned by π about e_x are
+    the orthogonal quaternions q and q ⊗ i, so the maximum-likelihood fit to both gives A two
+    equal top eigenvalues (a whole circle of modes); on S² both flips are one line ±e_z, whose
+    fit has a single sharp mode."""
+    from symgrasp.bingham import fit
+    from symgrasp.rotation.geometry import flip_quaternion
+
+    generator = torch.Generator().manual_seed(24)
+    R = _rotations(1, seed=25)[0].double()
+    q = _ideal("quaternion", R)
+    twins = torch.stack([q, flip_quaternion(q)]).repeat(500, 1)
+    noisy = twins + 0.05 * torch.randn(twins.shape, generator=generator, dtype=twins.dtype)
+    s3 = fit(noisy / noisy.norm(dim=-1, keepdim=True)).eigenvalues
+    lines = torch.stack([R[:, 2], -R[:, 2]]).repeat(500, 1)
+    noisy = lines + 0.05 * torch.randn(lines.shape, generator=generator, dtype=lines.dtype)
+    s2 = fit(noisy / noisy.norm(dim=-1, keepdim=True)).eigenvalues
+    assert (s3[-1] - s3[-2]) < 0.05 * (s3[-2] - s3[-3])
+    assert (s2[-1] - s2[-2]) > 100
+
+
+@pytest.mark.parametrize("name", sorted(set(CHANNELS) - set(DISTRIBUTIONS)))
+def test_point_estimates_have_no_distribution(name):
+    with pytest.raises(NotImplementedError, match=name):
+        rotation.get(name).distribution(torch.zeros(2, CHANNELS[name]))
+
+
 @pytest.mark.parametrize("name", sorted(set(CHANNELS) - set(DISTRIBUTIONS)))
 def test_point_estimates_do_not_sample(name):
     with pytest.raises(NotImplementedError, match=name):

@@ -19,9 +19,12 @@ all masked out has loss 0 and zero gradient.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar, Literal, NamedTuple
+from typing import TYPE_CHECKING, ClassVar, Literal, NamedTuple
 
 import torch
+
+if TYPE_CHECKING:
+    from symgrasp.bingham import Bingham
 
 Tensor = torch.Tensor
 
@@ -89,6 +92,14 @@ class Representation(ABC):
             raise ValueError(f"{self.name}: `n` must be non-negative, got {n}")
         return self._sample(pred, n, generator)
 
+    def distribution(self, pred: Tensor) -> Bingham:
+        """The predicted Bingham distribution, batch shape ``[...]``: of the closing axis e_z
+        on S² (`bingham2d`) or of the grasp quaternion on S³ (`bingham3d`)."""
+        if not self.has_distribution:
+            raise NotImplementedError(f"{self.name}: a point estimate defines no distribution")
+        self._check_pred(pred)
+        return self._distribution(pred)
+
     @abstractmethod
     def _target_losses(self, pred: Tensor, R: Tensor) -> Tensor:
         """Loss against each target: ``pred [..., 1, C]``, ``R [..., K, 3, 3]`` → ``[..., K]``."""
@@ -97,6 +108,9 @@ class Representation(ABC):
     def _decode(self, pred: Tensor) -> Decoded: ...
 
     def _sample(self, pred: Tensor, n: int, generator: torch.Generator | None) -> Tensor:
+        raise NotImplementedError
+
+    def _distribution(self, pred: Tensor) -> Bingham:
         raise NotImplementedError
 
     def _check_pred(self, pred: Tensor) -> None:

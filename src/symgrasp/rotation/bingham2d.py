@@ -51,11 +51,14 @@ class Bingham2D(Representation):
         approach = 1 - (unit(x) * R[..., 0]).sum(-1)
         return approach + nll(A, R[..., 2])
 
+    def _distribution(self, pred: Tensor) -> Bingham:
+        return Bingham(triu_to_sym(pred[..., :6]))
+
     def _decode(self, pred: Tensor) -> Decoded:
-        distribution = Bingham(triu_to_sym(pred[..., :6]))
+        distribution = self._distribution(pred)
         rotation = gram_schmidt(pred[..., 6:], distribution.mode)
         return Decoded(rotation, distribution.confidence)
 
     def _sample(self, pred: Tensor, n: int, generator: torch.Generator | None) -> Tensor:
-        closing = Bingham(triu_to_sym(pred[..., :6])).sample((n,), generator).movedim(0, -2)
+        closing = self._distribution(pred).sample((n,), generator).movedim(0, -2)
         return gram_schmidt(pred[..., None, 6:], closing)

@@ -46,12 +46,15 @@ class Bingham3D(Representation):
         losses = nll(triu_to_sym(pred), twins)
         return losses.unflatten(-1, (2, q.shape[-2])).mean(-2)
 
+    def _distribution(self, pred: Tensor) -> Bingham:
+        return Bingham(triu_to_sym(pred))
+
     def _decode(self, pred: Tensor) -> Decoded:
-        distribution = Bingham(triu_to_sym(pred))
+        distribution = self._distribution(pred)
         # eigh returns unit vectors only to ~1e-6 in float32; the rotation needs better.
         rotation = quaternion_to_matrix(unit(distribution.mode))
         return Decoded(rotation, distribution.confidence)
 
     def _sample(self, pred: Tensor, n: int, generator: torch.Generator | None) -> Tensor:
-        q = Bingham(triu_to_sym(pred)).sample((n,), generator).movedim(0, -2)
+        q = self._distribution(pred).sample((n,), generator).movedim(0, -2)
         return quaternion_to_matrix(unit(q))
