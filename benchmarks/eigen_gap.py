@@ -25,10 +25,15 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from common import add_result_option, parse_args, write_result
+from common import (
+    add_checkpoint_options,
+    add_result_option,
+    parse_args,
+    per_checkpoint,
+    write_result,
+)
 
-from symgrasp.config import DEFAULT_VALIDITY
-from symgrasp.model.checkpoint import load_checkpoint, load_model
+from symgrasp.model.checkpoint import load_model
 
 
 def gaps(checkpoint: str | Path, items: list[dict[str, torch.Tensor]], threshold: float) -> dict:
@@ -70,38 +75,16 @@ def markdown(cells: list[dict[str, Any]], threshold: float) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--checkpoints", nargs="+", default=["bingham2d-robotiq-2f85"],
-                        help="checkpoint files or shipped model names of Bingham "
-                        "representations (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--data", default=None,
-                        help="dataset folder whose validation split is read (default: each "
-                        "checkpoint's own training data)")  # fmt: skip
-    parser.add_argument("--scenes", type=int, default=50,
-                        help="validation scenes, spread evenly over the split (default: 50)")  # fmt: skip
-    parser.add_argument("--threshold", type=float, default=DEFAULT_VALIDITY,
-                        help="validity probability a voxel needs to count, the detector's "
-                        "threshold (default: %(default)s)")  # fmt: skip
+    add_checkpoint_options(
+        parser,
+        scenes=50,
+        threshold="validity probability a voxel needs to count, the detector's threshold",
+    )
     add_result_option(parser, "eigen_gap")
     args = parse_args(parser, outputs=("result",), quick={"scenes": 2},
                       also="synthetic scenes instead of a dataset")  # fmt: skip
     torch.set_num_threads(1)
-    from symgrasp.detect.pretrained import resolve_model
-
-    cells = []
-    for name in args.checkpoints:
-        checkpoint = resolve_model(name)
-        if args.quick:
-            from symgrasp.model.synthetic import SyntheticGraspDataset
-
-            split = SyntheticGraspDataset(args.scenes, seed=0)
-        else:
-            from symgrasp.data.dataset import GraspDataset
-
-            data = args.data or load_checkpoint(checkpoint)["config"]["data"]
-            split = GraspDataset(data, split="val", augment=False)
-        step = max(1, len(split) // args.scenes)
-        items = [split[i] for i in range(0, len(split), step)][: args.scenes]
-        cells.append({**gaps(checkpoint, items, args.threshold), "model": name})
+    cells = per_checkpoint(args, gaps)
     table = markdown(cells, args.threshold)
     print(table, end="")
     write_result(

@@ -25,10 +25,15 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from common import add_result_option, parse_args, write_result
+from common import (
+    add_checkpoint_options,
+    add_result_option,
+    parse_args,
+    per_checkpoint,
+    write_result,
+)
 
-from symgrasp.config import DEFAULT_VALIDITY
-from symgrasp.model.checkpoint import load_checkpoint, load_model
+from symgrasp.model.checkpoint import load_model
 
 BINS = (0.0, 0.01, 0.02, 0.04, 0.08, 0.15, 0.3, 0.5, 1.0)
 """Edges of the reliability table's probability bins (fine near the threshold)."""
@@ -97,36 +102,12 @@ def markdown(cells: list[dict[str, Any]], threshold: float) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--checkpoints", nargs="+", default=["bingham2d-robotiq-2f85"],
-                        help="checkpoint files or shipped model names (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--data", default=None,
-                        help="dataset folder whose validation split is read (default: each "
-                        "checkpoint's own training data)")  # fmt: skip
-    parser.add_argument("--scenes", type=int, default=40,
-                        help="validation scenes, spread evenly over the split (default: 40)")  # fmt: skip
-    parser.add_argument("--threshold", type=float, default=DEFAULT_VALIDITY,
-                        help="the detector's validity threshold (default: %(default)s)")  # fmt: skip
+    add_checkpoint_options(parser, scenes=40, threshold="the detector's validity threshold")
     add_result_option(parser, "validity_calibration")
     args = parse_args(parser, outputs=("result",), quick={"scenes": 2},
                       also="synthetic scenes instead of a dataset")  # fmt: skip
     torch.set_num_threads(1)
-    from symgrasp.detect.pretrained import resolve_model
-
-    cells = []
-    for name in args.checkpoints:
-        checkpoint = resolve_model(name)
-        if args.quick:
-            from symgrasp.model.synthetic import SyntheticGraspDataset
-
-            split = SyntheticGraspDataset(args.scenes, seed=0)
-        else:
-            from symgrasp.data.dataset import GraspDataset
-
-            data = args.data or load_checkpoint(checkpoint)["config"]["data"]
-            split = GraspDataset(data, split="val", augment=False)
-        step = max(1, len(split) // args.scenes)
-        items = [split[i] for i in range(0, len(split), step)][: args.scenes]
-        cells.append({**calibration(checkpoint, items, args.threshold), "model": name})
+    cells = per_checkpoint(args, calibration)
     table = markdown(cells, args.threshold)
     print(table, end="")
     write_result(
