@@ -37,8 +37,18 @@ SCHEDULES = ("constant", "cosine", "onecycle")
 VALIDITY_LOSSES = ("bce", "focal")
 """Losses of the validity head (`symgrasp.model.loss`)."""
 
-PRETRAINED = ("bingham2d-robotiq-2f85", "bingham2d-franka")
-"""Models shipped with the package (`symgrasp.detect.pretrained`)."""
+PRETRAINED = (
+    "bingham2d-robotiq-2f85",
+    "bingham2d-franka",
+    "rotmat6d-robotiq-2f85",
+    "rotmat6d-franka",
+    "quaternion-robotiq-2f85",
+    "quaternion-franka",
+    "bingham3d-robotiq-2f85",
+    "bingham3d-franka",
+)
+"""Models shipped with the package (`symgrasp.detect.pretrained`): the paper's detector for
+each built-in hand, then seed 0 of each baseline cell of Table 1 (`docs/models.md`)."""
 
 BACKENDS = ("process", "ray")
 """Where the tasks of data generation and benchmarks run (`symgrasp.parallel`): a pool of
