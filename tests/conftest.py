@@ -1,8 +1,16 @@
 """Fixtures shared by the test folders."""
 
+import os
 from pathlib import Path
 
 import pytest
+
+from symgrasp.objects.folder import DATA_ENV, VGN_ROOT
+
+SHARED = Path(os.environ.get(DATA_ENV) or Path(__file__).resolve().parents[1].parent / "shared")
+"""The data a user downloads (VGN's object sets, MuJoCo Menagerie's hands), as the tests find
+it: the data folder ``$SYMGRASP_DATA`` names (.ci/run points it at ../shared), else ../shared
+beside the checkout."""
 
 WIDE_JAW = Path(__file__).with_name("wide-jaw.toml")
 """A made-up rigid parallel jaw opening 110 mm: a spec file and nothing else."""
@@ -12,6 +20,29 @@ WIDE_JAW = Path(__file__).with_name("wide-jaw.toml")
 def wide_jaw() -> Path:
     """The path of the made-up 110 mm parallel jaw's spec file."""
     return WIDE_JAW
+
+
+@pytest.fixture(scope="session")
+def shared() -> Path:
+    """The folder of the data a user downloads (`SHARED`), whether or not it holds anything."""
+    return SHARED
+
+
+@pytest.fixture(scope="session")
+def vgn_data() -> Path:
+    """The data folder holding VGN's object sets (``objects/vgn``); skips the test without one."""
+    if not (SHARED / VGN_ROOT).is_dir():
+        pytest.skip(f"VGN's object sets are not in {SHARED / VGN_ROOT}")
+    return SHARED
+
+
+@pytest.fixture(scope="session")
+def menagerie() -> Path:
+    """MuJoCo Menagerie's reference hands (``reference/menagerie``); skips the test without them."""
+    folder = SHARED / "reference" / "menagerie"
+    if not folder.is_dir():
+        pytest.skip(f"the reference hands are not in {folder}")
+    return folder
 
 
 @pytest.fixture(scope="session")

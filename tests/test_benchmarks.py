@@ -38,8 +38,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "seed_spread": ("seed_spread.json", "pairings"),
 }
 NEEDS_VGN = {"scene_physics", "grasp_db"}  # reads VGN's meshes from the data folder
-NEEDS_REFERENCE = {"hands"}  # reads MuJoCo Menagerie's hands from ../shared/reference
-SHARED = ROOT.parent / "shared"
+NEEDS_REFERENCE = {"hands"}  # reads MuJoCo Menagerie's hands (conftest's `menagerie`)
 
 
 def _committed() -> dict[Path, int]:
@@ -54,16 +53,14 @@ def test_every_benchmark_script_has_a_quick_test():
 
 
 @pytest.mark.parametrize("script", RESULTS)
-def test_quick_run_writes_its_result_and_nothing_committed(script, tmp_path):
+def test_quick_run_writes_its_result_and_nothing_committed(script, tmp_path, request):
     name, key = RESULTS[script]
     before = _committed()
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
-    if script in NEEDS_REFERENCE and not (SHARED / "reference" / "menagerie").is_dir():
-        pytest.skip("the reference hands are not in ../shared")
+    if script in NEEDS_REFERENCE:
+        request.getfixturevalue("menagerie")
     if script in NEEDS_VGN:
-        if not (SHARED / "objects" / "vgn").is_dir():
-            pytest.skip("VGN's object sets are not in ../shared")
-        env["SYMGRASP_DATA"] = str(SHARED)
+        env["SYMGRASP_DATA"] = str(request.getfixturevalue("vgn_data"))
     done = subprocess.run(
         [sys.executable, f"benchmarks/{script}.py", "--quick", str(tmp_path)],
         cwd=ROOT, env=env, capture_output=True, text=True,

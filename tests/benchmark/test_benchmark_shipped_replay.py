@@ -16,15 +16,11 @@ from symgrasp.objects.sets import resolve
 
 ROOT = Path(__file__).resolve().parents[2]
 ARCHIVE = ROOT / "benchmarks" / "results" / "declutter_rounds.tar.gz"
-SHARED = ROOT.parent / "shared"
 
 
-@pytest.mark.skipif(
-    not (SHARED / "objects" / "vgn").is_dir(), reason="VGN's object sets are not in ../shared"
-)
 @pytest.mark.parametrize("name", PRETRAINED)
-def test_a_shipped_model_replays_the_first_round_of_its_table_cell(name, monkeypatch):
-    monkeypatch.setenv(DATA_ENV, str(SHARED))
+def test_a_shipped_model_replays_the_first_round_of_its_table_cell(name, monkeypatch, vgn_data):
+    monkeypatch.setenv(DATA_ENV, str(vgn_data))
     detector = GraspDetector.from_pretrained(name, device="cpu")
     rep, seed = detector.info["representation"], detector.info["config"]["seed"]
     cell = f"{detector.gripper.name}/{rep}/s{seed}/vgn-pile-test/rounds.jsonl"

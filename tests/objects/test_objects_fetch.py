@@ -8,7 +8,6 @@ import re
 import shutil
 import tarfile
 import threading
-from pathlib import Path
 
 import pytest
 
@@ -21,21 +20,22 @@ from symgrasp.objects.fetch import (
     resume_headers,
     shipped_manifest,
 )
+from symgrasp.objects.folder import VGN_ROOT
 
-SHARED_VGN = Path(__file__).parents[2] / ".." / "shared" / "objects" / "vgn"
 TOP = "Edge-Grasp-Network-4a38e4a"
 OBJECTS = ("BakingVanilla_800_tex", "ChocSticks2_800_tex")
 
 
 @pytest.fixture
-def sets(tmp_path):
+def sets(tmp_path, shared):
     """A small stand-in for the sets: real files when the shared copy is at hand."""
+    vgn = shared / VGN_ROOT
     folder = tmp_path / "sets"
     (folder / "pile" / "test").mkdir(parents=True)
     names = [f"{o}{s}" for o in OBJECTS for s in (".urdf", "_visual.obj", "_collision.obj")]
     for name in ["LICENSE.edge-grasp-network"] + [f"pile/test/{n}" for n in names]:
-        if SHARED_VGN.is_dir():
-            shutil.copyfile(SHARED_VGN / name, folder / name)
+        if vgn.is_dir():
+            shutil.copyfile(vgn / name, folder / name)
         else:
             (folder / name).write_text(f"stand-in for {name}\n")
     return folder
@@ -240,10 +240,9 @@ def test_a_data_folder_that_is_not_writable_is_named(tmp_path):
     assert error.value.filename == str(data)
 
 
-@pytest.mark.skipif(not SHARED_VGN.is_dir(), reason="no copy of the sets at hand")
-def test_the_shipped_manifest_matches_the_sets():
+def test_the_shipped_manifest_matches_the_sets(vgn_data):
     expected = shipped_manifest()
-    assert manifest(SHARED_VGN) == expected
+    assert manifest(vgn_data / VGN_ROOT) == expected
     assert len(expected) == 3 * (303 + 40 + 114 + 16) + 1
 
 

@@ -17,11 +17,6 @@ from symgrasp.sim.objects import ConvexPart, ObjectSpec
 from symgrasp.sim.world import World
 from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 
-SHARED = Path(__file__).resolve().parents[2].parent / "shared"
-VGN = pytest.mark.skipif(
-    not (SHARED / "objects" / "vgn").is_dir(), reason="VGN's object sets are not in ../shared"
-)
-
 
 def _cube_obj(offsets, half=0.02, negative=False):
     """An OBJ text of axis-aligned cubes (one ``o`` group each) at ``offsets``."""
@@ -137,11 +132,10 @@ def test_sets_joined_by_commas_are_the_union_of_their_files(tmp_path):
 
 
 @pytest.fixture
-def vgn(monkeypatch):
-    monkeypatch.setenv(DATA_ENV, str(SHARED))
+def vgn(monkeypatch, vgn_data):
+    monkeypatch.setenv(DATA_ENV, str(vgn_data))
 
 
-@VGN
 @pytest.mark.parametrize(
     ("name", "count"), list(zip(MESH_OBJECT_SETS, (303, 40, 114, 16), strict=True))
 )
@@ -149,7 +143,6 @@ def test_vgn_sets_resolve_from_the_data_folder(vgn, name, count):
     assert len(resolve(name).files) == count
 
 
-@VGN
 @pytest.mark.parametrize("scene", ["pile", "packed"])
 def test_vgn_scenes_are_drawn_scaled_settled_and_repeatable(vgn, scene):
     source = resolve("vgn-packed-test" if scene == "packed" else "vgn-pile-test")

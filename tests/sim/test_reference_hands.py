@@ -1,6 +1,6 @@
 """The code-built hands against MuJoCo Menagerie's reference models (benchmarks/hands.py): every
-row of the comparison that has a tolerance holds it. Runs where the reference models are in
-../shared (CI has them); the package itself never loads them."""
+row of the comparison that has a tolerance holds it. Runs where the tests' shared data holds the
+reference models (conftest's `menagerie`; CI has them); the package itself never loads them."""
 
 import sys
 from pathlib import Path
@@ -8,19 +8,16 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-REFERENCE = ROOT.parent / "shared" / "reference" / "menagerie"
 sys.path.insert(0, str(ROOT / "benchmarks"))
 hands = pytest.importorskip("hands")
 
-pytestmark = pytest.mark.skipif(not REFERENCE.is_dir(), reason="no reference models in ../shared")
-
 
 @pytest.fixture(scope="module", params=list(hands.HANDS))
-def measured(request):
+def measured(request, menagerie):
     name = request.param
     spec = hands.HANDS[name]
     ours = hands.measure(lambda bodies: hands.ours(spec, bodies), quick=False)
-    reference = hands.measure(lambda bodies: hands.reference(name, REFERENCE, bodies), quick=False)
+    reference = hands.measure(lambda bodies: hands.reference(name, menagerie, bodies), quick=False)
     return name, ours, reference
 
 
@@ -35,11 +32,11 @@ def test_within_tolerance_of_the_reference(measured, row):
     )
 
 
-def test_the_probes_see_what_they_probe():
+def test_the_probes_see_what_they_probe(menagerie):
     """Oracles for the probes themselves: the reference 2F-85 opens 85 mm (its datasheet), its
     pads stay parallel in a pinch and wrap in a power grasp; a rigid jaw's pads do not move
     along the approach axis."""
-    build = lambda bodies: hands.reference("robotiq-2f85", REFERENCE, bodies)  # noqa: E731
+    build = lambda bodies: hands.reference("robotiq-2f85", menagerie, bodies)  # noqa: E731
     geometry = hands.geometry(build)
     assert geometry["opening_mm"] == pytest.approx(85, abs=1)
     pinch = hands.pull_out(build, geometry["tip_x_mm"] / 1e3 - 0.005)
