@@ -320,6 +320,11 @@ class TrainConfig:
     """Seed of the initial weights, the batches and the augmentation."""
     device: str = "auto"
     """"auto" (CUDA if available, else CPU), "cpu", "cuda" or "cuda:N"."""
+    autocast: bool = True
+    """Run the network's forward passes under bfloat16 autocast on CUDA (the losses stay in
+    float32); off, CUDA trains in float32 like the CPU (TF32 convolutions off too), e.g. to add
+    runs to a comparison trained on the CPU without putting the precision in it. No effect on
+    the CPU."""
     workers: int = 0
     """Data loading processes (0: in the training process)."""
     augment: bool = True

@@ -297,11 +297,13 @@ def test_resume_refuses_another_recipe_and_accepts_an_old_checkpoint(tmp_path):
         train(_config(tmp_path, epochs=2, ema=0.9, validity_loss="focal", resume=True), _data())
     with pytest.raises(ValueError, match=r"lr 0\.001; asked for lr 0\.0001"):
         train(_config(tmp_path, epochs=2, lr=1e-4, resume=True), _data())
+    with pytest.raises(ValueError, match="autocast True; asked for autocast False"):
+        train(_config(tmp_path, epochs=2, autocast=False, resume=True), _data())
     # a checkpoint from before these options resumes with their defaults
     path = tmp_path / "run" / "last.pt"
     state = torch.load(path, weights_only=True)
     new = ("schedule", "warmup", "min_lr", "ema", "weight_decay", "validity_loss", "focal_gamma",
-           "focal_alpha", "train_scenes", "keep_every")  # fmt: skip
+           "focal_alpha", "train_scenes", "keep_every", "autocast")  # fmt: skip
     state["config"] = {k: v for k, v in state["config"].items() if k not in new}
     torch.save(state, path)
     assert len(train(_config(tmp_path, epochs=2, resume=True), _data())) == 2

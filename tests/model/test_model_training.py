@@ -112,6 +112,16 @@ def test_resume_gives_the_same_weights_as_an_uninterrupted_run(tmp_path):
         train(_config(tmp_path, "straight"), _data())
 
 
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here")
+def test_cuda_without_autocast_trains_the_cpu_run_up_to_float_rounding(tmp_path):
+    """The CPU run, float32, is the oracle: CUDA with --no-autocast (float32, no TF32) follows
+    its losses closely; bfloat16 autocast is what the option turns off."""
+    cpu = train(_config(tmp_path, "cpu", epochs=1), _data())
+    float32 = train(_config(tmp_path, "fp32", epochs=1, device="cuda", autocast=False), _data())
+    for key in ("train_total", "val_total"):
+        assert float32[0][key] == pytest.approx(cpu[0][key], rel=1e-4), key
+
+
 RECIPE = dict(
     schedule="cosine", warmup=0.3, min_lr=1e-5, ema=0.8, weight_decay=0.01,
     validity_loss="focal", focal_alpha=0.25,

@@ -249,7 +249,8 @@ def validation_metrics(
     device = resolve_device(device)
     loader = DataLoader(val_set, batch_size=batch_size, collate_fn=collate)
     weights = LossWeights(**state["config"].get("loss_weights", {}))
-    losses, metrics = evaluate(model.to(device), loader, weights, device)
+    autocast = state["config"].get("autocast", True)  # runs before the option had it on
+    losses, metrics = evaluate(model.to(device), loader, weights, device, autocast=autocast)
     return {**{f"val_{k}": v for k, v in losses.items()}, **metrics}
 
 

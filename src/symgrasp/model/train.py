@@ -21,8 +21,8 @@ Same seed, same result: the weights are initialised from ``config.seed``, epoch 
 a generator seeded from (seed, e) and selects the dataset's augmentation draws of epoch e
 (``set_epoch``), so a run resumed from ``last.pt`` (``resume=True``) continues exactly as if it
 had not stopped. CUDA is used when available (``device="auto"``),
-with bfloat16 autocast for the network only; the losses run in float32 (float64 inside the
-Bingham normaliser).
+with bfloat16 autocast for the network only (``autocast``; off, float32 as on the CPU); the
+losses run in float32 (float64 inside the Bingham normaliser).
 
 The same loop runs data-parallel when started by torchrun or ``symgrasp train --nproc N``
 (`symgrasp.model.distributed`): ``batch_size`` is the global batch, each rank trains on its
@@ -150,6 +150,8 @@ def train(
     if device.type == "cuda":
         torch.backends.cudnn.benchmark = False
         torch.use_deterministic_algorithms(True, warn_only=True)
+        # without autocast float32 is meant as on the CPU: no TF32 (10-bit mantissa) convolutions
+        torch.backends.cudnn.allow_tf32 = config.autocast
     net = GraspNet(config.network).to(device)
     if config.weight_decay:
         optimizer = torch.optim.AdamW(net.parameters(), config.lr, weight_decay=config.weight_decay)
@@ -202,7 +204,7 @@ def train(
         if rank > 0:  # validation, checkpoints and metrics are rank 0's
             continue
         val_losses, metrics = evaluate(
-            validated, val_loader, config.loss_weights, device, config.validity
+            validated, val_loader, config.loss_weights, device, config.validity, config.autocast
         )
         _check_finite(torch.tensor(val_losses["total"]), "validation loss", config)
         row = {
@@ -295,6 +297,7 @@ def _check_resume(state: dict[str, Any], train_set: Any, config: TrainConfig) ->
 
 
 _RECIPE = (
+    "autocast",
     "lr",
     "schedule",
     "warmup",
@@ -317,10 +320,10 @@ def _flat(config: TrainConfig) -> bool:
     return config.schedule == "constant" and config.warmup == 0
 
 
-def _autocast(device: torch.device) -> torch.autocast:
-    """bfloat16 autocast on CUDA; a no-op elsewhere."""
+def _autocast(device: torch.device, enabled: bool) -> torch.autocast:
+    """bfloat16 autocast on CUDA when ``enabled``; a no-op elsewhere."""
     return torch.autocast(
-        device_type=device.type, dtype=torch.bfloat16, enabled=device.type == "cuda"
+        device_type=device.type, dtype=torch.bfloat16, enabled=enabled and device.type == "cuda"
     )
 
 
@@ -395,7 +398,7 @@ def accumulate_gradient(
         # data-parallel: the ranks average their gradients once, after the last chunk
         synced = world == 1 or i == len(chunks) - 1
         with contextlib.nullcontext() if synced else model.no_sync():
-            with _autocast(device):
+            with _autocast(device, config.autocast):
                 output = model(chunk["tsdf"])
             losses = grasp_losses(
                 output, chunk, net.representation, config.loss_weights, config.validity
@@ -414,16 +417,18 @@ def evaluate(
     weights: LossWeights | None = None,
     device: torch.device | str = "cpu",
     validity_loss: ValidityLoss | None = None,
+    autocast: bool = True,
 ) -> tuple[dict[str, float], dict[str, float]]:
     """Mean losses (per batch; the validity loss ``validity_loss``, default BCE) and
-    `MetricAccumulator` metrics of ``model`` on ``loader``."""
+    `MetricAccumulator` metrics of ``model`` on ``loader``, under bfloat16 autocast on CUDA when
+    ``autocast`` (as `TrainConfig.autocast` trained it)."""
     device, weights = torch.device(device), weights or LossWeights()
     model.eval()
     accumulator = MetricAccumulator(model.representation)
     sums: dict[str, float] = {}
     for batch in tqdm(loader, desc="validate", unit="batch", leave=False, dynamic_ncols=True):
         batch = _to(batch, device)
-        with _autocast(device):
+        with _autocast(device, autocast):
             output = model(batch["tsdf"])
         losses = grasp_losses(output, batch, model.representation, weights, validity_loss)
         for key, value in losses.items():
