@@ -957,8 +957,10 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
         "run trained on)",
     )  # fmt: skip
     parser.add_argument(
-        "--batch-size", type=_integer(1, 4096), default=4,
-        help="scenes per batch of --revalidate (default: 4)",
+        "--batch-size", type=_integer(1, 4096), default=None,
+        help="scenes per batch of --revalidate (default: the run's; on the dataset the run "
+        "trained on, --revalidate also validates on its --val-scenes with its validity loss, "
+        "so that metrics.csv's values come back)",
     )  # fmt: skip
     parser.add_argument(
         "--device",

@@ -146,17 +146,19 @@ class DeclutterValidation:
 class Revalidation:
     """Recompute checkpoints' validation metrics (`validation_metrics`' arguments) instead of
     reading the run's metrics.csv: on the validation split of ``data`` (default: the dataset
-    each run trained on), or on ``datasets`` = (val split, collate function)."""
+    each run trained on, as it validated), or on ``datasets`` = (val split, collate function);
+    ``batch_size`` scenes per batch (default: the run's)."""
 
     data: str | None = None
     datasets: tuple[Any, Any] | None = None
-    batch_size: int = 4
+    batch_size: int | None = None
     device: str = "cpu"
 
     @property
     def key(self) -> str:
-        """Which validation data the cached metrics were computed on."""
-        return self.data or ("given datasets" if self.datasets is not None else "trained on")
+        """Which validation data and batch size the cached metrics were computed with."""
+        data = self.data or ("given datasets" if self.datasets is not None else "trained on")
+        return f"{data}, batch {self.batch_size or 'as trained'}"
 
 
 def declutter_validation(
@@ -214,21 +216,24 @@ def validation_metrics(
     data: str | None = None,
     *,
     datasets: tuple[Any, Any] | None = None,
-    batch_size: int = 4,
+    batch_size: int | None = None,
     device: str = "cpu",
 ) -> dict[str, float]:
     """Validation losses (``val_*``) and `MetricAccumulator` metrics of ``checkpoint`` on the
-    validation split of ``data`` (default: the dataset it was trained on), computed anew: for
-    a run trained before a metric existed (the top-k ones). ``datasets`` = (val split, collate
-    function) replaces the dataset folder (tests pass the synthetic one)."""
+    validation split of ``data``, computed anew: for a run trained before a metric existed (the
+    top-k ones). By default on the dataset it was trained on and as its training validated (its
+    ``val_scenes``, batch size and validity loss), so that metrics.csv's values come back.
+    ``datasets`` = (val split, collate function) replaces the dataset folder (tests pass the
+    synthetic one)."""
     from torch.utils.data import DataLoader
 
-    from symgrasp.config import LossWeights
+    from symgrasp.config import LossWeights, ValidityLoss
     from symgrasp.device import resolve_device
     from symgrasp.model.checkpoint import load_model
-    from symgrasp.model.train import evaluate
+    from symgrasp.model.train import FirstScenes, evaluate, recorded_config
 
     model, state = load_model(checkpoint)
+    recorded = recorded_config(state)
     if datasets is None:
         from symgrasp.data.dataset import GraspDataset, collate_scenes
         from symgrasp.sim.grippers import get_gripper, same_name_note
@@ -246,11 +251,19 @@ def validation_metrics(
     val_set, collate = datasets
     if not len(val_set):
         raise ValueError(f"data: {data or state['config']['data']} has no validation scene")
+    if data is None and recorded.get("val_scenes"):
+        val_set = FirstScenes(val_set, recorded["val_scenes"], "the run's val_scenes")
     device = resolve_device(device)
-    loader = DataLoader(val_set, batch_size=batch_size, collate_fn=collate)
-    weights = LossWeights(**state["config"].get("loss_weights", {}))
-    autocast = state["config"].get("autocast", True)  # runs before the option had it on
-    losses, metrics = evaluate(model.to(device), loader, weights, device, autocast=autocast)
+    loader = DataLoader(
+        val_set, batch_size=batch_size or recorded["batch_size"], collate_fn=collate
+    )
+    weights = LossWeights(**recorded.get("loss_weights", {}))
+    validity = ValidityLoss(
+        recorded["validity_loss"], recorded["focal_gamma"], recorded["focal_alpha"]
+    )
+    losses, metrics = evaluate(
+        model.to(device), loader, weights, device, validity, recorded["autocast"]
+    )
     return {**{f"val_{k}": v for k, v in losses.items()}, **metrics}
 
 

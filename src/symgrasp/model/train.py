@@ -280,8 +280,7 @@ def _check_resume(state: dict[str, Any], train_set: Any, config: TrainConfig) ->
             f"cannot resume: network {asdict(config.network)} differs from the checkpoint's "
             f"{state['network']}"
         )
-    # a checkpoint from before a field existed was trained with its default
-    recorded = {**_RECIPE_DEFAULTS, **state["config"]}
+    recorded = recorded_config(state)
     fixed = _RECIPE if _flat(config) else (*_RECIPE, "epochs", "batch_size")
     changed = [name for name in fixed if recorded[name] != getattr(config, name)]
     if changed:
@@ -313,6 +312,12 @@ _RECIPE = (
 that no straight run reproduces."""
 
 _RECIPE_DEFAULTS = {f.name: f.default for f in dataclasses.fields(TrainConfig) if f.name in _RECIPE}
+
+
+def recorded_config(state: dict[str, Any]) -> dict[str, Any]:
+    """The `TrainConfig` of a checkpoint's run as a dict, with the recipe fields it predates at
+    their defaults (what it was trained with)."""
+    return {**_RECIPE_DEFAULTS, **state["config"]}
 
 
 def _flat(config: TrainConfig) -> bool:
