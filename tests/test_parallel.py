@@ -81,6 +81,8 @@ def test_a_failing_scene_is_recorded_the_others_written_and_resume_makes_it(tmp_
     main(["data", "generate", *TINY, "--out", str(out), "--resume"])
     resumed = json.loads((out / "manifest.json").read_text())
     whole = json.loads((tmp_path / "whole" / "manifest.json").read_text())
+    assert [run["scenes"] for run in resumed.pop("generated_with")] == [3, 1]
+    assert [run["scenes"] for run in whole.pop("generated_with")] == [4]
     assert "failed" not in resumed and resumed == whole
 
 

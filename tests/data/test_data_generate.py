@@ -12,6 +12,7 @@ from symgrasp.cli import main
 from symgrasp.config import SceneConfig
 from symgrasp.data.dataset import GraspDataset, collate_scenes
 from symgrasp.data.generate import generate
+from symgrasp.parallel.base import versions
 from symgrasp.sim import FRANKA
 from symgrasp.workspace import VOXEL_SIZE
 
@@ -82,9 +83,12 @@ def test_same_seed_same_dataset_with_two_workers_and_after_resume(dataset, tmp_p
     with pytest.raises(SystemExit, match="resume"):
         _generate(other)
     _generate(other, "--resume")
-    assert (
-        json.loads((other / "manifest.json").read_text())["dataset_hash"] == first["dataset_hash"]
-    )
+    resumed = json.loads((other / "manifest.json").read_text())
+    assert resumed["dataset_hash"] == first["dataset_hash"]
+    # every run that wrote scenes, with the versions its bytes depend on
+    assert first["generated_with"] == [{"scenes": 4, "versions": versions()}]
+    assert [run["scenes"] for run in resumed["generated_with"]] == [4, 2]
+    assert {"python", "zlib", "numpy", "mujoco", "trimesh"} <= set(versions())
     assert not list((other / "scenes").glob(".*tmp"))
 
 

@@ -36,6 +36,7 @@ from symgrasp.data.grasp_db import GraspDatabase, build_database, database_path,
 from symgrasp.data.scenes import make_scene_record
 from symgrasp.objects.sets import resolve
 from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor
+from symgrasp.parallel.base import versions
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
@@ -50,8 +51,15 @@ def config_from_dict(d: dict[str, Any]) -> SceneConfig:
     return SceneConfig(**d, database=DatabaseConfig(**db))
 
 
-def _manifest(cfg: SceneConfig, seed: int, scene_ids: list[int], root: Path) -> dict[str, Any]:
-    """The manifest of ``root`` holding ``scene_ids`` (an empty list while generating)."""
+def _manifest(
+    cfg: SceneConfig,
+    seed: int,
+    scene_ids: list[int],
+    root: Path,
+    generated_with: list[dict[str, Any]],
+) -> dict[str, Any]:
+    """The manifest of ``root`` holding ``scene_ids`` (an empty list while generating), made
+    by the runs ``generated_with`` lists."""
     return {
         "gripper": cfg.hand.to_dict(),
         "object_set": cfg.object_set,
@@ -64,6 +72,7 @@ def _manifest(cfg: SceneConfig, seed: int, scene_ids: list[int], root: Path) -> 
         "dataset_hash": dataset_hash(root, scene_ids),
         "symgrasp_version": version("symgrasp"),
         "config": dataclasses.asdict(cfg),
+        "generated_with": generated_with,
     }
 
 
@@ -176,8 +185,10 @@ def generate(
             f"out {root} holds files that are not a symgrasp dataset ({', '.join(foreign[:3])}"
             f"{', …' if len(foreign) > 3 else ''}); choose an empty or new folder"
         )
+    generated_with = []  # the runs that wrote scenes: their versions and how many scenes
     if manifest_path.exists():
         old = json.loads(manifest_path.read_text())
+        generated_with = old.get("generated_with", [])
         if not resume:
             raise ValueError(f"out {root} already holds a dataset; pass resume=True (--resume)")
         defaults = dataclasses.asdict(SceneConfig())  # fields added later: their defaults
@@ -189,7 +200,7 @@ def generate(
     with open_executor(parallel) as executor:  # a cluster is joined before anything is written
         root.mkdir(parents=True, exist_ok=True)
         if not manifest_path.exists():  # records the configuration that --resume must match
-            started = _manifest(cfg, seed, [], root)
+            started = _manifest(cfg, seed, [], root, generated_with)
             write_atomic(manifest_path, lambda f: json.dump(started, f, indent=1), mode="w")
         databases, failed = _databases(cfg, root / "db", executor)
         if failed:
@@ -209,14 +220,18 @@ def generate(
                     print(f"regenerating {path}: {err}")
             todo.append(i)
         job = Job(_scene_task, _setup, (cfg, seed, databases))
+        written = 0
         for i, result in executor.map(job, todo, "scenes"):
             if isinstance(result, Failure):
                 failed.append(_failure("scene", i, seed, result))
             else:
                 _write_bytes(scene_path(root, i), result)
+                written += 1
+    if written:
+        generated_with = [*generated_with, {"scenes": written, "versions": versions()}]
 
     done = [i for i in range(scenes) if scene_path(root, i).exists()]
-    manifest = _manifest(cfg, seed, done, root)
+    manifest = _manifest(cfg, seed, done, root, generated_with)
     if failed:
         manifest["failed"] = failed
     write_atomic(manifest_path, lambda f: json.dump(manifest, f, indent=1), mode="w")

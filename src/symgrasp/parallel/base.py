@@ -3,11 +3,27 @@ streaming loop every backend shares (`Executor.map`, `bounded`)."""
 
 from __future__ import annotations
 
+import platform
 import traceback
+import zlib
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Hashable, Iterable, Iterator
 from dataclasses import dataclass
+from importlib.metadata import version
 from typing import Any
+
+PACKAGES = ("symgrasp", "numpy", "scipy", "torch", "mujoco", "trimesh")
+"""The packages that compute a task's result (a scene, a database, a declutter round)."""
+
+
+def versions() -> dict[str, str]:
+    """The versions that decide a task's bytes: Python, zlib (it compresses the scene files)
+    and `PACKAGES`."""
+    return {
+        "python": platform.python_version(),
+        "zlib": zlib.ZLIB_RUNTIME_VERSION,
+        **{name: version(name) for name in PACKAGES},
+    }
 
 
 @dataclass(frozen=True)

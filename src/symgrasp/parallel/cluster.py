@@ -12,14 +12,13 @@ from __future__ import annotations
 
 import logging
 import os
-import platform
 import socket
 import uuid
 from collections.abc import Iterator
 from importlib.metadata import version
 from typing import Any
 
-from symgrasp.parallel.base import Executor, Failure, Job, attempt, bounded
+from symgrasp.parallel.base import Executor, Failure, Job, attempt, bounded, versions
 
 MAX_RETRIES = 3
 """Runs of a task after the first whose worker process died."""
@@ -56,10 +55,9 @@ def _run(job_id: str, task: Any, setup: Any, setup_args: list[Any], arg: Any) ->
     return attempt(task, arg)
 
 
-def versions() -> dict[str, str]:
-    """The versions that decide a task's bytes: Python and the packages computing them."""
-    packages = ("symgrasp", "ray", "numpy", "scipy", "torch", "mujoco")
-    return {"python": platform.python_version(), **{name: version(name) for name in packages}}
+def node_versions() -> dict[str, str]:
+    """`versions` and Ray's: what a node must share with the driver."""
+    return {**versions(), "ray": version("ray")}
 
 
 def _check_reachable(address: str) -> None:
@@ -124,11 +122,11 @@ class RayCluster(Executor):
         self._task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES)(_run)
 
     def _check_versions(self, where: str) -> None:
-        """Raise ValueError if a node's workers run other `versions` than this process."""
+        """Raise ValueError if a node's workers run other `node_versions` than this process."""
         from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
         ray = self._ray
-        probe = ray.remote(num_cpus=0)(versions)
+        probe = ray.remote(num_cpus=0)(node_versions)
         nodes = [n for n in ray.nodes() if n["Alive"]]
         found = ray.get(
             [
@@ -138,7 +136,7 @@ class RayCluster(Executor):
                 for n in nodes
             ]
         )
-        ours = versions()
+        ours = node_versions()
         for node, theirs in zip(nodes, found, strict=True):
             differ = [f"{k} {theirs.get(k)} there, {v} here" for k, v in ours.items()
                       if theirs.get(k) != v]  # fmt: skip
