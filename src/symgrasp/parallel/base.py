@@ -1,5 +1,6 @@
-"""What an executor maps (`Job`), what it yields for a task that raised (`Failure`), and the
-streaming loop every backend shares (`Executor.map`, `bounded`)."""
+"""What an executor maps (`Job`), what it yields for a task that raised (`Failure`), the
+streaming loop every backend shares (`Executor.map`, `bounded`), and the versions a task's
+bytes depend on (`versions`: recorded in a dataset, checked on a cluster's nodes)."""
 
 from __future__ import annotations
 
