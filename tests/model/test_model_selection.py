@@ -112,16 +112,24 @@ def test_revalidation_recomputes_the_metrics_csv_values(run):
     assert not (run / "best_val_loss.pt").exists()  # copy=False: best.pt untouched
 
 
-def test_revalidation_validates_as_the_run_did(tmp_path):
+def test_revalidation_validates_as_the_run_did(tmp_path, monkeypatch):
     """A focal-loss run that validated on 3 of its 4 validation scenes in batches of 2 (so
     batches of 2 and 1 scenes): revalidated on its dataset, its metrics.csv row comes back."""
+    from symgrasp.data import dataset
+
     val = _Stored(SyntheticGraspDataset(4, seed=9))
     config = TrainConfig(
         data="synthetic", out=str(tmp_path / "run"), epochs=1, batch_size=2, widths=SMALL,
         features=4, val_scenes=3, validity_loss="focal", focal_alpha=0.25, device="cpu",
     )  # fmt: skip
     train(config, (_Stored(SyntheticGraspDataset(2)), val, collate_scenes))
-    fresh = sel.validation_metrics(tmp_path / "run" / "last.pt", datasets=(val, collate_scenes))
+
+    def the_runs_dataset(folder, split, augment):
+        assert (folder, split, augment) == ("synthetic", "val", False)
+        return val
+
+    monkeypatch.setattr(dataset, "GraspDataset", the_runs_dataset)  # the folder it trained on
+    fresh = sel.validation_metrics(tmp_path / "run" / "last.pt")
     (row,) = _metrics(tmp_path / "run").values()
     for key in ("val_total", "val_validity", "val_score", "validity_ap", "top5_valid_near"):
         assert fresh[key] == pytest.approx(float(row[key]), rel=1e-5, abs=1e-7), key

@@ -223,8 +223,8 @@ def validation_metrics(
     validation split of ``data``, computed anew: for a run trained before a metric existed (the
     top-k ones). By default on the dataset it was trained on and as its training validated (its
     ``val_scenes``, batch size and validity loss), so that metrics.csv's values come back.
-    ``datasets`` = (val split, collate function) replaces the dataset folder (tests pass the
-    synthetic one)."""
+    ``datasets`` = (val split, collate function) replaces the dataset folder: that split, whole
+    (tests and quick benchmarks pass synthetic scenes)."""
     from torch.utils.data import DataLoader
 
     from symgrasp.config import LossWeights, ValidityLoss
@@ -247,12 +247,12 @@ def validation_metrics(
                 f"{checkpoint} was trained for {trained_for.name!r}"
                 f"{same_name_note(val_set.gripper, trained_for)}"
             )
+        if data is None and recorded.get("val_scenes"):
+            val_set = FirstScenes(val_set, recorded["val_scenes"], "the run's val_scenes")
         datasets = (val_set, collate_scenes)
     val_set, collate = datasets
     if not len(val_set):
         raise ValueError(f"data: {data or state['config']['data']} has no validation scene")
-    if data is None and recorded.get("val_scenes"):
-        val_set = FirstScenes(val_set, recorded["val_scenes"], "the run's val_scenes")
     device = resolve_device(device)
     loader = DataLoader(
         val_set, batch_size=batch_size or recorded["batch_size"], collate_fn=collate
