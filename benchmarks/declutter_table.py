@@ -260,12 +260,14 @@ def _change(triple: list[float]) -> str:
     return f"{point:+.1f} [{low:+.1f}, {high:+.1f}]"
 
 
-def _leads_table(leads: list[dict], objects: str) -> list[str]:
-    """Markdown rows of ``leads``: `bingham2d` minus each other row, by ``objects``."""
+def _leads_table(leads: list[dict], with_scene: bool = False) -> list[str]:
+    """Markdown rows of ``leads``: `bingham2d` minus each other row, by object set (and scene
+    kind where ``with_scene``)."""
+    objects = "objects (scene)" if with_scene else "objects"
     rows = [f"| {objects} | `bingham2d` − | SR change | CR change | SR ahead in |",
             "|---|---|---|---|---|"]  # fmt: skip
     for m in leads:
-        name = m["objects"] if objects == "objects" else f"{m['objects']} ({m['scene']})"
+        name = f"{m['objects']} ({m['scene']})" if with_scene else m["objects"]
         rows.append(f"| {name} | {label(*m['b'])} | {_change(m['change']['success_ratio'])} | "
                     f"{_change(m['change']['clear_ratio'])} | {m['ahead']} of {m['pairings']} |")  # fmt: skip
     return rows
@@ -298,7 +300,7 @@ def markdown(rows: list[dict], leads: list[dict], field: list[dict], field_leads
         text += ["", f"`bingham2d` minus each other row on the same rounds ({gripper}): change "
                  "of the means over seeds [95 %, seeds and rounds]; seed pairings in which "
                  "`bingham2d`'s SR is ahead:", ""]  # fmt: skip
-        text += _leads_table([m for m in leads if m["gripper"] == gripper], "objects")
+        text += _leads_table([m for m in leads if m["gripper"] == gripper])
         text += ["", f"Attempts by failure mode, pooled over seeds ({gripper}; "
                  "`symgrasp.benchmark.failures`):", "",
                  "| representation | objects | " + " | ".join(MODES) + " | wrong yaw / executed |",
@@ -333,7 +335,7 @@ def markdown(rows: list[dict], leads: list[dict], field: list[dict], field_leads
         text += ["", "`bingham2d` minus each other representation on the same rounds, on the "
                  f"field's sets Table 1 does not hold ({args.field_gripper}; the pile's are "
                  "Table 1's above):", ""]  # fmt: skip
-        text += _leads_table(field_leads, "objects (scene)")
+        text += _leads_table(field_leads, with_scene=True)
     return "\n".join(text) + "\n" + _waiting(waiting)
 
 
