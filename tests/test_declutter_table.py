@@ -1,7 +1,7 @@
 """benchmarks/declutter_table.py's statistics from cells whose rounds are known by
 construction: each seed's ratios, the failure modes pooled over seeds, bingham2d's lead
-counted over every pairing of training seeds on the same rounds, and stored rounds that
-collate again without the training runs."""
+counted over every pairing of training seeds on the same rounds, stored rounds that collate
+again without the training runs, and the README quoting the stored table."""
 
 import argparse
 import dataclasses
@@ -100,3 +100,25 @@ def test_stored_rounds_collate_again_without_the_runs_and_archive_byte_for_byte(
     assert again == played
     table.write_archive(tmp_path / "b.tar.gz", again, args)
     assert (tmp_path / "a.tar.gz").read_bytes() == (tmp_path / "b.tar.gz").read_bytes()
+
+
+def _quoted(value: float, signed: bool) -> str:
+    """``value`` (a ratio) as the docs print it: percent, one decimal, U+2212 for minus."""
+    return (f"{100 * value:+.1f}" if signed else f"{100 * value:.1f}").replace("-", "−")
+
+
+def test_the_readme_headline_quotes_the_stored_table():
+    """The README's Table 1 sentence is written by hand: it must quote the collated numbers
+    (benchmarks/results/declutter.json), so recollating without rewriting it fails here."""
+    root = Path(__file__).resolve().parents[1]
+    stored = json.loads((root / "benchmarks/results/declutter.json").read_text())
+    readme = " ".join((root / "README.md").read_text().split())
+    cell = next(c for c in stored["cells"] if (c["gripper"], c["rep"], c["threshold"], c["objects"])
+                == ("robotiq-2f85", "bingham2d", True, "vgn-pile-test"))  # fmt: skip
+    mean, low, high = (_quoted(v, False) for v in cell["ratios"]["success_ratio"])
+    assert f"{mean} % [{low}, {high}]" in readme
+    for gripper in ("robotiq-2f85", "franka"):
+        lead = next(m for m in stored["leads"] if m["gripper"] == gripper
+                    and m["b"] == ["rotmat6d", True] and m["objects"] == "vgn-pile-test")  # fmt: skip
+        change, low, high = (_quoted(v, True) for v in lead["change"]["success_ratio"])
+        assert f"{change} [{low}, {high}]" in readme, gripper
