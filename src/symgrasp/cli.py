@@ -1045,7 +1045,7 @@ def _add_bench(subparsers: argparse._SubParsersAction) -> None:
         "--validity",
         type=PROBABILITY,
         default=None,
-        help=f"validity threshold (default: {DEFAULT_VALIDITY}; docs/models.md has a sweep)",
+        help=f"validity threshold (default: {DEFAULT_VALIDITY}; a sweep per model: docs/results.md)",
     )
     _add_shared(
         declutter,
