@@ -204,3 +204,10 @@ def write_result(
     write_atomic(f"{stem}.json", lambda f: f.write(json.dumps(result, indent=1) + "\n"), mode="w")
     if table is not None:
         write_atomic(f"{stem}.md", lambda f: f.write(table), mode="w")
+
+
+def percent_change(triple: list[float]) -> str:
+    """A change of ratios and its interval, ``[change, low, high]``, as signed percent points:
+    ``+6.1 [-3.6, +15.5]``."""
+    point, low, high = (100 * v for v in triple)
+    return f"{point:+.1f} [{low:+.1f}, {high:+.1f}]"

@@ -57,7 +57,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option, parse_args, write_result
+from common import add_result_option, parse_args, percent_change, write_result
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.cells import Cell
@@ -255,11 +255,6 @@ def _mean(r: dict[str, Any], name: str, seeds: list[int]) -> str:
     return f"{mean:.1f} [{low:.1f}, {high:.1f}] ({each})"
 
 
-def _change(triple: list[float]) -> str:
-    point, low, high = (100 * v for v in triple)
-    return f"{point:+.1f} [{low:+.1f}, {high:+.1f}]"
-
-
 def _leads_table(leads: list[dict], with_scene: bool = False) -> list[str]:
     """Markdown rows of ``leads``: `bingham2d` minus each other row, by object set (and scene
     kind where ``with_scene``)."""
@@ -268,8 +263,8 @@ def _leads_table(leads: list[dict], with_scene: bool = False) -> list[str]:
             "|---|---|---|---|---|"]  # fmt: skip
     for m in leads:
         name = f"{m['objects']} ({m['scene']})" if with_scene else m["objects"]
-        rows.append(f"| {name} | {label(*m['b'])} | {_change(m['change']['success_ratio'])} | "
-                    f"{_change(m['change']['clear_ratio'])} | {m['ahead']} of {m['pairings']} |")  # fmt: skip
+        rows.append(f"| {name} | {label(*m['b'])} | {percent_change(m['change']['success_ratio'])} | "
+                    f"{percent_change(m['change']['clear_ratio'])} | {m['ahead']} of {m['pairings']} |")  # fmt: skip
     return rows
 
 

@@ -27,7 +27,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option, parse_args, write_result
+from common import add_result_option, parse_args, percent_change, write_result
 
 from symgrasp.benchmark.compare import paired_change, paired_rounds
 from symgrasp.model import selection as sel
@@ -80,8 +80,7 @@ def markdown(cells: list[dict[str, Any]]) -> str:
     for c in cells:
         low, high = (100 * v for v in c["test_sr_ci95"])
         change = " / ".join(
-            "{:+.1f} [{:+.1f}, {:+.1f}]".format(*(100 * v for v in c["vs_largest"][key]))
-            for key in ("success_ratio", "clear_ratio")
+            percent_change(c["vs_largest"][key]) for key in ("success_ratio", "clear_ratio")
         )
         text.append(
             f"| {c['train_scenes'] or 'all'} | {c['run']} | {c['checkpoint']} "

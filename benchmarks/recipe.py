@@ -30,7 +30,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option, parse_args, write_result
+from common import add_result_option, parse_args, percent_change, write_result
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.compare import paired_change, paired_rounds
@@ -193,10 +193,7 @@ def markdown(cells: list[dict[str, Any]], verdicts: dict[str, Any], baseline: st
         return f"{100 * value:.1f} [{100 * interval[0]:.1f}, {100 * interval[1]:.1f}]"
 
     def change(triple: list[float] | None) -> str:
-        if triple is None:
-            return "–"
-        point, low, high = (100 * v for v in triple)
-        return f"{point:+.1f} [{low:+.1f}, {high:+.1f}]"
+        return "–" if triple is None else percent_change(triple)
 
     text = [
         f"| factor | run (training seed) | SR % [95 % CI] | CR % [95 % CI] | SR + CR | grasps | "

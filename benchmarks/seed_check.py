@@ -24,7 +24,7 @@ import argparse
 import json
 from pathlib import Path
 
-from common import add_result_option, parse_args, write_result
+from common import add_result_option, parse_args, percent_change, write_result
 
 from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
@@ -87,8 +87,7 @@ def main() -> None:
     for row in lead:
         change = row["bingham2d_minus_rotmat6d"]
         print(f"bingham2d − rotmat6d, seed {row['training_seed']}, {row['objects']}: "
-              + ", ".join(f"{k} {100 * v[0]:+.1f} [{100 * v[1]:+.1f}, {100 * v[2]:+.1f}]"
-                          for k, v in change.items()))  # fmt: skip
+              + ", ".join(f"{k} {percent_change(v)}" for k, v in change.items()))  # fmt: skip
     write_result(
         args.result,
         "training-seed variation of the Robotiq bingham2d and rotmat6d",

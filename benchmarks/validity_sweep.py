@@ -30,7 +30,7 @@ import argparse
 import math
 from pathlib import Path
 
-from common import add_result_option, parse_args, write_result
+from common import add_result_option, parse_args, percent_change, write_result
 from recipe import JUDGE_SEED
 
 from symgrasp.benchmark.compare import paired_change
@@ -50,11 +50,6 @@ MODELS = {  # hand: (the paper's detector, the baseline it is compared with)
 THRESHOLDS = tuple(sorted({0.04, 0.06, DEFAULT_VALIDITY, 0.11}))
 CHOOSING = ("vgn-pile-train", JUDGE_SEED)
 TESTING = ("vgn-pile-test", 0)
-
-
-def _change(triple: list[float]) -> str:
-    point, low, high = (100 * v for v in triple)
-    return f"{point:+.1f} [{low:+.1f}, {high:+.1f}]"
 
 
 def _pooled(rounds: list[dict], seed: int) -> dict:
@@ -83,7 +78,7 @@ def markdown(rows: list[dict], points: list[dict]) -> str:
         s = row["summary"]
         default = " (default)" if row["validity"] == DEFAULT_VALIDITY else ""
         own = " (own)" if row["validity"] == row["own"] else ""
-        change = "–" if default else _change(row["change"]["clear_ratio"])
+        change = "–" if default else percent_change(row["change"]["clear_ratio"])
         text.append(
             f"| {row['model']} | {row['objects']} ({row['seed']}–{row['seed'] + s['rounds'] - 1})"
             f" | {row['validity']}{default}{own} | {percent_with_interval(s, 'success_ratio')} "
@@ -96,8 +91,8 @@ def markdown(rows: list[dict], points: list[dict]) -> str:
              "|---|---|---|---|"]  # fmt: skip
     for p in points:
         text.append(f"| {p['gripper']} | {p['thresholds'][0]} / {p['thresholds'][1]} | "
-                    f"{_change(p['change']['success_ratio'])} | "
-                    f"{_change(p['change']['clear_ratio'])} |")  # fmt: skip
+                    f"{percent_change(p['change']['success_ratio'])} | "
+                    f"{percent_change(p['change']['clear_ratio'])} |")  # fmt: skip
     return "\n".join(text) + "\n"
 
 
