@@ -245,6 +245,15 @@ def lead(played: dict[Cell, dict], a: dict[str, Any], b: dict[str, Any]) -> dict
     }  # fmt: skip
 
 
+def leads_of(played: dict[Cell, dict], group: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """`lead` of ``group``'s first row over each other row (rows of one gripper, object set
+    and scene), when the first is `ROWS[0]` (`bingham2d`); leads not yet playable are left out."""
+    first, *others = group
+    if (first["rep"], first["threshold"]) != ROWS[0]:
+        return []
+    return [m for other in others if (m := lead(played, first, other))]
+
+
 def _mean(r: dict[str, Any], name: str, seeds: list[int]) -> str:
     """``mean [low, high] (s0 / s1 / s2)`` in %, or – before any seed is played."""
     if "ratios" not in r:
@@ -466,16 +475,13 @@ def main() -> None:
              for objects, scene in args.field for rep in args.reps]  # fmt: skip
     leads = []
     for g, objects in itertools.product(args.grippers, args.objects):
-        first, *others = [r for r in rows if (r["gripper"], r["objects"]) == (g, objects)]
-        if (first["rep"], first["threshold"]) == ROWS[0]:
-            leads += [m for other in others if (m := lead(played, first, other))]
-    field_leads = []  # on the field's sets that Table 1 does not hold
+        leads += leads_of(played, [r for r in rows if (r["gripper"], r["objects"]) == (g, objects)])
+    held = {(m["gripper"], m["objects"], m["scene"]) for m in leads}
+    field_leads = []  # on the field's sets whose leads Table 1 does not hold
     for objects, scene in args.field:
-        if args.field_gripper in args.grippers and objects in args.objects and scene == "pile":
-            continue
-        first, *others = [r for r in field if (r["objects"], r["scene"]) == (objects, scene)]
-        if first["rep"] == ROWS[0][0]:
-            field_leads += [m for other in others if (m := lead(played, first, other))]
+        if (args.field_gripper, objects, scene) not in held:
+            group = [r for r in field if (r["objects"], r["scene"]) == (objects, scene)]
+            field_leads += leads_of(played, group)
     table = markdown(rows, leads, field, field_leads, args, waiting)
     print(table, end="")
     write_result(
