@@ -35,6 +35,7 @@ from common import add_result_option, parse_args, percent_change, write_result
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.compare import paired_change, paired_rounds
 from symgrasp.cli import add_parallel_options, parallel_from_args
+from symgrasp.config import JUDGE_SEED
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.model import selection as sel
 
@@ -49,9 +50,6 @@ FACTORS = {
 
 QUICK_FACTORS = {"baseline": ("a-s0",), "other": ("b-s0",)}
 QUICK_FLAGS = {"other": "--ema 0.999"}
-
-JUDGE_SEED = 2_000_000
-"""Round 0 of the judging rounds: off the test seeds and off the selection's 1 000 000 on."""
 
 SHIPPED = "bingham2d-robotiq-2f85"
 

@@ -9,7 +9,7 @@ threshold executes fewer, surer grasps (SR up) and ends more rounds with nothing
 down). This script plays the shipped `bingham2d` and `rotmat6d` model of each hand (Table 1's
 question: does the ordering depend on the operating point?) at several thresholds:
 
-- on *training* objects (``vgn-pile-train``, the judging rounds from `recipe.JUDGE_SEED`, off
+- on *training* objects (``vgn-pile-train``, the judging rounds from `JUDGE_SEED`, off
   the test seeds and the checkpoint selection's), where each model's own threshold is chosen by
   SR + CR, the measure the checkpoints were selected by;
 - on the test piles (``vgn-pile-test``, seeds 0–99, Table 1's rounds), as a sensitivity
@@ -31,7 +31,6 @@ import math
 from pathlib import Path
 
 from common import add_result_option, parse_args, percent_change, write_result
-from recipe import JUDGE_SEED
 
 from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import (
@@ -41,7 +40,7 @@ from symgrasp.benchmark.runner import (
     summarise,
 )
 from symgrasp.cli import add_parallel_options, parallel_from_args
-from symgrasp.config import DEFAULT_VALIDITY
+from symgrasp.config import DEFAULT_VALIDITY, JUDGE_SEED
 
 MODELS = {  # hand: (the paper's detector, the baseline it is compared with)
     "robotiq-2f85": ("bingham2d-robotiq-2f85", "rotmat6d-robotiq-2f85"),

@@ -100,6 +100,10 @@ VALIDATION_SEED = 1_000_000
 """Round seed 0 of the declutter validation that selects checkpoints, far from every test
 seed."""
 
+JUDGE_SEED = 2_000_000
+"""Round seed 0 of the judging rounds on training objects (choosing among finished runs, a
+recipe, a model's validity threshold): off the test seeds and off the checkpoint selection's."""
+
 VALIDATION_OBJECTS = "vgn-pile-train"
 """The object set of the declutter validation: training objects."""
 
