@@ -1,16 +1,52 @@
-"""Fixtures shared by the test folders."""
+"""Fixtures shared by the test folders.
+
+The data a user downloads (VGN's object sets, MuJoCo Menagerie's hands) is optional: a test that
+needs it asks for the `vgn_data` or `menagerie` fixture, or calls `missing_data` when a script
+it runs reports the data missing, and is marked ``data`` (automatically for the fixtures). Without
+the data such a test skips, naming what is missing, so a newcomer's ``make test`` passes on a
+fresh clone; with ``SYMGRASP_REQUIRE_DATA=1`` it fails instead, so that a run meant to cover the
+data (``pytest -m data`` in .ci/run) cannot pass by skipping.
+"""
 
 import os
 from pathlib import Path
+from typing import NoReturn
 
 import pytest
 
 from symgrasp.objects.folder import DATA_ENV, VGN_ROOT
 
 SHARED = Path(os.environ.get(DATA_ENV) or Path(__file__).resolve().parents[1].parent / "shared")
-"""The data a user downloads (VGN's object sets, MuJoCo Menagerie's hands), as the tests find
-it: the data folder ``$SYMGRASP_DATA`` names (.ci/run points it at ../shared), else ../shared
-beside the checkout."""
+"""The data a user downloads, as the tests find it: the data folder ``$SYMGRASP_DATA`` names,
+else ../shared beside the checkout."""
+
+REQUIRE_DATA = os.environ.get("SYMGRASP_REQUIRE_DATA") == "1"
+"""Missing data fails a test instead of skipping it."""
+
+DATA_FIXTURES = {"vgn_data", "menagerie"}
+"""The fixtures that hand a test the downloaded data; a test using one is marked ``data``."""
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line(
+        "markers",
+        "data: needs the data a user downloads (skips without it; `pytest -m data` runs these)",
+    )
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        if DATA_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.data)
+
+
+def missing_data(reason: str) -> NoReturn:
+    """Skip the calling test because the downloaded data ``reason`` names is missing (fail
+    under ``SYMGRASP_REQUIRE_DATA=1``). Tests marked ``data`` call it."""
+    if REQUIRE_DATA:
+        pytest.fail(f"SYMGRASP_REQUIRE_DATA=1, but {reason}")
+    pytest.skip(reason)
+
 
 WIDE_JAW = Path(__file__).with_name("wide-jaw.toml")
 """A made-up rigid parallel jaw opening 110 mm: a spec file and nothing else."""
@@ -32,7 +68,7 @@ def shared() -> Path:
 def vgn_data() -> Path:
     """The data folder holding VGN's object sets (``objects/vgn``); skips the test without one."""
     if not (SHARED / VGN_ROOT).is_dir():
-        pytest.skip(f"VGN's object sets are not in {SHARED / VGN_ROOT}")
+        missing_data(f"VGN's object sets are not in {SHARED / VGN_ROOT}")
     return SHARED
 
 
@@ -41,7 +77,7 @@ def menagerie() -> Path:
     """MuJoCo Menagerie's reference hands (``reference/menagerie``); skips the test without them."""
     folder = SHARED / "reference" / "menagerie"
     if not folder.is_dir():
-        pytest.skip(f"the reference hands are not in {folder}")
+        missing_data(f"the reference hands are not in {folder}")
     return folder
 
 

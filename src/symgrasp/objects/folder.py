@@ -20,6 +20,12 @@ VGN_ROOT = Path("objects") / "vgn"
 """VGN's object sets, relative to the data folder."""
 
 
+class MissingData(FileNotFoundError):
+    """Data a user downloads (an object set) is not in the data folder; the message names what,
+    where it was looked for and how to get it. Scripts and tests tell it from other errors:
+    a script stops with its one line, a test skips with it."""
+
+
 def data_folder() -> Path:
     """The data folder: ``$SYMGRASP_DATA``, else the per-user cache folder."""
     if os.environ.get(DATA_ENV):
@@ -31,15 +37,15 @@ def data_folder() -> Path:
 def set_folder(name: str) -> Path:
     """The folder of the named mesh set (``vgn-pile-train`` → ``objects/vgn/pile/train``).
 
-    Raises ValueError for an unknown name, and FileNotFoundError naming the folder searched
-    and how to get the set when it is not in the data folder.
+    Raises ValueError for an unknown name, and `MissingData` naming the folder searched and how
+    to get the set when it is not in the data folder.
     """
     if name not in MESH_OBJECT_SETS:
         raise ValueError(f"object set must be one of {MESH_OBJECT_SETS}, got {name!r}")
     _, scene, split = name.split("-")
     folder = data_folder() / VGN_ROOT / scene / split
     if not folder.is_dir():
-        raise FileNotFoundError(
+        raise MissingData(
             f"object set {name} is not in the data folder: {folder} does not exist; run "
             f"`symgrasp objects fetch vgn`, or point {DATA_ENV} at a folder holding {VGN_ROOT}"
         )

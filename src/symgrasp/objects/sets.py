@@ -146,7 +146,7 @@ def resolve(objects: str | Path, mesh_unit: str = "auto") -> ObjectSource:
     folder), a folder holding URDF files or bare meshes (read in ``mesh_unit``, one of
     `MESH_UNITS`), or several of the last two joined by commas. Raises ValueError listing the
     known names when a part is none of these (or a procedural set is joined to others), and
-    FileNotFoundError when a named mesh set is not in the data folder."""
+    `symgrasp.objects.folder.MissingData` when a named mesh set is not in the data folder."""
     if mesh_unit not in MESH_UNITS:
         raise ValueError(f"mesh_unit must be one of {MESH_UNITS}, got {mesh_unit!r}")
     name = str(objects)
