@@ -26,12 +26,17 @@ class MissingData(FileNotFoundError):
     a script stops with its one line, a test skips with it."""
 
 
-def data_folder() -> Path:
-    """The data folder: ``$SYMGRASP_DATA``, else the per-user cache folder."""
-    if os.environ.get(DATA_ENV):
-        return Path(os.environ[DATA_ENV]).expanduser()
+def user_folder() -> Path:
+    """The per-user folder: ``$XDG_CACHE_HOME/symgrasp``, by default ``~/.cache/symgrasp``."""
     cache = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
     return Path(cache) / "symgrasp"
+
+
+def data_folder() -> Path:
+    """The data folder: ``$SYMGRASP_DATA``, else the per-user folder (`user_folder`)."""
+    if os.environ.get(DATA_ENV):
+        return Path(os.environ[DATA_ENV]).expanduser()
+    return user_folder()
 
 
 def set_folder(name: str) -> Path:
