@@ -1,11 +1,13 @@
 # Two commands set up everything on a fresh machine: `make demo` and `make test`.
 # Both create .venv if it is missing. torch is installed first, as $(TORCH), unless
 # .venv already has one: install your CUDA build into .venv first and it is kept.
+# `make demo` installs the package alone; the targets for developers add the test extras.
 PYTHON ?= python3
 TORCH ?= torch==2.13.0
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+TEST_STAMP := $(VENV)/.installed-test
 
 .PHONY: demo test test-all lint format bench clean
 
@@ -15,24 +17,28 @@ $(PY):
 
 $(STAMP): pyproject.toml | $(PY)
 	$(PY) -c "import torch" 2>/dev/null || $(PY) -m pip install "$(TORCH)"
-	$(PY) -m pip install -e ".[test]"
+	$(PY) -m pip install -e .
 	touch $(STAMP)
+
+$(TEST_STAMP): $(STAMP)
+	$(PY) -m pip install -e ".[test]"
+	touch $(TEST_STAMP)
 
 demo: $(STAMP)
 	$(VENV)/bin/symgrasp demo
 
-test: $(STAMP)
+test: $(TEST_STAMP)
 	$(PY) -m ruff check src tests benchmarks
 	$(PY) -m pytest -m "not slow" -q
 
-test-all: $(STAMP)
+test-all: $(TEST_STAMP)
 	$(PY) -m pytest -q
 
-lint: $(STAMP)
+lint: $(TEST_STAMP)
 	$(PY) -m ruff check src tests benchmarks
 	$(PY) -m ruff format --check src tests benchmarks
 
-format: $(STAMP)
+format: $(TEST_STAMP)
 	$(PY) -m ruff format src tests benchmarks
 	$(PY) -m ruff check --fix src tests benchmarks
 
