@@ -8,6 +8,7 @@ from pathlib import Path
 
 from symgrasp.arguments import integer
 from symgrasp.cli.options import add_mesh_unit, parse_object_set
+from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 
 def add(subparsers: argparse._SubParsersAction) -> None:
@@ -60,6 +61,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "--limit", type=integer(1, 500), default=48, help="objects drawn (default: 48)"
     )
     add_mesh_unit(inspect)
+    add_parallel_options(inspect, "per-object reads and convex decompositions")
     inspect.set_defaults(run=_run_objects_inspect)
 
 
@@ -76,7 +78,7 @@ def _run_objects_inspect(args: argparse.Namespace) -> None:
     source = resolve(args.objects, args.mesh_unit)
     if not source.meshes:
         raise SystemExit(f"error: {args.objects} is built in code, not read from meshes")
-    reports, refused = inspect_objects(source)
+    reports, refused = inspect_objects(source, parallel_from_args(args))
     where = ", ".join(map(str, source.folders))
     print(f"{len(reports)} objects in {where}, {len(refused)} refused")
     print(HEADER)
