@@ -49,19 +49,19 @@ def _add_train(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run_train(args: argparse.Namespace) -> None:
+    from symgrasp.model import distributed
     from symgrasp.model.train import train
 
     config = config_from_args(TrainConfig, args, prefixes=_TRAIN_PREFIXES)
     if args.nproc > 1:
-        from symgrasp.model.distributed import check_global_batch, launch
-
-        check_global_batch(config.batch_size, args.nproc)  # before the processes start
-        launch(train, (config,), args.nproc)
+        distributed.check_global_batch(config.batch_size, args.nproc)  # before processes start
+        distributed.launch(train, (config,), args.nproc)
         print(f"{config.epochs} epochs on {args.nproc} processes; checkpoints and metrics in "
               f"{config.out}")  # fmt: skip
         return
     history = train(config)
-    print(f"{len(history)} epochs; checkpoints and metrics in {config.out}")
+    if distributed.is_main_process():  # torchrun runs this command on every rank
+        print(f"{len(history)} epochs; checkpoints and metrics in {config.out}")
 
 
 # -- select -------------------------------------------------------------------------------
