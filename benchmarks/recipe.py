@@ -34,10 +34,10 @@ from common import add_result_option, parse_args, percent_change, write_result
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.compare import paired_change, paired_rounds
-from symgrasp.cli import add_parallel_options, parallel_from_args
 from symgrasp.config import JUDGE_SEED
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.model import selection as sel
+from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 FACTORS = {
     "baseline": ("lc-7200-s0", "base-s1"),

@@ -28,7 +28,7 @@ from common import add_result_option, parse_args, percent_change, write_result
 
 from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
-from symgrasp.cli import add_parallel_options, parallel_from_args
+from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 REPS = ("bingham2d", "rotmat6d")
 SHIPPED = "bingham2d-robotiq-2f85"

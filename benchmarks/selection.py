@@ -41,9 +41,9 @@ from common import add_result_option, parse_args, write_result
 from scipy.stats import spearmanr
 
 from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
-from symgrasp.cli import add_parallel_options, parallel_from_args
 from symgrasp.config import VALIDATION_OBJECTS, VALIDATION_SEED
 from symgrasp.model import selection as sel
+from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 BOOTSTRAP = 2000
 """Bootstrap resamples of the checkpoints for the correlation's interval."""

@@ -39,8 +39,8 @@ from symgrasp.benchmark.runner import (
     run_or_reuse,
     summarise,
 )
-from symgrasp.cli import add_parallel_options, parallel_from_args
 from symgrasp.config import DEFAULT_VALIDITY, JUDGE_SEED
+from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 MODELS = {  # hand: (the paper's detector, the baseline it is compared with)
     "robotiq-2f85": ("bingham2d-robotiq-2f85", "rotmat6d-robotiq-2f85"),

@@ -2,7 +2,10 @@
 
 import pytest
 
-from symgrasp.cli import _TRAIN_PREFIXES, _confidence_threshold, build_parser, config_from_args
+from symgrasp.cli import build_parser
+from symgrasp.cli.fields import config_from_args
+from symgrasp.cli.model import _TRAIN_PREFIXES
+from symgrasp.cli.options import confidence_threshold
 from symgrasp.config import (
     BenchmarkConfig,
     DatabaseConfig,
@@ -26,7 +29,7 @@ DECLUTTER = ["bench", "declutter", "--model", "m.pt", "--out", "o"]
 )
 def test_confidence_options_map_to_the_detector_threshold(command, extra, expected):
     args = build_parser().parse_args([*command, *extra])
-    assert _confidence_threshold(args) == expected
+    assert confidence_threshold(args) == expected
 
 
 @pytest.mark.parametrize("command", [DETECT, DECLUTTER], ids=["detect", "declutter"])

@@ -107,6 +107,27 @@ def test_a_ranks_bad_input_is_a_value_error(tmp_path):
         launch(train, (config, data), 2)
 
 
+@pytest.mark.parametrize("rank", [None, "0", "1"])
+def test_only_rank_zero_reports_the_run(rank, monkeypatch, capsys):
+    """torchrun runs ``symgrasp train`` on every rank, and a rank above 0 returns no history:
+    the run is reported once, by rank 0 (or the process alone)."""
+    import importlib
+
+    from symgrasp.cli import main
+
+    def trained(config):
+        return [{"epoch": 0.0}] if rank in (None, "0") else []
+
+    monkeypatch.setattr(importlib.import_module("symgrasp.model.train"), "train", trained)
+    if rank is None:
+        monkeypatch.delenv("RANK", raising=False)
+    else:
+        monkeypatch.setenv("RANK", rank)
+    main(["train", "--data", "d", "--out", "run", "--epochs", "1"])
+    reported = "1 epochs; checkpoints and metrics in run\n"
+    assert capsys.readouterr().out == (reported if rank != "1" else "")
+
+
 @pytest.mark.slow
 def test_torchrun_and_nproc_train_a_dataset_folder_alike(tmp_path):
     """``torchrun --nproc-per-node 2 -m symgrasp train`` and ``symgrasp train --nproc 2`` on a
@@ -124,8 +145,10 @@ def test_torchrun_and_nproc_train_a_dataset_folder_alike(tmp_path):
     argv = ["train", "--data", data, "--gripper", "franka", "--epochs", "2", "--batch-size", "2",
             "--widths", "2", "2", "4", "4", "--features", "4", "--device", "cpu"]  # fmt: skip
     torchrun = shutil.which("torchrun", path=str(Path(sys.executable).parent))
-    subprocess.run([torchrun, "--nproc-per-node", "2", "-m", "symgrasp", *argv, "--out",
-                    str(tmp_path / "torchrun")], check=True)  # fmt: skip
+    ranks = subprocess.run([torchrun, "--nproc-per-node", "2", "-m", "symgrasp", *argv, "--out",
+                            str(tmp_path / "torchrun")], check=True, capture_output=True,
+                           text=True)  # fmt: skip
+    assert ranks.stdout.count("epochs; checkpoints and metrics in") == 1  # rank 0 reports
     main([*argv, "--nproc", "2", "--out", str(tmp_path / "nproc")])
     by_torchrun, by_nproc = _rows(tmp_path / "torchrun"), _rows(tmp_path / "nproc")
     assert [r["world_size"] for r in by_torchrun + by_nproc] == ["2"] * 4

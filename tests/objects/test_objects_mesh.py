@@ -263,3 +263,37 @@ def test_inspect_reports_units_size_mass_parts_and_watertightness(tmp_path, caps
     assert (tmp_path / "sheet.png").stat().st_size > 0
     main(["objects", "inspect", str(folder), "--mesh-unit", "mm", "--out", str(tmp_path / "b.png")])
     assert "| box | mm (given) |" in capsys.readouterr().out
+
+
+def _cross(path, scale=1.0):
+    """A concave solid (an L profile turned in four steps: a flat cross on a post) that CoACD
+    cuts into two parts in a fraction of a second."""
+    profile = np.array([(0, 0), (0.04, 0), (0.04, 0.01), (0.01, 0.01), (0.01, 0.05), (0, 0.05)])
+    trimesh.creation.revolve(profile * scale, sections=4).export(path)
+    return path
+
+
+def test_inspect_on_two_workers_reports_what_the_serial_run_does(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("coacd")
+    folder = tmp_path / "set"
+    folder.mkdir()
+    _box(folder / "box.stl")
+    _cross(folder / "cross.obj")
+    _cross(folder / "big_cross.ply", scale=1.5)
+    (folder / "flat.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    argv = ["objects", "inspect", str(folder), "--out", str(tmp_path / "sheet.png")]
+    main(argv)
+    serial = capsys.readouterr()
+    assert "3 objects in" in serial.out and "1 refused" in serial.out
+    assert "| cross | m (guessed) |" in serial.out and "| 2 | yes |" in serial.out
+    assert "objects: 100%" in serial.err  # the progress bar
+    # the workers decompose into a data folder of their own: this process has the objects
+    # loaded already, so every entry there is a worker's
+    monkeypatch.setenv(DATA_ENV, str(tmp_path / "workers"))
+    main([*argv, "--workers", "2"])
+    assert capsys.readouterr().out == serial.out
+    cache = tmp_path / "workers" / decomposition.CACHE
+    assert sorted(p.name for p in cache.iterdir()) == sorted(
+        p.name for p in (tmp_path / "data" / decomposition.CACHE).iterdir()
+    )  # one entry per concave mesh, no temporary file left
+    assert len(list(cache.iterdir())) == 2

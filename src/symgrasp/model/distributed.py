@@ -45,6 +45,12 @@ def start(device: torch.device) -> tuple[int, int, torch.device]:
     return dist.get_rank(), world, device
 
 
+def is_main_process() -> bool:
+    """Whether this process speaks for the run: rank 0 of torchrun's ranks (``RANK``), or the
+    process alone. Every rank runs the whole command, so only this one prints its outcome."""
+    return os.environ.get("RANK", "0") == "0"
+
+
 def stop() -> None:
     """Leave the process group, once every rank is done (a no-op alone)."""
     if dist.is_initialized():

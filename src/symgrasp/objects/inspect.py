@@ -11,8 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
+from symgrasp.config import ParallelConfig
 from symgrasp.objects.mesh import MILLIMETRE_HINT, read_mesh
 from symgrasp.objects.sets import ObjectSource
+from symgrasp.parallel import Failure, Job, TasksFailed, open_executor
 
 
 @dataclass(frozen=True)
@@ -58,33 +60,64 @@ def _bare_mesh(path: Path, mesh_unit: str) -> tuple[str, bool]:
     return f"{bare.unit} ({'guessed' if bare.guessed else 'given'})", bool(bare.mesh.is_watertight)
 
 
-def inspect_objects(source: ObjectSource) -> tuple[list[ObjectReport], list[str]]:
+def inspect_objects(
+    source: ObjectSource, parallel: ParallelConfig = ParallelConfig()
+) -> tuple[list[ObjectReport], list[str]]:
     """A report per usable object of a mesh set (an `ObjectSource` read from files), and why each
-    other file cannot be used (one line naming it)."""
-    reports, refused = [], []
-    for index, path in enumerate(source.files):
-        try:
-            obj = source.load(index)
-        except (ValueError, OSError) as error:
-            refused.append(str(error))
-            continue
-        size = np.ptp(np.concatenate([p.vertices for p in obj.parts]), axis=0)
-        if path.suffix == ".urdf":
-            units = "mm?" if size.max() > MILLIMETRE_HINT else "m"
-            watertight = _visual_watertight(path)
-        else:
-            units, watertight = _bare_mesh(path, source.mesh_unit)
-        reports.append(
-            ObjectReport(
-                obj.name,
-                units,
-                tuple(float(s) * 1e3 for s in size),
-                obj.mass,
-                len(obj.parts),
-                watertight,
-            )
+    other file cannot be used (one line naming it), both in file order, with a progress bar.
+    The objects are read (a bare mesh decomposed on first use) on the executor ``parallel``
+    describes; the result does not depend on it.
+
+    Raises:
+        TasksFailed: reading an object raised something other than a refusal (ValueError,
+            OSError), e.g. ModuleNotFoundError for a bare mesh without CoACD installed.
+    """
+    results: dict[int, ObjectReport | str] = {}
+    failed: dict[int, Failure] = {}
+    with open_executor(parallel) as executor:
+        job = Job(_inspect_task, _setup, (source,))
+        for index, result in executor.map(job, range(len(source.files)), "objects"):
+            if isinstance(result, Failure):
+                failed[index] = result
+            else:
+                results[index] = result
+    if failed:
+        index = min(failed)
+        raise TasksFailed(
+            f"{len(failed)} of {len(source.files)} objects could not be inspected; the first, "
+            f"{source.files[index]}: {failed[index].error}"
         )
-    return reports, refused
+    ordered = [results[index] for index in sorted(results)]
+    reports = [r for r in ordered if isinstance(r, ObjectReport)]
+    return reports, [r for r in ordered if isinstance(r, str)]
+
+
+# -- the task and its worker-side state -----------------------------------------------------
+
+_WORKER: dict[str, ObjectSource] = {}
+
+
+def _setup(source: ObjectSource) -> None:
+    _WORKER["source"] = source
+
+
+def _inspect_task(index: int) -> ObjectReport | str:
+    """Object ``index``'s report, or why it is refused (one line naming the file)."""
+    source = _WORKER["source"]
+    path = source.files[index]
+    try:
+        obj = source.load(index)
+    except (ValueError, OSError) as error:
+        return str(error)
+    size = np.ptp(np.concatenate([p.vertices for p in obj.parts]), axis=0)
+    if path.suffix == ".urdf":
+        units = "mm?" if size.max() > MILLIMETRE_HINT else "m"
+        watertight = _visual_watertight(path)
+    else:
+        units, watertight = _bare_mesh(path, source.mesh_unit)
+    return ObjectReport(
+        obj.name, units, tuple(float(s) * 1e3 for s in size), obj.mass, len(obj.parts), watertight
+    )
 
 
 def contact_sheet(source: ObjectSource, path: str | Path, limit: int = 48) -> Path:

@@ -1,0 +1,122 @@
+"""``symgrasp bench declutter`` and ``bench compare``: benchmarks of trained detectors
+(`symgrasp.benchmark`)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+from symgrasp.cli.fields import add_config_options, config_from_args
+from symgrasp.cli.options import (
+    PROBABILITY,
+    add_confidence_options,
+    add_shared,
+    confidence_threshold,
+)
+from symgrasp.config import DEFAULT_VALIDITY, BenchmarkConfig
+from symgrasp.parallel.options import add_parallel_options, parallel_from_args
+
+
+def add(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "bench",
+        help="benchmarks of trained detectors",
+        description="Benchmarks of trained detectors (symgrasp.benchmark).",
+    )
+    actions = parser.add_subparsers(
+        dest="action", required=True, metavar="ACTION", help="what to run (declutter, compare)"
+    )
+    declutter = actions.add_parser(
+        "declutter",
+        help="simulated decluttering: success and clear ratios",
+        description="VGN's and the paper's declutter protocol: each round drops --num-objects "
+        "objects as a pile; before every attempt one depth image is fused, and the detector's "
+        "best grasp whose approach misses the observed scene is executed; a round ends when "
+        "the table is clear, no grasp is found or two attempts in a row fail. Round r uses seed "
+        "--seed + r. Writes config.json, rounds.jsonl (each round as it finishes, so "
+        "--resume can finish an interrupted run), then results.json (SR, CR with bootstrap "
+        "95%% intervals over rounds, outcomes, failure modes, planning time) and results.md "
+        "into --out. Each failed grasp is replayed from the state it started in, turned about "
+        "its approach axis by 30..150 degrees: if a turn succeeds the failure was a wrong yaw, "
+        "otherwise it is named by how it ended (collision, wrong approach = closed on nothing, "
+        "slip).",
+    )
+    declutter.add_argument("--out", required=True, help="output folder")
+    declutter.add_argument(
+        "--resume",
+        action="store_true",
+        help="finish the run in --out: play only the rounds missing from its rounds.jsonl "
+        "(refused if --out holds a run of another configuration)",
+    )
+    add_parallel_options(declutter, "rounds")
+    add_config_options(declutter, BenchmarkConfig, skip=("options",))
+    add_confidence_options(declutter)
+    declutter.add_argument(
+        "--validity",
+        type=PROBABILITY,
+        default=None,
+        help=f"validity threshold (default: {DEFAULT_VALIDITY}; a sweep per model: docs/results.md)",
+    )
+    add_shared(
+        declutter,
+        "representation",
+        "refuse to run unless --model uses this rotation representation (a guard for scripts: "
+        "the checkpoint, not this option, decides the representation)",
+    )
+    add_shared(
+        declutter,
+        "gripper",
+        "refuse to run unless --model was trained for this gripper, a built-in's name or a spec "
+        "file (the model's gripper, stored in it, is the one simulated)",
+    )
+    declutter.set_defaults(run=_run_declutter)
+    compare = actions.add_parser(
+        "compare",
+        help="the paired change of SR and CR between two benchmarks of the same rounds",
+        description="Compare two `bench declutter` folders on the rounds both finished (the same "
+        "seeds drop the same objects the same way): SR and CR of each and A − B with a 95%% "
+        "interval from one bootstrap over rounds resampled in pairs. The folders must play the "
+        "same world (objects, mesh units, scene, objects per round); the models, thresholds and "
+        "hands may differ.",
+    )
+    compare.add_argument("a", help="benchmark folder A")
+    compare.add_argument("b", help="benchmark folder B (the baseline)")
+    compare.set_defaults(run=_run_compare)
+
+
+def _run_compare(args: argparse.Namespace) -> None:
+    from symgrasp.benchmark.compare import compare_table
+
+    print(compare_table(args.a, args.b))
+
+
+def _run_declutter(args: argparse.Namespace) -> None:
+    from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark
+    from symgrasp.detect import GraspDetector
+
+    threshold = confidence_threshold(args)
+    options = () if threshold is None else (("confidence_threshold", threshold),)
+    if args.validity is not None:
+        options += (("validity_threshold", args.validity),)
+    config = dataclasses.replace(config_from_args(BenchmarkConfig, args), options=options)
+    parallel = parallel_from_args(args)
+    check_out(config, args.out, args.resume)  # before the model loads
+    if args.representation is not None or args.gripper is not None:
+        from symgrasp.sim.grippers import get_gripper, same_name_note
+
+        detector = GraspDetector.from_pretrained(args.model, device="cpu")
+        rep = detector.representation.name
+        if args.representation not in (None, rep):
+            raise SystemExit(
+                f"error: --rep {args.representation}, but --model {args.model} is {rep}"
+            )
+        hand = detector.gripper
+        if args.gripper is not None and get_gripper(args.gripper) != hand:
+            note = same_name_note(hand, get_gripper(args.gripper))
+            raise SystemExit(
+                f"error: --gripper {args.gripper}, but --model {args.model} is {hand.name}{note}"
+            )
+    summary = run_benchmark(config, args.out, args.resume, parallel)
+    print(markdown_table(summary, config), end="")
+    print(f"outcomes {summary['outcomes']}")
+    print(f"failure modes {summary['modes']}; results in {args.out}")

@@ -1,0 +1,93 @@
+"""``symgrasp data generate``, ``data inspect`` and ``data show``: labelled grasp datasets
+(`symgrasp.data`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from symgrasp.arguments import integer
+from symgrasp.cli.fields import add_config_options, config_from_args
+from symgrasp.cli.options import SEED
+from symgrasp.config import SceneConfig
+from symgrasp.parallel.options import add_parallel_options, parallel_from_args
+
+
+def add(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "data",
+        help="generate and inspect grasp datasets",
+        description="Per-object grasp databases, labelled cluttered scenes, dataset cards "
+        "(docs/data.md).",
+    )
+    actions = parser.add_subparsers(
+        dest="action", required=True, metavar="ACTION", help="what to do (generate, inspect, show)"
+    )
+    gen = actions.add_parser(
+        "generate",
+        help="write a labelled dataset",
+        description="Build (or reuse) the grasp database of every pool object, then write "
+        "labelled scenes as one compressed file each, atomically; --resume continues an "
+        "interrupted run. Every field of the dataset's configuration (symgrasp.config."
+        "SceneConfig, and its DatabaseConfig) is an option.",
+    )
+    gen.add_argument("--out", required=True, help="dataset folder")
+    gen.add_argument(
+        "--scenes", type=integer(1, 10**7), default=2000, help="number of scenes (default: 2000)"
+    )
+    gen.add_argument("--seed", type=SEED, default=0, help="dataset seed (default: 0)")
+    add_parallel_options(gen, "databases and scenes")
+    gen.add_argument(
+        "--resume", action="store_true", help="continue a run in --out, skipping written scenes"
+    )
+    add_config_options(gen, SceneConfig)
+    gen.set_defaults(run=_run_data_generate)
+
+    inspect = actions.add_parser(
+        "inspect",
+        help="print counts and write the dataset card",
+        description="Print counts, class balance and score histograms of a dataset and write "
+        "card.json and card.png into it.",
+    )
+    inspect.add_argument("root", help="dataset folder")
+    inspect.add_argument(
+        "--validate",
+        type=integer(0, 100_000),
+        default=50,
+        help="physics trials of labelled vs random grasps for the card; 0 skips them (default: 50)",
+    )
+    inspect.add_argument("--seed", type=SEED, default=0, help="seed of the trials (default: 0)")
+    inspect.set_defaults(run=_run_data_inspect)
+
+    show = actions.add_parser(
+        "show",
+        help="draw one scene",
+        description="Draw a scene's TSDF surface, its labelled grasps and its depth image.",
+    )
+    show.add_argument("root", help="dataset folder")
+    show.add_argument("--scene", type=integer(0, 10**7), default=0, help="scene id (default: 0)")
+    show.add_argument("--out", default=None, help="picture path (default: ROOT/scene_<id>.png)")
+    show.set_defaults(run=_run_data_show)
+
+
+def _run_data_generate(args: argparse.Namespace) -> None:
+    from symgrasp.data.generate import generate
+
+    config = config_from_args(SceneConfig, args)
+    manifest = generate(
+        args.out, config, args.scenes, args.seed, args.resume, parallel_from_args(args)
+    )
+    print(f"{manifest['num_scenes']} scenes in {args.out} (hash {manifest['dataset_hash']})")
+
+
+def _run_data_inspect(args: argparse.Namespace) -> None:
+    import json
+
+    from symgrasp.data.card import dataset_card
+
+    print(json.dumps(dataset_card(args.root, args.validate, args.seed), indent=1))
+
+
+def _run_data_show(args: argparse.Namespace) -> None:
+    from symgrasp.data.card import show_scene
+
+    print(show_scene(args.root, args.scene, args.out))
