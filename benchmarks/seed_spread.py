@@ -39,9 +39,9 @@ from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import run_or_reuse, summarise
 from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios, spread_null
+from symgrasp.benchmark.selection import selected_checkpoint
 from symgrasp.cli import add_parallel_options, parallel_from_args
 from symgrasp.detect.pretrained import shipped_path
-from symgrasp.model.selection import selected_checkpoint
 
 SPREAD_TARGET = 0.06
 """Issue 17's target for the SR spread between training seeds of one representation."""

@@ -31,8 +31,8 @@ from symgrasp.config import (
     ParallelConfig,
     SceneConfig,
     TrainConfig,
-    field_docs,
 )
+from symgrasp.fields import field_docs
 from symgrasp.names import (
     BACKENDS,
     GRIPPER_SPEC_SUFFIX,
@@ -95,9 +95,10 @@ SHARED = {
     "kinds": ("--kinds", {"choices": SCENES}),
     "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),
     "schedule": ("--schedule", {"choices": SCHEDULES}),
-    "validity_loss": ("--validity-loss", {"choices": VALIDITY_LOSSES}),
+    "validity.kind": ("--validity-loss", {"choices": VALIDITY_LOSSES}),
 }
-"""How a field of these names appears on any command line: its flag and its choices."""
+"""How a field of these names (a nested one also by its path) appears on any command line: its
+flag and its choices."""
 
 
 def _add_shared(parser: argparse.ArgumentParser, name: str, help: str, default: Any = None) -> None:
@@ -241,7 +242,7 @@ def add_config_options(
             prefix = prefixes.get(f.name, "")
             add_config_options(parser, type(nested), (), {}, f"{dest}.{prefix}")
             continue
-        flag, options = SHARED.get(f.name, (None, {}))
+        flag, options = SHARED.get(dest, SHARED.get(f.name, (None, {})))
         name = dest.split(".")[-1]
         flag = flag or "--" + name.replace("_", "-")
         options = {**_value_options(str(f.type)), **options}
@@ -975,7 +976,7 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run_select(args: argparse.Namespace) -> None:
-    from symgrasp.model.selection import DeclutterValidation, Revalidation, select_checkpoint
+    from symgrasp.benchmark.selection import DeclutterValidation, Revalidation, select_checkpoint
 
     validation = DeclutterValidation(
         objects=args.objects, rounds=args.rounds, seed=args.seed, num_objects=args.num_objects,
@@ -1082,7 +1083,6 @@ def _run_compare(args: argparse.Namespace) -> None:
 
 def _run_declutter(args: argparse.Namespace) -> None:
     from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark
-    from symgrasp.detect import GraspDetector
 
     threshold = _confidence_threshold(args)
     options = () if threshold is None else (("confidence_threshold", threshold),)
@@ -1092,17 +1092,17 @@ def _run_declutter(args: argparse.Namespace) -> None:
     parallel = parallel_from_args(args)
     check_out(config, args.out, args.resume)  # before the model loads
     if args.representation is not None or args.gripper is not None:
+        from symgrasp.detect.pretrained import trained_for
         from symgrasp.sim.grippers import get_gripper, same_name_note
 
-        detector = GraspDetector.from_pretrained(args.model, device="cpu")
-        rep = detector.representation.name
+        rep, hand = trained_for(args.model)  # read from the checkpoint: no network is built
         if args.representation not in (None, rep):
             raise SystemExit(
                 f"error: --rep {args.representation}, but --model {args.model} is {rep}"
             )
-        hand = detector.gripper
-        if args.gripper is not None and get_gripper(args.gripper) != hand:
-            note = same_name_note(hand, get_gripper(args.gripper))
+        asked = None if args.gripper is None else get_gripper(args.gripper)  # resolved once
+        if asked not in (None, hand):
+            note = same_name_note(hand, asked)
             raise SystemExit(
                 f"error: --gripper {args.gripper}, but --model {args.model} is {hand.name}{note}"
             )
