@@ -36,6 +36,8 @@ from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
 from symgrasp.data.card import dataset_card
 from symgrasp.data.generate import generate
 from symgrasp.data.grasp_db import cached_database
+from symgrasp.data.scenes import scene_pool
+from symgrasp.sim.grippers import get_gripper
 from symgrasp.sim.render import make_renderer
 
 TARGET_SCENES, TARGET_MINUTES, DEFAULT_POOL = 2000, 60.0, SceneConfig().pool_size
@@ -43,9 +45,10 @@ TARGET_SCENES, TARGET_MINUTES, DEFAULT_POOL = 2000, 60.0, SceneConfig().pool_siz
 
 def _databases(cfg: SceneConfig, root: Path, n: int) -> dict:
     times, sizes = [], []
-    for k, obj in enumerate(cfg.pool()[:n]):
+    hand = get_gripper(cfg.gripper)
+    for k, obj in enumerate(scene_pool(cfg).objects[:n]):
         start = time.perf_counter()
-        db = cached_database(obj, cfg.hand, root / "db", cfg.database, seed=k)
+        db = cached_database(obj, hand, root / "db", cfg.database, seed=k)
         times.append(time.perf_counter() - start)
         sizes.append(int(db.held.sum()))
         print(f"{cfg.gripper} {obj.name}: {times[-1]:.1f} s, {sizes[-1]} held of {db.candidates}")

@@ -65,8 +65,8 @@ from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.failures import MODES
 from symgrasp.benchmark.runner import recorded_config, run_or_reuse, saved_rounds, summarise
 from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios
+from symgrasp.benchmark.selection import selected_checkpoint
 from symgrasp.detect.pretrained import shipped_path
-from symgrasp.model.selection import selected_checkpoint
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 GRIPPERS = ("robotiq-2f85", "franka")

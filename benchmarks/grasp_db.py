@@ -38,8 +38,9 @@ from symgrasp.config import DatabaseConfig, SceneConfig
 from symgrasp.data import grasp_db
 from symgrasp.data.directions import fibonacci_directions, interpolate
 from symgrasp.data.grasp_db import GraspDatabase, build_database
-from symgrasp.data.scenes import make_scene_record
+from symgrasp.data.scenes import make_scene_record, scene_pool
 from symgrasp.names import GRIPPERS
+from symgrasp.sim.grippers import get_gripper
 
 OBJECTS = "vgn-pile-train,vgn-packed-train"
 DIRECTIONS = (8, 16, 32, 64)
@@ -121,9 +122,9 @@ def measure(gripper: str, args: argparse.Namespace) -> dict:
         pool_size=args.objects,
         database=DatabaseConfig(grasps=args.grasps, directions=4),
     )
-    pool, hand = cfg.pool(), cfg.hand
+    pool, hand = scene_pool(cfg), get_gripper(cfg.gripper)
     per_object, databases, scores, fast = [], [], {k: [] for k in DIRECTIONS}, []
-    for k, obj in enumerate(tqdm(pool, desc=f"{gripper} databases", unit="object")):
+    for k, obj in enumerate(tqdm(pool.objects, desc=f"{gripper} databases", unit="object")):
         db, cost = timed_build(obj, hand, cfg.database, seed=k)
         databases.append(db)
         held = int(db.held.sum())
@@ -163,7 +164,7 @@ def measure(gripper: str, args: argparse.Namespace) -> dict:
         cut = [prefix(db, n) for db in databases]
         voxels, targets = [], []
         for scene_id in range(args.scenes):
-            record = make_scene_record(scene_id, cfg, cut, seed=0)
+            record = make_scene_record(scene_id, cfg, hand, pool, cut, seed=0)
             voxels.append(len(record["voxel_index"]))
             targets.append(int(record["voxel_rotation_mask"].sum()))
         coverage.append(

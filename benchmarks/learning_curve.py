@@ -9,7 +9,7 @@ Reads the model-selection study (``benchmarks/selection.py``: every kept checkpo
 run with its validation measures and its test SR on vgn-pile-test, 100 rounds) and groups its
 runs by the training scenes they used (their ``--train-scenes``; 0 = the whole split). Per
 run, the checkpoint ``--by`` chooses (the rule of ``symgrasp select``,
-`symgrasp.model.selection`: validation measures only) and that checkpoint's test SR and CR
+`symgrasp.benchmark.selection`: validation measures only) and that checkpoint's test SR and CR
 with their 95 % intervals; beside it the best test SR any checkpoint of the run reached, an
 upper bound no selection rule can know; and its SR and CR minus those of the largest run's
 choice, paired round by round on the study's test rounds (``--bench``). Nothing here is
@@ -29,8 +29,8 @@ from typing import Any
 
 from common import add_result_option, parse_args, percent_change, write_result
 
+from symgrasp.benchmark import selection as sel
 from symgrasp.benchmark.compare import paired_change, paired_rounds
-from symgrasp.model import selection as sel
 from symgrasp.model.checkpoint import load_checkpoint
 
 

@@ -10,7 +10,7 @@ checkpoint with the best declutter validation SR + CR, 200 rounds on training ob
 1 000 000). Choosing the best of several noisy validations flatters the winner, so each run's
 best.pt is judged again on **other** rounds: ``--rounds`` rounds of 5 ``--objects`` (training
 objects, default vgn-pile-train) from ``--seed`` (2 000 000), the same rounds for every run
-(`symgrasp.model.selection.declutter_validation`: test sets and seeds are refused). Each
+(`symgrasp.benchmark.selection.declutter_validation`: test sets and seeds are refused). Each
 factor's runs (one per training seed, named ``…-sN``) are compared with the baseline's run of
 the same seed on those rounds, paired round by round (`symgrasp.benchmark.compare`).
 
@@ -33,10 +33,10 @@ from typing import Any
 from common import add_result_option, parse_args, percent_change, write_result
 
 from symgrasp.atomic import write_atomic
+from symgrasp.benchmark import selection as sel
 from symgrasp.benchmark.compare import paired_change, paired_rounds
 from symgrasp.config import JUDGE_SEED
 from symgrasp.detect.pretrained import shipped_path
-from symgrasp.model import selection as sel
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 FACTORS = {

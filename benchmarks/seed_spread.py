@@ -39,8 +39,8 @@ from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import run_or_reuse, summarise
 from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios, spread_null
+from symgrasp.benchmark.selection import selected_checkpoint
 from symgrasp.detect.pretrained import shipped_path
-from symgrasp.model.selection import selected_checkpoint
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 SPREAD_TARGET = 0.06

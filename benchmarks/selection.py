@@ -7,7 +7,7 @@
 The runs are trained with ``symgrasp train … --keep-every N`` so that they keep their
 per-epoch checkpoints. For every kept checkpoint of every run (``epoch_NNN.pt``, and
 ``last.pt`` when its epoch has no file) this script gathers each **candidate measure**
-(`symgrasp.model.selection.checkpoint_measures`): the run's metrics.csv row (validation loss,
+(`symgrasp.benchmark.selection.checkpoint_measures`): the run's metrics.csv row (validation loss,
 validity AP, median angles, the top-k metrics; recomputed on the validation split with
 ``--revalidate``, for runs trained before the top-k metrics existed) and the declutter
 validation on **training** objects (``--val-objects`` vgn-pile-train, ``--val-rounds`` 50,
@@ -40,9 +40,9 @@ import numpy as np
 from common import add_result_option, parse_args, write_result
 from scipy.stats import spearmanr
 
+from symgrasp.benchmark import selection as sel
 from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
 from symgrasp.config import VALIDATION_OBJECTS, VALIDATION_SEED
-from symgrasp.model import selection as sel
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 BOOTSTRAP = 2000

@@ -47,11 +47,12 @@ def _time(run: Callable[[int], object], repeats: int, setup: Callable[[int], obj
     return {"median_ms": statistics.median(times), "min_ms": min(times), "runs": len(times)}
 
 
-def _box_world(gripper: str) -> tuple[World, np.ndarray]:
+def _box_world(name: str) -> tuple[World, np.ndarray]:
+    gripper = get_gripper(name)
     box = ObjectSpec("box", "box", (Part("box", (0.025, 0.025, 0.03), (0, 0, 0.03)),), 0.2, 0.8)
     world = World([box], gripper=gripper)
     world.settle(0.5)
-    z = TABLE_HEIGHT + 0.06 + 0.015 - get_gripper(gripper).tip_beyond_tcp
+    z = TABLE_HEIGHT + 0.06 + 0.015 - gripper.tip_beyond_tcp
     return world, top_grasp(np.array([0.15, 0.15, z]))
 
 

@@ -14,8 +14,8 @@ from symgrasp.config import (
     SceneConfig,
     TrainConfig,
     ValidityLoss,
-    field_docs,
 )
+from symgrasp.fields import field_docs
 
 DETECT = ["detect", "--model", "m.pt", "--depth", "d.npy", "--intrinsic", "k.json",
           "--extrinsic", "t.json", "--out", "o"]  # fmt: skip
@@ -70,7 +70,7 @@ def test_train_options_build_the_whole_configuration():
         TrainConfig, build_parser().parse_args(argv), prefixes=_TRAIN_PREFIXES
     )
     expected = TrainConfig(
-        "d", "r", "rotmat6d", augment=False, widths=(4, 8, 16, 32),
+        "d", "r", NetworkConfig("rotmat6d", (4, 8, 16, 32)), augment=False,
         loss_weights=LossWeights(score=0.5),
     )  # fmt: skip
     assert config == expected
@@ -86,10 +86,9 @@ def test_train_recipe_options_reach_the_configuration():
     )
     expected = TrainConfig(
         "d", "r", schedule="onecycle", warmup=0.3, min_lr=1e-6, ema=0.999, weight_decay=0.01,
-        validity_loss="focal", focal_gamma=1.5, focal_alpha=0.25, train_scenes=900, keep_every=5,
+        validity=ValidityLoss("focal", 1.5, 0.25), train_scenes=900, keep_every=5,
     )  # fmt: skip
     assert config == expected
-    assert config.validity == ValidityLoss("focal", 1.5, 0.25)
     defaults = config_from_args(
         TrainConfig, build_parser().parse_args(argv[:5]), prefixes=_TRAIN_PREFIXES
     )

@@ -70,3 +70,65 @@ def test_write_csv_takes_every_key_in_first_seen_order(tmp_path):
         rows = list(csv.DictReader(file))
     assert list(rows[0]) == ["a", "b", "c"]
     assert rows == [{"a": "1", "b": "2", "c": ""}, {"a": "", "b": "3", "c": "4"}]
+
+
+ROOT_MODULES = {"atomic", "config", "device", "fields", "gl_backend", "names", "workspace"}
+"""The small root modules every layer reads (docs/architecture.md); they read only each other."""
+
+LAYERS = {
+    "bingham": set(),
+    "rotation": {"bingham"},
+    "perception": set(),
+    "sim": {"perception"},
+    "objects": {"sim"},
+    "parallel": set(),
+    "data": {"perception", "sim", "objects", "parallel"},
+    "model": {"bingham", "rotation", "perception", "sim", "data"},
+    "detect": {"bingham", "rotation", "perception", "sim", "model"},
+}
+"""What each layer below the benchmark may import besides the root modules: the layers to its
+left in docs/architecture.md's map."""
+
+
+def symgrasp_imports(path) -> set[str]:
+    """The symgrasp modules or packages (``symgrasp.X``: X) that the file ``path`` imports,
+    at module level or inside functions."""
+    import ast
+
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module)
+    return {name.split(".")[1] for name in names if name.startswith("symgrasp.")}
+
+
+def test_no_layer_imports_one_above_it():
+    """The import statements of every module, function-level ones included, follow the map."""
+    from pathlib import Path
+
+    import symgrasp
+
+    root = Path(symgrasp.__file__).parent
+    wrong = []
+    for path in sorted(root.rglob("*.py")):
+        layer = path.relative_to(root).parts[0].removesuffix(".py")
+        if layer in ROOT_MODULES:
+            allowed = ROOT_MODULES
+        elif layer in LAYERS:
+            allowed = ROOT_MODULES | LAYERS[layer] | {layer}
+        else:
+            continue  # benchmark, analysis, demo and the command line sit on top
+        wrong += [f"{path.relative_to(root)} imports symgrasp.{name}"
+                  for name in symgrasp_imports(path) - allowed]  # fmt: skip
+    assert wrong == []
+
+
+def test_training_loads_neither_the_simulator_nor_the_benchmark():
+    loaded = loaded_after("import symgrasp.model, symgrasp.model.train, symgrasp.model.metrics")
+    assert "torch" in loaded  # the oracle: the statement did import the trainer
+    assert "mujoco" not in loaded
+    code = "import sys, symgrasp.model.train; print('symgrasp.benchmark' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

@@ -42,7 +42,7 @@ def number(lo: float, hi: float) -> Callable[[str], float]:
 
 
 def sentence(doc: str) -> str:
-    """A field's documentation (`symgrasp.config.field_docs`) as an option's help: lower case,
+    """A field's documentation (`symgrasp.fields.field_docs`) as an option's help: lower case,
     no final full stop, ``%`` escaped for argparse."""
     if len(doc) > 1 and doc[0].isupper() and doc[1].islower():
         doc = doc[0].lower() + doc[1:]

@@ -2,22 +2,21 @@
 
 A configuration holds names and numbers only, so that it can be saved beside what it made
 (a dataset's manifest, a checkpoint, a benchmark's results) and compared with the next run's.
-This module imports no heavy package: the command line builds its options from these fields
-(`symgrasp.cli`) and answers ``--help`` without loading torch or MuJoCo. The packages use the
-configurations where the work is done (`symgrasp.data`, `symgrasp.model`, `symgrasp.benchmark`).
+This module imports nothing of symgrasp but `symgrasp.names`: the command line builds its
+options from these fields and their documentation (`symgrasp.fields.field_docs`) and answers
+``--help`` without loading torch or MuJoCo. The packages use the configurations where the work
+is done (`symgrasp.data`, `symgrasp.model`, `symgrasp.benchmark`), and resolve the names they
+hold there, once (a gripper by `symgrasp.sim.grippers.get_gripper`, an object set by
+`symgrasp.objects.sets.resolve`).
 """
 
 from __future__ import annotations
 
-import ast
-import functools
-import inspect
-import itertools
 import math
 import numbers
-import textwrap
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any
 
 from symgrasp.names import (
     BACKENDS,
@@ -27,27 +26,6 @@ from symgrasp.names import (
     SCHEDULES,
     VALIDITY_LOSSES,
 )
-
-if TYPE_CHECKING:
-    from symgrasp.sim.grippers import GripperSpec
-    from symgrasp.sim.objects import ObjectSpec
-
-
-@functools.cache
-def field_docs(cls: type) -> dict[str, str]:
-    """The documentation of each field of the dataclass ``cls``: the string below it in the
-    class body, on one line."""
-    body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body
-    return {
-        node.target.id: " ".join(doc.value.value.split())
-        for node, doc in itertools.pairwise(body)
-        if isinstance(node, ast.AnnAssign)
-        and isinstance(node.target, ast.Name)
-        and isinstance(doc, ast.Expr)
-        and isinstance(doc.value, ast.Constant)
-        and isinstance(doc.value.value, str)
-    }
-
 
 SEED_MAX = 2**32 - 1
 """Seeds are integers in [0, SEED_MAX] (what numpy and torch both accept)."""
@@ -94,7 +72,7 @@ grasp."""
 
 TEST_SEED_LIMIT = 10_000
 """Declutter round seeds below this are reserved for test benchmarks (the docs' tables use
-0…99 and 1000…1099): model selection (`symgrasp.model.selection`) never plays them."""
+0…99 and 1000…1099): model selection (`symgrasp.benchmark.selection`) never plays them."""
 
 VALIDATION_SEED = 1_000_000
 """Round seed 0 of the declutter validation that selects checkpoints, far from every test
@@ -209,19 +187,6 @@ class SceneConfig:
         check_range("surface_spacing", self.surface_spacing, 5e-4, 0.05, integer=False)
         check_range("clearance", self.clearance, -0.01, 0.05, integer=False)
 
-    @property
-    def hand(self) -> GripperSpec:
-        """The spec of the gripper ``gripper`` names (read from its file, for a spec file)."""
-        from symgrasp.sim.grippers import get_gripper
-
-        return get_gripper(self.gripper)
-
-    def pool(self) -> list[ObjectSpec]:
-        """The objects scenes are drawn from (`symgrasp.objects.sets.ObjectSource.pool`)."""
-        from symgrasp.objects.sets import resolve
-
-        return resolve(self.object_set, self.mesh_unit).pool(self.pool_size, self.pool_seed)
-
 
 @dataclass(frozen=True)
 class NetworkConfig:
@@ -230,9 +195,9 @@ class NetworkConfig:
     representation: str = "bingham2d"
     """Rotation representation of the rotation head."""
     widths: tuple[int, int, int, int] = (8, 16, 32, 64)
-    """Channels at 40³, 20³, 10³ and 5³."""
+    """Network channels at 40³, 20³, 10³ and 5³."""
     features: int = 16
-    """Channels of the feature volume the heads read (16 in the paper)."""
+    """Channels of the feature volume the heads read."""
 
     def __post_init__(self) -> None:
         if self.representation not in REPRESENTATIONS:
@@ -275,12 +240,13 @@ class ValidityLoss:
     focal loss of Lin et al. 2017, which scales each voxel's cross-entropy by (1 − p_t)^γ."""
 
     kind: str = "bce"
-    """"bce" (binary cross-entropy) or "focal"."""
+    """Loss of the validity head: "bce" (binary cross-entropy) or "focal" (Lin et al. 2017);
+    both are summed over the voxels and divided by the number of valid voxels."""
     focal_gamma: float = 2.0
-    """Focusing exponent γ of the focal loss (0: cross-entropy)."""
+    """Focusing exponent γ of the focal validity loss (0: cross-entropy)."""
     focal_alpha: float | None = None
-    """Weight α of the valid voxels in the focal loss, 1 − α of the others (None: 1 for
-    both)."""
+    """Weight α of the valid voxels in the focal validity loss, 1 − α of the others (default:
+    no weighting)."""
 
     def __post_init__(self) -> None:
         _check_choice("validity_loss", self.kind, VALIDITY_LOSSES)
@@ -297,14 +263,14 @@ class ValidityLoss:
 
 @dataclass
 class TrainConfig:
-    """Everything a training run depends on (stored in every checkpoint)."""
+    """Everything a training run depends on (stored in every checkpoint as its `record`)."""
 
     data: str
     """Dataset folder (`symgrasp.data.dataset.GraspDataset`)."""
     out: str
     """Run folder for checkpoints, metrics.csv and learning_curve.png."""
-    representation: str = "bingham2d"
-    """Rotation representation of the rotation head."""
+    network: NetworkConfig = field(default_factory=NetworkConfig)
+    """The network's shape: its rotation representation, channels and features."""
     gripper: str = "robotiq-2f85"
     """The gripper the dataset must have been produced for: a built-in's name or a .toml spec
     file (the checkpoint stores the whole spec)."""
@@ -336,10 +302,6 @@ class TrainConfig:
     resume: bool = False
     """Continue the run in ``out`` from its last.pt; with none there, start it (so a script
     that runs across sessions can always pass it)."""
-    widths: tuple[int, int, int, int] = (8, 16, 32, 64)
-    """Network channels at 40³, 20³, 10³ and 5³."""
-    features: int = 16
-    """Channels of the feature volume the heads read."""
     loss_weights: LossWeights = field(default_factory=LossWeights)
     """Weights of the loss terms."""
     schedule: str = "constant"
@@ -357,14 +319,8 @@ class TrainConfig:
     average."""
     weight_decay: float = 0.0
     """Decoupled weight decay (AdamW) of every weight (0: plain Adam)."""
-    validity_loss: str = "bce"
-    """Loss of the validity head: "bce" (binary cross-entropy) or "focal" (Lin et al. 2017);
-    both are summed over the voxels and divided by the number of valid voxels."""
-    focal_gamma: float = 2.0
-    """Focusing exponent γ of the focal validity loss (0: cross-entropy)."""
-    focal_alpha: float | None = None
-    """Weight α of the valid voxels in the focal validity loss, 1 − α of the others (default:
-    no weighting)."""
+    validity: ValidityLoss = field(default_factory=ValidityLoss)
+    """The loss of the validity head."""
     train_scenes: int = 0
     """Train on the first N scenes of the train split by scene id (0: all); the validation split
     is unchanged."""
@@ -383,10 +339,6 @@ class TrainConfig:
         check_range("lr", self.lr, 1e-12, 10.0, integer=False)
         check_range("seed", self.seed, 0, SEED_MAX)
         check_range("workers", self.workers, 0, 64)
-        if isinstance(self.loss_weights, dict):
-            self.loss_weights = LossWeights(**self.loss_weights)
-        self.widths = tuple(self.widths)
-        NetworkConfig(self.representation, self.widths, self.features)  # checks them
         _check_choice("schedule", self.schedule, SCHEDULES)
         check_range("warmup", self.warmup, 0, 1, integer=False)
         if self.schedule == "onecycle" and not 0 < self.warmup < 1:
@@ -403,19 +355,40 @@ class TrainConfig:
         if not (_is_number(self.ema) and 0 <= self.ema < 1):  # 1 would never leave the start
             raise ValueError(f"ema must be a number in [0, 1) (0: off), got {self.ema!r}")
         check_range("weight_decay", self.weight_decay, 0, 1, integer=False)
-        ValidityLoss(self.validity_loss, self.focal_gamma, self.focal_alpha)  # checks them
         check_range("train_scenes", self.train_scenes, 0, 10**8)
         check_range("val_scenes", self.val_scenes, 0, 10**8)
         check_range("keep_every", self.keep_every, 0, 100_000)
 
-    @property
-    def network(self) -> NetworkConfig:
-        return NetworkConfig(self.representation, self.widths, self.features)
+    def record(self) -> dict[str, Any]:
+        """The configuration as checkpoints store it: plain data, flat as it was before
+        ``network`` and ``validity`` were nested (their fields beside the others, the validity
+        loss's kind as ``validity_loss``), ``loss_weights`` a dict."""
+        record: dict[str, Any] = {}
+        for key, value in asdict(self).items():
+            if key in _STORED_FLAT:
+                record.update({_STORED_AS.get(k, k): v for k, v in value.items()})
+            else:
+                record[key] = value
+        return record
 
-    @property
-    def validity(self) -> ValidityLoss:
-        """The validity loss of ``validity_loss``, ``focal_gamma`` and ``focal_alpha``."""
-        return ValidityLoss(self.validity_loss, self.focal_gamma, self.focal_alpha)
+    @classmethod
+    def from_record(cls, record: Mapping[str, Any]) -> TrainConfig:
+        """The configuration a checkpoint stores (`record`'s form); the fields the checkpoint
+        predates take their defaults, which it was trained with."""
+        flat = dict(record)
+        for name, nested in _STORED_FLAT.items():
+            stored = {f.name: _STORED_AS.get(f.name, f.name) for f in fields(nested)}
+            flat[name] = nested(**{k: flat.pop(key) for k, key in stored.items() if key in flat})
+        flat["loss_weights"] = LossWeights(**flat.get("loss_weights", {}))
+        return cls(**flat)
+
+
+_STORED_FLAT = {"network": NetworkConfig, "validity": ValidityLoss}
+"""The configurations nested in `TrainConfig` that checkpoints store flat, as before they were
+nested."""
+
+_STORED_AS = {"kind": "validity_loss"}
+"""Their fields that checkpoints store under another name."""
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -22,7 +22,7 @@ from symgrasp.benchmark.declutter import Attempt, Round, run_round, save_attempt
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.objects.sets import resolve
 from symgrasp.sim import World
-from symgrasp.sim.grippers import is_spec_file
+from symgrasp.sim.grippers import get_gripper, is_spec_file
 
 
 def run_demo(
@@ -46,7 +46,7 @@ def run_demo(
             "trained for it (--model)"
         )
     name = model or f"bingham2d-{gripper}"
-    detector = GraspDetector.from_pretrained(name, device="cpu", gripper=gripper)
+    detector = GraspDetector.from_pretrained(name, device="cpu", gripper=get_gripper(gripper))
     pictures: list[Path] = []
     print(f"model {name} ({detector.representation.name}, {detector.gripper.name}); seed {seed}")
 

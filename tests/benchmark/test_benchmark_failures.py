@@ -9,12 +9,12 @@ from symgrasp.benchmark.failures import (
     failure_mode,
     turned_about_approach,
 )
-from symgrasp.sim import World, execute_grasp, get_gripper, large_box
+from symgrasp.sim import ROBOTIQ_2F85, World, execute_grasp, large_box
 from symgrasp.sim.execute import Outcome, top_grasp
 from symgrasp.sim.objects import ObjectSpec, Part
 from symgrasp.workspace import TABLE_HEIGHT
 
-GRIPPER = "robotiq-2f85"
+GRIPPER = ROBOTIQ_2F85
 CENTRE = np.array([0.15, 0.15])
 
 
@@ -24,7 +24,7 @@ def _box(half, mass=0.2, friction=0.8):
 
 def _height(top):
     """TCP height that puts the fingertips 1.5 cm below an object top at ``top`` [m]."""
-    return top + 0.015 - get_gripper(GRIPPER).tip_beyond_tcp
+    return top + 0.015 - GRIPPER.tip_beyond_tcp
 
 
 def _failed_trial(obj, pose):

@@ -14,7 +14,7 @@ from symgrasp.model.network import GraspNet, GraspOutput, NetworkConfig
 from symgrasp.model.ranking import local_maxima
 from symgrasp.perception import CameraIntrinsic
 from symgrasp.perception.camera import default_extrinsic
-from symgrasp.sim import World
+from symgrasp.sim import FRANKA, ROBOTIQ_2F85, World
 from symgrasp.sim.render import make_renderer
 
 R = 40
@@ -62,7 +62,7 @@ ROT_B = _rotation([1, 0, -1], [0, 1, 0])
 
 
 def _detector(voxels, **options) -> GraspDetector:
-    return GraspDetector(FixedNet("bingham2d", voxels), "robotiq-2f85", device="cpu", **options)
+    return GraspDetector(FixedNet("bingham2d", voxels), ROBOTIQ_2F85, device="cpu", **options)
 
 
 def test_grasps_sit_at_voxel_centres_with_the_decoded_rotation_sorted_by_score():
@@ -140,20 +140,18 @@ def test_samples_per_voxel_draw_closing_axes_around_the_mode_and_keep_the_approa
     again = _detector(voxels, samples_per_voxel=200, seed=1).detect_tsdf(np.ones((R,) * 3))
     assert np.array_equal(e_z, np.array([g.closing_axis for g in again]))
     with pytest.raises(ValueError, match="samples_per_voxel"):
-        GraspDetector(FixedNet("rotmat6d", {}), "franka", samples_per_voxel=3)
+        GraspDetector(FixedNet("rotmat6d", {}), FRANKA, samples_per_voxel=3)
 
 
 def test_confidence_threshold_defaults_to_the_papers_value_only_for_bingham2d():
     assert _detector({}).confidence_threshold == 15.0
-    assert GraspDetector(FixedNet("rotmat6d", {}), "franka").confidence_threshold is None
+    assert GraspDetector(FixedNet("rotmat6d", {}), FRANKA).confidence_threshold is None
     assert (
-        GraspDetector(
-            FixedNet("rotmat6d", {}), "franka", confidence_threshold=0
-        ).confidence_threshold
+        GraspDetector(FixedNet("rotmat6d", {}), FRANKA, confidence_threshold=0).confidence_threshold
         == 0
     )
     with pytest.raises(ValueError, match="confidence_threshold"):
-        GraspDetector(FixedNet("quaternion", {}), "franka", confidence_threshold=10.0)
+        GraspDetector(FixedNet("quaternion", {}), FRANKA, confidence_threshold=10.0)
     for bad in (float("nan"), -1.0, "default"):
         with pytest.raises(ValueError, match="confidence_threshold"):
             _detector({}, confidence_threshold=bad)
@@ -181,7 +179,7 @@ def empty_table_depth():
 
 def test_detect_fuses_depth_and_an_empty_table_gives_no_grasps(empty_table_depth):
     depth, intrinsic, T = empty_table_depth
-    detector = GraspDetector(GraspNet(NetworkConfig()), "franka", device="cpu")
+    detector = GraspDetector(GraspNet(NetworkConfig()), FRANKA, device="cpu")
     noisy = depth.copy()
     noisy[:10] = np.nan
     noisy[10:20] = np.inf
@@ -197,7 +195,7 @@ def test_detect_fuses_depth_and_an_empty_table_gives_no_grasps(empty_table_depth
 
 def test_bad_inputs_raise_with_the_offending_shape(empty_table_depth):
     depth, intrinsic, T = empty_table_depth
-    detector = GraspDetector(GraspNet(NetworkConfig()), "franka", device="cpu")
+    detector = GraspDetector(GraspNet(NetworkConfig()), FRANKA, device="cpu")
     with pytest.raises(ValueError, match=r"\(4, 4\)"):
         detector.detect(depth, intrinsic, T[:3])
     with pytest.raises(ValueError, match="rigid"):
@@ -209,7 +207,9 @@ def test_bad_inputs_raise_with_the_offending_shape(empty_table_depth):
     with pytest.raises(ValueError, match="tsdf must be"):
         detector.detect_tsdf(np.ones((32, 32, 32)))
     with pytest.raises(ValueError, match="validity_threshold"):
-        GraspDetector(GraspNet(NetworkConfig()), "franka", validity_threshold=2.0)
+        GraspDetector(GraspNet(NetworkConfig()), FRANKA, validity_threshold=2.0)
+    with pytest.raises(TypeError, match="get_gripper resolves"):  # a name is resolved at the edge
+        GraspDetector(GraspNet(NetworkConfig()), "franka")
 
 
 def test_from_pretrained_loads_a_checkpoint_and_warns_about_another_gripper(tmp_path):
@@ -232,6 +232,6 @@ def test_from_pretrained_loads_a_checkpoint_and_warns_about_another_gripper(tmp_
         expected = net(tsdf[None, None]).score[0]
     assert torch.allclose(detector.predict(tsdf)["score"], expected)
     with pytest.warns(UserWarning, match="trained for the 'robotiq-2f85' gripper"):
-        GraspDetector.from_pretrained(shipped, device="cpu", gripper="franka")
+        GraspDetector.from_pretrained(shipped, device="cpu", gripper=FRANKA)
     with pytest.raises(ValueError, match="shipped"):
         GraspDetector.from_pretrained("no-such-model")

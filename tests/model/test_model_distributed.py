@@ -6,12 +6,12 @@ import csv
 import pytest
 import torch
 
-from symgrasp.model import TrainConfig, train
+from symgrasp.model import NetworkConfig, TrainConfig, train
 from symgrasp.model.checkpoint import load_checkpoint, load_model
 from symgrasp.model.distributed import ShardedBatches, launch, start
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 
-SMALL = (2, 2, 4, 4)
+SMALL = NetworkConfig(widths=(2, 2, 4, 4), features=4)
 
 
 def test_ranks_take_disjoint_slices_that_make_up_the_one_process_batches():
@@ -41,7 +41,7 @@ def _rows(run):
 def test_two_processes_follow_the_one_process_loss_curve_and_resume(tmp_path):
     data = (SyntheticGraspDataset(8), SyntheticGraspDataset(2, seed=9), collate_scenes)
     # gloo on the CPU: two ranks need two GPUs, and CI has none
-    config = dict(data="synthetic", batch_size=4, widths=SMALL, features=4, lr=3e-3, device="cpu")
+    config = dict(data="synthetic", batch_size=4, network=SMALL, lr=3e-3, device="cpu")
     train(TrainConfig(out=str(tmp_path / "one"), epochs=2, **config), data)
     two = str(tmp_path / "two")
     launch(train, (TrainConfig(out=two, epochs=1, **config), data), 2)
@@ -93,7 +93,7 @@ def test_more_ranks_than_gpus_is_a_value_error_before_training(tmp_path):
     data = (SyntheticGraspDataset(4), SyntheticGraspDataset(1, seed=9), collate_scenes)
     ranks = torch.cuda.device_count() + 1
     config = TrainConfig(data="synthetic", out=str(tmp_path), epochs=1, batch_size=2 * ranks,
-                         widths=SMALL, features=4, device="cuda")  # fmt: skip
+                         network=SMALL, device="cuda")  # fmt: skip
     with pytest.raises(ValueError, match=f"it has {ranks - 1}: pass --nproc {ranks - 1}"):
         launch(train, (config, data), ranks)
     assert not (tmp_path / "last.pt").exists()
@@ -102,7 +102,7 @@ def test_more_ranks_than_gpus_is_a_value_error_before_training(tmp_path):
 def test_a_ranks_bad_input_is_a_value_error(tmp_path):
     data = (SyntheticGraspDataset(4), SyntheticGraspDataset(1, seed=9), collate_scenes)
     config = TrainConfig(data="synthetic", out=str(tmp_path), epochs=1, batch_size=2,
-                         widths=SMALL, features=4, gripper="franka", device="cpu")  # fmt: skip
+                         network=SMALL, gripper="franka", device="cpu")  # fmt: skip
     with pytest.raises(ValueError, match="produced for the gripper 'robotiq-2f85'"):
         launch(train, (config, data), 2)
 

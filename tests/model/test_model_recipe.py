@@ -11,7 +11,7 @@ import torch
 import torch.nn.functional as F
 
 from symgrasp import rotation
-from symgrasp.config import TrainConfig, ValidityLoss
+from symgrasp.config import NetworkConfig, TrainConfig, ValidityLoss
 from symgrasp.data.dataset import GraspDataset, in_split
 from symgrasp.detect.pretrained import export_model
 from symgrasp.model import GraspNet, GraspOutput, grasp_losses, load_model, train
@@ -23,14 +23,13 @@ from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 from symgrasp.model.train import FirstScenes, evaluate
 from symgrasp.names import SCHEDULES
 
-SMALL = (2, 2, 4, 4)
+SMALL = NetworkConfig(widths=(2, 2, 4, 4), features=4)
 
 
 def _config(tmp_path=None, name="run", **kwargs):
     out = str(tmp_path / name) if tmp_path else "r"
     # on the CPU: the oracles below recompute in float32 what CUDA would train under bfloat16
-    defaults = dict(data="synthetic", out=out, epochs=2, batch_size=2, widths=SMALL, features=4,
-                    device="cpu")  # fmt: skip
+    defaults = dict(data="synthetic", out=out, epochs=2, batch_size=2, network=SMALL, device="cpu")
     return TrainConfig(**{**defaults, **kwargs})
 
 
@@ -284,8 +283,8 @@ def test_train_scenes_val_scenes_and_keep_every(tmp_path):
     ],
 )
 def test_bad_recipe_options_are_refused_by_name(options, message):
-    with pytest.raises(ValueError, match=message):
-        _config(**options)
+    with pytest.raises(ValueError, match=message):  # by the names of the flags and checkpoints
+        TrainConfig.from_record({"data": "d", "out": "r", **options})
 
 
 def test_resume_refuses_another_recipe_and_accepts_an_old_checkpoint(tmp_path):
@@ -294,7 +293,8 @@ def test_resume_refuses_another_recipe_and_accepts_an_old_checkpoint(tmp_path):
                        "asked for schedule 'cosine', epochs 2"):  # fmt: skip
         train(_config(tmp_path, epochs=2, schedule="cosine", resume=True), _data())
     with pytest.raises(ValueError, match=r"ema 0\.0, validity_loss 'bce'; asked for ema 0\.9"):
-        train(_config(tmp_path, epochs=2, ema=0.9, validity_loss="focal", resume=True), _data())
+        focal = ValidityLoss("focal")
+        train(_config(tmp_path, epochs=2, ema=0.9, validity=focal, resume=True), _data())
     with pytest.raises(ValueError, match=r"lr 0\.001; asked for lr 0\.0001"):
         train(_config(tmp_path, epochs=2, lr=1e-4, resume=True), _data())
     with pytest.raises(ValueError, match="autocast True; asked for autocast False"):

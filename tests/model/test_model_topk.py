@@ -13,6 +13,7 @@ from symgrasp.detect import GraspDetector
 from symgrasp.model.metrics import TOP_K, MetricAccumulator
 from symgrasp.model.network import GraspOutput
 from symgrasp.model.ranking import rank_voxels
+from symgrasp.sim import ROBOTIQ_2F85
 
 R = 40
 FLIP = torch.diag(torch.tensor([1.0, -1.0, -1.0], dtype=torch.float64))
@@ -176,6 +177,6 @@ class _Fixed(torch.nn.Module):
 
 def test_the_detector_picks_the_same_voxels():
     out, _ = _scene("bingham2d", PREDICTED, LABELS)
-    detector = GraspDetector(_Fixed(out), "robotiq-2f85", device="cpu", top_k=5)
+    detector = GraspDetector(_Fixed(out), ROBOTIQ_2F85, device="cpu", top_k=5)
     grasps = detector.detect_tsdf(np.ones((R, R, R)))
     assert [g.voxel for g in grasps] == [P1, P2, P3, P4, P7]

@@ -8,14 +8,16 @@ import pytest
 import torch
 
 from symgrasp.cli import main
+from symgrasp.config import ValidityLoss
 from symgrasp.model import GraspNet, NetworkConfig, TrainConfig, grasp_losses, load_model, train
 from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
 from symgrasp.model.metrics import MetricAccumulator
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 from symgrasp.model.train import accumulate_gradient, collate_chunks
-from symgrasp.sim import ROBOTIQ_2F85
+from symgrasp.sim import FRANKA, ROBOTIQ_2F85
 
 SMALL = (2, 2, 4, 4)  # widths of a tiny network: these tests check the loop, not learning
+TINY = NetworkConfig(widths=SMALL, features=4)
 
 
 class _Stop(Exception):
@@ -34,7 +36,7 @@ class _StopsAt(SyntheticGraspDataset):
             raise _Stop
 
 
-def _data(gripper="robotiq-2f85", scenes=3, stop_at=None):
+def _data(gripper=ROBOTIQ_2F85, scenes=3, stop_at=None):
     return (
         SyntheticGraspDataset(scenes, gripper=gripper)
         if stop_at is None
@@ -47,8 +49,8 @@ def _data(gripper="robotiq-2f85", scenes=3, stop_at=None):
 def _config(tmp_path, name="run", **kwargs):
     # on the CPU: the oracles below recompute in float32 what CUDA would train under bfloat16
     defaults = dict(
-        data="synthetic", out=str(tmp_path / name), epochs=2, batch_size=2, widths=SMALL,
-        features=4, device="cpu",
+        data="synthetic", out=str(tmp_path / name), epochs=2, batch_size=2, network=TINY,
+        device="cpu",
     )  # fmt: skip
     return TrainConfig(**{**defaults, **kwargs})
 
@@ -78,6 +80,28 @@ def test_training_writes_checkpoints_metrics_and_a_curve(tmp_path):
     assert state["dataset_hash"] == SyntheticGraspDataset(3).manifest["dataset_hash"]
     assert state["symgrasp_version"] and state["config"]["epochs"] == 2
     assert (out / "best.pt").exists()
+
+
+def test_checkpoints_store_the_configuration_flat_as_the_shipped_models_hold_it():
+    """The shipped models were written before ``network`` and ``validity`` were nested in
+    `TrainConfig`: their flat record reads back (``autocast``, newer, at its default) and is
+    written again key for key."""
+    from symgrasp.detect.pretrained import shipped_path
+    from symgrasp.names import PRETRAINED
+
+    for name in PRETRAINED:
+        state = load_checkpoint(shipped_path(name))
+        config = TrainConfig.from_record(state["config"])
+        assert config.network == NetworkConfig(**state["network"])
+        assert config.validity == ValidityLoss()
+        assert config.record() == {**state["config"], "autocast": True}
+    focal = _config(Path("r"), validity=ValidityLoss("focal", 1.5, 0.25))
+    record = focal.record()
+    assert {k: record[k] for k in ("validity_loss", "focal_gamma", "focal_alpha", "widths")} == {
+        "validity_loss": "focal", "focal_gamma": 1.5, "focal_alpha": 0.25, "widths": SMALL,
+    }  # fmt: skip
+    assert "network" not in record and "validity" not in record
+    assert TrainConfig.from_record(record) == focal
 
 
 def test_checkpoint_round_trip_and_wrong_representation(tmp_path):
@@ -124,7 +148,7 @@ def test_cuda_without_autocast_trains_the_cpu_run_up_to_float_rounding(tmp_path)
 
 RECIPE = dict(
     schedule="cosine", warmup=0.3, min_lr=1e-5, ema=0.8, weight_decay=0.01,
-    validity_loss="focal", focal_alpha=0.25,
+    validity=ValidityLoss("focal", focal_alpha=0.25),
 )  # fmt: skip
 """Every option that carries state across epochs: the step count of the schedule, the weight
 average, AdamW's decay."""
@@ -176,8 +200,8 @@ def test_the_default_recipe_is_adam_at_a_constant_lr(tmp_path):
 
 def test_clear_errors_for_another_gripper_or_representation(tmp_path):
     with pytest.raises(ValueError, match="produced for the gripper 'franka'"):
-        train(_config(tmp_path), _data(gripper="franka"))
-    train(_config(tmp_path, "franka", gripper="franka", epochs=1), _data(gripper="franka"))
+        train(_config(tmp_path), _data(gripper=FRANKA))
+    train(_config(tmp_path, "franka", gripper="franka", epochs=1), _data(gripper=FRANKA))
     with pytest.raises(ValueError, match="trained for the gripper 'franka'"):
         train(_config(tmp_path, "franka", epochs=2, resume=True), _data())
     with pytest.raises(ValueError, match=r"'bingham2d' model.*'rotmat6d'"):
@@ -186,11 +210,11 @@ def test_clear_errors_for_another_gripper_or_representation(tmp_path):
                 tmp_path,
                 "franka",
                 gripper="franka",
-                representation="rotmat6d",
+                network=NetworkConfig("rotmat6d", SMALL, 4),
                 epochs=2,
                 resume=True,
             ),
-            _data(gripper="franka"),
+            _data(gripper=FRANKA),
         )
 
 
@@ -239,7 +263,7 @@ def test_a_batch_in_chunks_has_the_whole_batchs_loss_and_gradient():
                 losses = grasp_losses(net(chunk["tsdf"]), chunk, net.representation)
                 (losses["total"] / len(chunks)).backward()
         else:
-            config = _config(Path("unused"), widths=SMALL, features=4, micro_batch=size)
+            config = _config(Path("unused"), micro_batch=size)
             losses = accumulate_gradient(net, net, chunks, config, world=1, step=1)
         return losses, torch.cat([p.grad.flatten() for p in net.parameters()])
 

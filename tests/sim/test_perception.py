@@ -12,7 +12,7 @@ from symgrasp.perception import (
     depth_to_points,
     look_at,
 )
-from symgrasp.sim import World
+from symgrasp.sim import FRANKA, World
 from symgrasp.sim.objects import ObjectSpec, Part
 from symgrasp.sim.render import GLRenderer, RaycastRenderer, gl_available, make_renderer
 from symgrasp.workspace import TABLE_HEIGHT
@@ -24,7 +24,7 @@ def _box_world() -> World:
     box = ObjectSpec("b", "box", (Part("box", (0.03, 0.04, 0.05), (0, 0, 0.05)),), 0.2, 0.8)
     T = np.eye(4)
     T[:3, 3] = (0.15, 0.15, TABLE_HEIGHT)
-    return World([box], T[None], gripper="franka")
+    return World([box], T[None], gripper=FRANKA)
 
 
 def test_look_at_points_the_optical_axis_at_the_target_with_image_down_toward_minus_z():

@@ -3,7 +3,15 @@
 import numpy as np
 import pytest
 
-from symgrasp.sim import World, execute_grasp, get_gripper, large_box, make_scene
+from symgrasp.sim import (
+    FRANKA,
+    ROBOTIQ_2F85,
+    World,
+    execute_grasp,
+    get_gripper,
+    large_box,
+    make_scene,
+)
 from symgrasp.sim.execute import Outcome, pull_out_force, top_grasp
 from symgrasp.sim.objects import ObjectSpec, Part
 from symgrasp.workspace import TABLE_HEIGHT
@@ -22,7 +30,7 @@ def _grasp_height(gripper: str, top: float) -> float:
 
 
 def _settled(obj: ObjectSpec, gripper: str) -> World:
-    world = World([obj], gripper=gripper)
+    world = World([obj], gripper=get_gripper(gripper))
     world.settle(0.5)
     return world
 
@@ -107,7 +115,7 @@ def _robotiq_closed_on(obj: ObjectSpec, depth: float) -> float:
     whose origin lies ``depth`` metres past the TCP toward the palm (no gravity)."""
     T = np.eye(4)
     T[:3, 3] = (0.15, 0.15, 0.25)
-    world = World([obj], T[None], gripper="robotiq-2f85")
+    world = World([obj], T[None], gripper=ROBOTIQ_2F85)
     world.set_gravity(np.zeros(3))
     world.set_hand_pose(top_grasp(T[:3, 3] + (0.0, 0.0, -depth)))
     world.actuate(close=True)
@@ -129,7 +137,7 @@ def _held_ball(depth: float) -> tuple[World, np.ndarray]:
     ball = ObjectSpec("ball", "sphere", (Part("sphere", (0.03,)),), 0.2, 0.3)
     T = np.eye(4)
     T[:3, 3] = (0.15, 0.15, 0.25)
-    world = World([ball], T[None], gripper="robotiq-2f85")
+    world = World([ball], T[None], gripper=ROBOTIQ_2F85)
     world.set_gravity(np.zeros(3))
     pose = top_grasp(T[:3, 3] + (0.0, 0.0, -depth))
     world.set_hand_pose(pose)
@@ -171,7 +179,7 @@ def test_bad_grasp_pose_is_rejected():
 
 
 def test_successful_grasp_in_a_scene_removes_only_the_lifted_object():
-    world = make_scene("packed", "blocks", n=4, seed=0, gripper="franka")
+    world = make_scene("packed", "blocks", n=4, seed=0, gripper=FRANKA)
     before = world.object_poses()
     target = 1
     T = before[target]

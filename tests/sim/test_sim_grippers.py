@@ -42,7 +42,8 @@ def test_every_built_in_name_resolves_to_its_shipped_spec_file():
         assert get_gripper(name) == load_gripper(SPEC_FOLDER / f"{name}.toml")
         assert get_gripper(name).name == name
     assert (FRANKA.kind, ROBOTIQ_2F85.kind) == ("rigid", "underactuated")
-    assert get_gripper(FRANKA) is FRANKA  # a spec passes through
+    with pytest.raises(ValueError, match="got GripperSpec"):  # resolved once, not again
+        get_gripper(FRANKA)
     with pytest.raises(
         ValueError, match=r"franka, robotiq-2f85 or a \.toml spec file, got 'shadow'"
     ):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from symgrasp.sim import World, large_box, make_scene, object_set
+from symgrasp.sim import FRANKA, World, large_box, make_scene, object_set
 from symgrasp.sim.objects import TEST_FAMILIES, TRAIN_FAMILIES, ObjectSpec, Part
 from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 
@@ -92,7 +92,7 @@ def test_scenes_settle_inside_the_workspace_and_are_deterministic(scene):
 
 
 def test_removing_an_object_keeps_the_others_where_they_are():
-    world = make_scene("packed", "blocks", n=4, seed=0, gripper="franka")
+    world = make_scene("packed", "blocks", n=4, seed=0, gripper=FRANKA)
     before = world.object_poses()
     world.remove_object(1)
     np.testing.assert_allclose(world.object_poses(), np.delete(before, 1, axis=0), atol=1e-9)
@@ -105,7 +105,7 @@ def test_removing_an_object_keeps_the_others_where_they_are():
 def test_a_world_whose_every_object_left_still_answers_where_its_objects_are():
     """A VGN pile can lose every object over the workspace's edge (scene 6810 of the Robotiq
     VGN-object set did); the world with none left is queried like any other."""
-    world = make_scene("packed", "blocks", n=2, seed=0, gripper="franka")
+    world = make_scene("packed", "blocks", n=2, seed=0, gripper=FRANKA)
     for _ in range(2):
         world.remove_object(0)
     assert world.object_positions().shape == (0, 3)

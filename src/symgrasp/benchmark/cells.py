@@ -6,7 +6,7 @@ A cell is a gripper, a representation (with or without its confidence threshold)
 seed, and an object set laid out as a pile or packed. Its run is ``RUNS/PREFIX-REP-sSEED``
 (``symgrasp train --out``; the prefix names the campaign and gripper, e.g. ``final`` for the
 Robotiq 2F-85 and ``final-franka``), its model that run's ``best.pt`` as chosen by the
-declutter validation (`symgrasp.model.selection.selected_checkpoint`), and its rounds the
+declutter validation (`symgrasp.benchmark.selection.selected_checkpoint`), and its rounds the
 benchmark of `symgrasp.benchmark.runner` from round seed 0 with failure diagnosis, in
 ``OUT/GRIPPER/REP[-noconf]/sSEED/OBJECTS[-packed]``.
 """

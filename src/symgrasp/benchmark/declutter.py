@@ -106,7 +106,7 @@ attempt."""
 
 def run_round(
     detector: GraspDetector,
-    objects: str | ObjectSource = "household-test",
+    objects: ObjectSource,
     num_objects: int = 5,
     seed: int = 0,
     scene: str = "pile",
@@ -118,9 +118,9 @@ def run_round(
     diagnose: bool = True,
 ) -> Round:
     """Play one declutter round with ``detector`` (its gripper) on ``num_objects`` objects of
-    the set ``objects`` (a name or folder for `symgrasp.objects.sets.resolve`, or a resolved
-    `ObjectSource`) in a ``scene`` ("pile" or "packed"); the scene and its objects are drawn
-    from ``seed``.
+    the set ``objects`` (resolved once by `symgrasp.objects.sets.resolve`, for all the rounds
+    it plays) in a ``scene`` ("pile" or "packed"); the scene and its objects are drawn from
+    ``seed``.
 
     ``max_attempts`` defaults to twice the number of objects; the camera defaults to the
     workspace's default view (`symgrasp.perception.camera.default_extrinsic`). With

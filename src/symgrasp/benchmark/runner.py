@@ -83,6 +83,7 @@ def _init_worker(config: BenchmarkConfig, threads: int, out: Path) -> None:
     torch.set_num_threads(threads)
     _WORKER["config"] = config
     _WORKER["out"] = out
+    _WORKER["objects"] = resolve(config.objects, config.mesh_unit)  # once for all its rounds
     _WORKER["detector"] = GraspDetector.from_pretrained(
         config.model, device="cpu", **dict(config.options)
     )
@@ -96,8 +97,8 @@ def _round_task(seed: int) -> dict[str, Any]:
         folder = _WORKER["out"] / "pictures" / f"seed_{seed:04d}"
         observer = picture_observer(folder, detector.gripper, f"seed {seed}, ")
     record = run_round(
-        detector, resolve(config.objects, config.mesh_unit), config.num_objects, seed,
-        scene=config.scene, observer=observer, diagnose=config.diagnose,
+        detector, _WORKER["objects"], config.num_objects, seed, scene=config.scene,
+        observer=observer, diagnose=config.diagnose,
     )  # fmt: skip
     return round_record(record)
 

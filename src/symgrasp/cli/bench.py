@@ -92,7 +92,6 @@ def _run_compare(args: argparse.Namespace) -> None:
 
 def _run_declutter(args: argparse.Namespace) -> None:
     from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark
-    from symgrasp.detect import GraspDetector
 
     threshold = confidence_threshold(args)
     options = () if threshold is None else (("confidence_threshold", threshold),)
@@ -102,17 +101,17 @@ def _run_declutter(args: argparse.Namespace) -> None:
     parallel = parallel_from_args(args)
     check_out(config, args.out, args.resume)  # before the model loads
     if args.representation is not None or args.gripper is not None:
+        from symgrasp.detect.pretrained import trained_for
         from symgrasp.sim.grippers import get_gripper, same_name_note
 
-        detector = GraspDetector.from_pretrained(args.model, device="cpu")
-        rep = detector.representation.name
+        rep, hand = trained_for(args.model)  # read from the checkpoint: no network is built
         if args.representation not in (None, rep):
             raise SystemExit(
                 f"error: --rep {args.representation}, but --model {args.model} is {rep}"
             )
-        hand = detector.gripper
-        if args.gripper is not None and get_gripper(args.gripper) != hand:
-            note = same_name_note(hand, get_gripper(args.gripper))
+        asked = None if args.gripper is None else get_gripper(args.gripper)  # resolved once
+        if asked not in (None, hand):
+            note = same_name_note(hand, asked)
             raise SystemExit(
                 f"error: --gripper {args.gripper}, but --model {args.model} is {hand.name}{note}"
             )

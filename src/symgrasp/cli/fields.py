@@ -12,7 +12,7 @@ from typing import Any
 
 from symgrasp.arguments import sentence
 from symgrasp.cli.options import SHARED
-from symgrasp.config import field_docs
+from symgrasp.fields import field_docs
 
 _SCALARS: dict[str, Callable[[str], Any]] = {"int": int, "float": float, "str": str}
 
@@ -57,7 +57,7 @@ def add_config_options(
             prefix = prefixes.get(f.name, "")
             add_config_options(parser, type(nested), (), {}, f"{dest}.{prefix}")
             continue
-        flag, options = SHARED.get(f.name, (None, {}))
+        flag, options = SHARED.get(dest, SHARED.get(f.name, (None, {})))
         name = dest.split(".")[-1]
         flag = flag or "--" + name.replace("_", "-")
         options = {**_value_options(str(f.type)), **options}

@@ -147,7 +147,7 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run_select(args: argparse.Namespace) -> None:
-    from symgrasp.model.selection import DeclutterValidation, Revalidation, select_checkpoint
+    from symgrasp.benchmark.selection import DeclutterValidation, Revalidation, select_checkpoint
 
     validation = DeclutterValidation(
         objects=args.objects, rounds=args.rounds, seed=args.seed, num_objects=args.num_objects,

@@ -9,7 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from symgrasp.arguments import integer, number, sentence
-from symgrasp.config import SEED_MAX, SceneConfig, field_docs
+from symgrasp.config import SEED_MAX, SceneConfig
+from symgrasp.fields import field_docs
 from symgrasp.names import (
     GRIPPER_SPEC_SUFFIX,
     GRIPPERS,
@@ -67,9 +68,10 @@ SHARED = {
     "kinds": ("--kinds", {"choices": SCENES}),
     "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),
     "schedule": ("--schedule", {"choices": SCHEDULES}),
-    "validity_loss": ("--validity-loss", {"choices": VALIDITY_LOSSES}),
+    "validity.kind": ("--validity-loss", {"choices": VALIDITY_LOSSES}),
 }
-"""How a field of these names appears on any command line: its flag and its choices."""
+"""How a field of these names (a nested one also by its path) appears on any command line: its
+flag and its choices."""
 
 SEED = integer(0, SEED_MAX)
 """An argparse type: a seed."""

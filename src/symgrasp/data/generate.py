@@ -8,12 +8,14 @@ Layout of a dataset folder::
     scenes/scene_000123.npz           one compressed shard per scene
 
 Work is split into pure tasks — one per missing object database, one per scene id — that an
-executor (`symgrasp.parallel`: this process, local processes or a Ray cluster) runs; each
-task returns what it made and this process writes it, to a temporary name renamed into
-place, so the folder is the same bytes on every backend, an interrupted run loses only the
-scenes in flight, and ``resume=True`` skips the scenes already on disk. A scene whose task
-raises is recorded in the manifest (``failed``: its id, seed, error and traceback) and the
-others are written; `generate` then raises `TasksFailed`, and a resumed run tries it again.
+executor (`symgrasp.parallel`: this process, local processes or a Ray cluster) runs. The
+gripper is resolved once, here, and handed to the workers; each worker resolves the object set
+and its pool once, in its setup (`symgrasp.data.scenes.scene_pool`). Each task returns what it
+made and this process writes it, to a temporary name renamed into place, so the folder is
+the same bytes on every backend, an interrupted run loses only the scenes in flight, and
+``resume=True`` skips the scenes already on disk. A scene whose task raises is recorded in the
+manifest (``failed``: its id, seed, error and traceback) and the others are written;
+`generate` then raises `TasksFailed`, and a resumed run tries it again.
 """
 
 from __future__ import annotations
@@ -33,11 +35,10 @@ from symgrasp.atomic import check_folder, write_atomic
 from symgrasp.config import SEED_MAX, DatabaseConfig, ParallelConfig, SceneConfig, check_range
 from symgrasp.data.dataset import load_scene, scene_path
 from symgrasp.data.grasp_db import GraspDatabase, build_database, database_path, read_cached
-from symgrasp.data.scenes import make_scene_record
-from symgrasp.objects.sets import resolve
+from symgrasp.data.scenes import ScenePool, make_scene_record, scene_pool
 from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor
 from symgrasp.parallel.base import versions
-from symgrasp.sim.grippers import get_gripper
+from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 
@@ -53,15 +54,16 @@ def config_from_dict(d: dict[str, Any]) -> SceneConfig:
 
 def _manifest(
     cfg: SceneConfig,
+    hand: GripperSpec,
     seed: int,
     scene_ids: list[int],
     root: Path,
     generated_with: list[dict[str, Any]],
 ) -> dict[str, Any]:
     """The manifest of ``root`` holding ``scene_ids`` (an empty list while generating), made
-    by the runs ``generated_with`` lists."""
+    by the runs ``generated_with`` lists for the gripper ``hand``."""
     return {
-        "gripper": cfg.hand.to_dict(),
+        "gripper": hand.to_dict(),
         "object_set": cfg.object_set,
         "k_max": cfg.k_max,
         "resolution": RESOLUTION,
@@ -90,21 +92,24 @@ def dataset_hash(root: Path, scene_ids: Iterable[int]) -> str:
 _WORKER: dict[str, Any] = {}
 
 
-def _setup(cfg: SceneConfig, seed: int, databases: list[GraspDatabase] | None) -> None:
+def _setup(
+    cfg: SceneConfig, hand: GripperSpec, seed: int, databases: list[GraspDatabase] | None
+) -> None:
     import torch
 
     torch.set_num_threads(1)  # one core per task: fusion threads would oversubscribe
-    _WORKER.update(cfg=cfg, seed=seed, databases=databases)
+    _WORKER.update(cfg=cfg, hand=hand, pool=scene_pool(cfg), seed=seed, databases=databases)
 
 
 def _database_task(k: int) -> GraspDatabase:
     cfg: SceneConfig = _WORKER["cfg"]
-    return build_database(cfg.pool()[k], cfg.hand, cfg.database, seed=k)
+    return build_database(_WORKER["pool"].objects[k], _WORKER["hand"], cfg.database, seed=k)
 
 
 def _scene_task(scene_id: int) -> bytes:
     """Scene ``scene_id`` as the bytes of its compressed file (written by the caller)."""
-    record = make_scene_record(scene_id, _WORKER["cfg"], _WORKER["databases"], _WORKER["seed"])
+    w = _WORKER
+    record = make_scene_record(scene_id, w["cfg"], w["hand"], w["pool"], w["databases"], w["seed"])
     buffer = io.BytesIO()
     np.savez_compressed(buffer, **record)
     return buffer.getvalue()
@@ -120,16 +125,18 @@ def _failure(what: str, arg: int, seed: int, failure: Failure) -> dict[str, Any]
 
 
 def _databases(
-    cfg: SceneConfig, db_dir: Path, executor: Executor
+    cfg: SceneConfig, hand: GripperSpec, pool: ScenePool, db_dir: Path, executor: Executor
 ) -> tuple[list[GraspDatabase], list[dict[str, Any]]]:
-    """The pool's databases, in pool order: read from ``db_dir``, the missing ones built by
-    ``executor`` and written there; and the failed builds (object index ``k``, seed ``k``)."""
-    pool = cfg.pool()
-    paths = [database_path(db_dir, obj, cfg.hand, cfg.database, k) for k, obj in enumerate(pool)]
+    """The pool's databases for ``hand``, in pool order: read from ``db_dir``, the missing ones
+    built by ``executor`` and written there; and the failed builds (object index ``k``, seed
+    ``k``)."""
+    paths = [
+        database_path(db_dir, obj, hand, cfg.database, k) for k, obj in enumerate(pool.objects)
+    ]
     found = [read_cached(path) for path in paths]
     missing = [k for k, db in enumerate(found) if db is None]
     failed = []
-    job = Job(_database_task, _setup, (cfg, 0, None))
+    job = Job(_database_task, _setup, (cfg, hand, 0, None))
     for k, result in executor.map(job, missing, "object databases"):
         if isinstance(result, Failure):
             failed.append(_failure("object", k, k, result))
@@ -151,13 +158,6 @@ def _of_a_dataset(name: str) -> bool:
     )
 
 
-def check_names(object_set: str, gripper: str) -> None:
-    """Raise ValueError listing the known names if either is unknown (or naming the bad key of
-    a gripper spec file)."""
-    resolve(object_set)
-    get_gripper(gripper)
-
-
 def generate(
     out: str | Path,
     cfg: SceneConfig,
@@ -174,7 +174,8 @@ def generate(
             of another configuration or seed; or `open_executor`'s bad input.
         TasksFailed: some tasks raised (the other scenes are written).
     """
-    check_names(cfg.object_set, cfg.gripper)
+    hand = get_gripper(cfg.gripper)  # the names, resolved once (a ValueError names a bad one)
+    pool = scene_pool(cfg)
     check_range("scenes", scenes, 1, MAX_SCENES)
     check_range("seed", seed, 0, SEED_MAX)
     root = check_folder(out)
@@ -200,9 +201,9 @@ def generate(
     with open_executor(parallel) as executor:  # a cluster is joined before anything is written
         root.mkdir(parents=True, exist_ok=True)
         if not manifest_path.exists():  # records the configuration that --resume must match
-            started = _manifest(cfg, seed, [], root, generated_with)
+            started = _manifest(cfg, hand, seed, [], root, generated_with)
             write_atomic(manifest_path, lambda f: json.dump(started, f, indent=1), mode="w")
-        databases, failed = _databases(cfg, root / "db", executor)
+        databases, failed = _databases(cfg, hand, pool, root / "db", executor)
         if failed:
             raise TasksFailed(
                 f"{len(failed)} of {cfg.pool_size} object databases failed, so no scene was "
@@ -219,7 +220,7 @@ def generate(
                 except ValueError as err:
                     print(f"regenerating {path}: {err}")
             todo.append(i)
-        job = Job(_scene_task, _setup, (cfg, seed, databases))
+        job = Job(_scene_task, _setup, (cfg, hand, seed, databases))
         written = 0
         for i, result in executor.map(job, todo, "scenes"):
             if isinstance(result, Failure):
@@ -231,7 +232,7 @@ def generate(
         generated_with = [*generated_with, {"scenes": written, "versions": versions()}]
 
     done = [i for i in range(scenes) if scene_path(root, i).exists()]
-    manifest = _manifest(cfg, seed, done, root, generated_with)
+    manifest = _manifest(cfg, hand, seed, done, root, generated_with)
     if failed:
         manifest["failed"] = failed
     write_atomic(manifest_path, lambda f: json.dump(manifest, f, indent=1), mode="w")

@@ -1,8 +1,10 @@
 """One labelled cluttered scene: objects, surviving grasps, voxel labels and one depth view.
 
-:func:`make_scene_record` is a pure task of ``(scene_id, config, databases)``: the same
-inputs give the same record, so scenes can be generated in any order, by any number of
-processes or by a cluster engine. Steps:
+:func:`make_scene_record` is a pure task of ``(scene_id, config, hand, pool, databases)``: the
+same inputs give the same record, so scenes can be generated in any order, by any number of
+processes or by a cluster engine. The configuration's names are resolved once per process:
+the gripper by the caller (`symgrasp.sim.grippers.get_gripper`), the object set and its pool by
+`scene_pool`. Steps:
 
 1. draw the scene kind (``pile``/``packed``) and ``N ~ Poisson(mean) + 1`` objects from the
    object pool; build and settle the scene (:mod:`symgrasp.sim.world`);
@@ -17,21 +19,41 @@ processes or by a cluster engine. Steps:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from symgrasp.config import SceneConfig
 from symgrasp.data.directions import interpolate
 from symgrasp.data.grasp_db import GraspDatabase
 from symgrasp.data.labels import voxelise
-from symgrasp.objects.sets import resolve
+from symgrasp.objects.sets import ObjectSource, resolve
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, look_at
 from symgrasp.sim.collision import hand_collides
+from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.objects import ObjectSpec, surface_samples
 from symgrasp.sim.render import make_renderer
 from symgrasp.workspace import RESOLUTION, WORKSPACE_SIZE
 
 DEPTH_UNIT = 1e-4
 """Depth images are stored as uint16 in units of 0.1 mm (up to 6.5 m)."""
+
+
+@dataclass(frozen=True)
+class ScenePool:
+    """The objects of a dataset's scenes: the object set's ``source``, which builds the scenes,
+    and the ``objects`` they are drawn from, ``objects[k]`` the one of grasp database ``k``."""
+
+    source: ObjectSource
+    objects: tuple[ObjectSpec, ...]
+
+
+def scene_pool(cfg: SceneConfig) -> ScenePool:
+    """The pool of ``cfg``: its object set resolved (`symgrasp.objects.sets.resolve`, bare meshes
+    read in ``mesh_unit``) and ``pool_size`` of its objects drawn from ``pool_seed``
+    (`ObjectSource.pool`). Made once per process, shared by its scenes and databases."""
+    source = resolve(cfg.object_set, cfg.mesh_unit)
+    return ScenePool(source, tuple(source.pool(cfg.pool_size, cfg.pool_seed)))
 
 
 def scene_rng(seed: int, scene_id: int) -> np.random.Generator:
@@ -56,10 +78,11 @@ def scene_grasps(
     poses: np.ndarray,
     databases: list[GraspDatabase],
     cfg: SceneConfig,
+    hand: GripperSpec,
     rng: np.random.Generator,
 ) -> dict[str, np.ndarray]:
     """Every held database grasp moved into the scene, with its score along world gravity,
-    and whether its hand collides (``collides``). Arrays over all G grasps."""
+    and whether the open ``hand`` collides there (``collides``). Arrays over all G grasps."""
     T, score, width, owner = [], [], [], []
     points = []
     for i, (obj, T_wo, db) in enumerate(zip(objects, poses, databases, strict=True)):
@@ -79,27 +102,33 @@ def scene_grasps(
         "score": np.concatenate(score) if score else np.zeros(0),
         "width": np.concatenate(width) if width else np.zeros(0),
         "object": np.concatenate(owner) if owner else np.zeros(0, dtype=int),
-        "collides": hand_collides(T_all, cfg.hand, cloud, tolerance=-cfg.clearance),
+        "collides": hand_collides(T_all, hand, cloud, tolerance=-cfg.clearance),
     }
 
 
 def make_scene_record(
-    scene_id: int, cfg: SceneConfig, databases: list[GraspDatabase], seed: int = 0
+    scene_id: int,
+    cfg: SceneConfig,
+    hand: GripperSpec,
+    pool: ScenePool,
+    databases: list[GraspDatabase],
+    seed: int = 0,
 ) -> dict[str, np.ndarray]:
-    """Build, label and observe scene ``scene_id``; ``databases[k]`` belongs to
-    ``cfg.pool()[k]``. Returns the arrays stored in the scene's file (see docs/data.md)."""
+    """Build, label and observe scene ``scene_id`` of ``cfg`` for the gripper ``hand`` (the spec
+    of ``cfg.gripper``); ``databases[k]`` belongs to ``pool.objects[k]`` (``pool`` =
+    `scene_pool` of ``cfg``). Returns the arrays stored in the scene's file (docs/data.md)."""
     rng = scene_rng(seed, scene_id)
-    pool = cfg.pool()
     kind = str(rng.choice(cfg.kinds))
     n = min(int(rng.poisson(cfg.mean_objects)) + 1, cfg.max_objects)
     chosen = [int(k) for k in rng.integers(cfg.pool_size, size=n)]
-    specs = [pool[k] for k in chosen]
-    world = resolve(cfg.object_set, cfg.mesh_unit).scene(kind, specs, seed=int(rng.integers(2**31)))
+    specs = [pool.objects[k] for k in chosen]
+    world = pool.source.scene(kind, specs, seed=int(rng.integers(2**31)))
     kept = [next(j for j, s in enumerate(specs) if s is o) for o in world.objects]
     pool_index = np.array([chosen[j] for j in kept], dtype=np.int64)
     poses = world.object_poses()
 
-    grasps = scene_grasps(world.objects, poses, [databases[k] for k in pool_index], cfg, rng)
+    placed = [databases[k] for k in pool_index]  # the settled objects' databases
+    grasps = scene_grasps(world.objects, poses, placed, cfg, hand, rng)
     ok = ~grasps["collides"]
     labels = voxelise(
         grasps["T_world_tcp"][ok], grasps["score"][ok], grasps["width"][ok], cfg.k_max

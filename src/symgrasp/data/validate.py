@@ -17,6 +17,7 @@ from tqdm import tqdm
 
 from symgrasp.config import SceneConfig
 from symgrasp.data.dataset import load_scene, scene_path
+from symgrasp.data.scenes import scene_pool
 from symgrasp.sim import World, execute_grasp
 from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.objects import surface_samples
@@ -44,7 +45,7 @@ def validate_labels(
     if trials < 1 or not scene_ids:
         raise ValueError("trials must be ≥ 1 and scene_ids non-empty")
     rng = np.random.default_rng(seed)
-    pool = cfg.pool()
+    pool = scene_pool(cfg).objects
     labelled = random = done = 0
     for _ in tqdm(range(trials), desc="label validation", unit="trial"):
         record = load_scene(scene_path(root, int(rng.choice(scene_ids))))

@@ -26,11 +26,11 @@ from symgrasp.config import DEFAULT_VALIDITY, SEED_MAX, check_range
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.device import resolve_device
-from symgrasp.model.checkpoint import load_model
+from symgrasp.model.checkpoint import load_model, trained_gripper
 from symgrasp.model.network import GraspNet
 from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, rank_voxels
 from symgrasp.perception import CameraIntrinsic, TSDFVolume
-from symgrasp.sim.grippers import GripperSpec, get_gripper, same_name_note
+from symgrasp.sim.grippers import GripperSpec, same_name_note
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 Tensor = torch.Tensor
@@ -48,7 +48,8 @@ class GraspDetector:
 
     Args:
         model: the network (any representation).
-        gripper: the gripper the network was trained for (a spec, or a built-in's name).
+        gripper: the gripper the network was trained for (`symgrasp.sim.get_gripper` resolves
+            a built-in's name or a spec file).
         validity_threshold: keep voxels whose validity probability is at least this.
         confidence_threshold: keep grasps whose confidence is at least this. None: the
             representation's `~symgrasp.rotation.Representation.default_confidence` (15 for
@@ -71,7 +72,7 @@ class GraspDetector:
     def __init__(
         self,
         model: GraspNet,
-        gripper: GripperSpec | str,
+        gripper: GripperSpec,
         *,
         validity_threshold: float = DEFAULT_VALIDITY,
         confidence_threshold: float | None = None,
@@ -118,7 +119,7 @@ class GraspDetector:
             )
         self.device = resolve_device(str(device))
         self.model = model.to(self.device).eval()
-        self.gripper = get_gripper(gripper)
+        self.gripper = _check_gripper(gripper)
         self.validity_threshold = float(validity_threshold)
         self.confidence_threshold = confidence_threshold
         self.nms_radius = int(nms_radius)
@@ -137,16 +138,17 @@ class GraspDetector:
         cls,
         name_or_path: str | Path,
         device: str | torch.device = "auto",
-        gripper: GripperSpec | str | None = None,
+        gripper: GripperSpec | None = None,
         **options: Any,
     ) -> GraspDetector:
         """A detector from a shipped model name (`symgrasp.detect.PRETRAINED`) or a checkpoint
-        path written by ``symgrasp train``. ``gripper``: the gripper you will use; a model
-        trained for another one is loaded with a warning. ``options``: see the class."""
+        path written by ``symgrasp train``, for the gripper stored in it. ``gripper``: the
+        gripper you will use; a model trained for another one is loaded with a warning.
+        ``options``: see the class."""
         path = resolve_model(name_or_path)
         model, state = load_model(path, map_location="cpu")
-        trained_for = get_gripper(state["gripper"])
-        used = trained_for if gripper is None else get_gripper(gripper)
+        trained_for = trained_gripper(state)
+        used = trained_for if gripper is None else _check_gripper(gripper)
         if used != trained_for:
             warnings.warn(
                 f"model {name_or_path} was trained for the {trained_for.name!r} gripper, not "
@@ -345,6 +347,15 @@ def _check_extrinsic(extrinsic: np.ndarray | Tensor, views: int) -> np.ndarray:
             "orthonormal with det +1 and its last row (0, 0, 0, 1)"
         )
     return T
+
+
+def _check_gripper(gripper: Any) -> GripperSpec:
+    if not isinstance(gripper, GripperSpec):
+        raise TypeError(
+            "gripper must be a GripperSpec (symgrasp.sim.get_gripper resolves a built-in's name "
+            f"or a spec file), got {gripper!r}"
+        )
+    return gripper
 
 
 def _check_bounds(bounds: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

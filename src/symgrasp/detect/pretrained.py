@@ -9,8 +9,9 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
+from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint, trained_gripper
 from symgrasp.names import PRETRAINED
+from symgrasp.sim.grippers import GripperSpec
 
 
 def shipped_path(name: str) -> Path:
@@ -34,6 +35,13 @@ def resolve_model(name_or_path: str | Path) -> Path:
         f"model {str(name_or_path)!r} is neither a checkpoint file nor a shipped model; "
         f"shipped: {', '.join(PRETRAINED)}"
     )
+
+
+def trained_for(name_or_path: str | Path) -> tuple[str, GripperSpec]:
+    """The rotation representation and the gripper of the model ``name_or_path`` (as
+    `resolve_model` takes it), read from its checkpoint without building its network."""
+    state = load_checkpoint(resolve_model(name_or_path))
+    return state["representation"], trained_gripper(state)
 
 
 def export_model(checkpoint: str | Path, out: str | Path) -> Path:

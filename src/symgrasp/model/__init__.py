@@ -6,9 +6,7 @@
   loss);
 - `metrics`: validity AP, score MAE, rotation errors up to the flip, Bingham confidence, the
   top-k metrics of the voxels the detector would pick (`ranking.rank_voxels`);
-- `selection`: choosing a run's best.pt by a validation measure or a declutter validation on
-  training objects (``symgrasp select``);
-- `checkpoint`: `save_checkpoint`, `load_checkpoint`, `load_model`;
+- `checkpoint`: `save_checkpoint`, `load_checkpoint`, `load_model`, `trained_gripper`;
 - `schedule`: `learning_rate`, the lr of every optimizer step;
 - `averaging`: `WeightAverage`, the exponential moving average of the weights;
 - `train`: `TrainConfig` and `train`, what ``symgrasp train`` runs;

@@ -3,7 +3,8 @@
 A checkpoint is a ``torch.save`` dict holding ``format``, ``symgrasp_version``,
 ``representation``, ``gripper`` (the spec's `GripperSpec.to_dict`; a built-in's name in older
 checkpoints), ``object_set``, ``dataset_hash``, ``network`` (the
-`NetworkConfig` as a dict), ``config`` (the `TrainConfig` as a dict), ``epoch`` (epochs done),
+`NetworkConfig` as a dict), ``config`` (`TrainConfig.record`: flat, read back by
+`TrainConfig.from_record`), ``epoch`` (epochs done),
 ``history`` (one metrics dict per epoch), ``best_val_loss``, ``model`` and ``optimizer`` state.
 A run trained with ``ema`` holds the weight average in ``model`` (what `load_model` loads) and the
 trained weights in ``model_raw`` (only to resume). It loads with ``weights_only=True``: plain data
@@ -15,6 +16,7 @@ from __future__ import annotations
 import hashlib
 import pickle
 import zipfile
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +25,7 @@ import torch
 from symgrasp.atomic import write_atomic
 from symgrasp.config import NetworkConfig
 from symgrasp.model.network import GraspNet
+from symgrasp.sim.grippers import GripperSpec, get_gripper
 
 CHECKPOINT_FORMAT = 1
 
@@ -74,6 +77,12 @@ def load_model(
     model = GraspNet(NetworkConfig(**state["network"]))
     model.load_state_dict(state["model"])
     return model.to(map_location).eval(), state
+
+
+def trained_gripper(state: Mapping[str, Any]) -> GripperSpec:
+    """The gripper the checkpoint ``state`` was trained for: its stored spec (a built-in's name
+    in older checkpoints), resolved once, where the checkpoint is read."""
+    return get_gripper(state["gripper"])
 
 
 def file_sha256(path: str | Path) -> str:

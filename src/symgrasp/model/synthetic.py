@@ -29,7 +29,7 @@ import torch
 from torch.utils.data import Dataset
 
 from symgrasp.perception.tsdf import TRUNCATION_VOXELS
-from symgrasp.sim.grippers import GripperSpec, get_gripper
+from symgrasp.sim.grippers import ROBOTIQ_2F85, GripperSpec
 from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, VOXEL_SIZE
 
 Tensor = torch.Tensor
@@ -51,8 +51,7 @@ class SyntheticGraspDataset(Dataset):
 
     Args:
         num_scenes: number of scenes.
-        gripper: the gripper the labels claim to be for (a spec, a built-in's name or a spec
-            file, as `symgrasp.sim.get_gripper` takes it).
+        gripper: the gripper the labels claim to be for.
         k_max: targets per voxel kept (the first ``k_max`` grasps of a voxel).
         seed: scene generator seed.
     """
@@ -62,7 +61,7 @@ class SyntheticGraspDataset(Dataset):
     def __init__(
         self,
         num_scenes: int,
-        gripper: GripperSpec | str = "robotiq-2f85",
+        gripper: GripperSpec = ROBOTIQ_2F85,
         k_max: int = 8,
         seed: int = 0,
     ) -> None:
@@ -71,7 +70,7 @@ class SyntheticGraspDataset(Dataset):
         if k_max < 1:
             raise ValueError(f"k_max must be ≥ 1, got {k_max}")
         self.num_scenes, self.k_max, self.seed = num_scenes, k_max, seed
-        self.gripper = get_gripper(gripper)
+        self.gripper = gripper
         self.manifest = {
             "gripper": self.gripper.to_dict(),
             "object_set": self.object_set,

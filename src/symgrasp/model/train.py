@@ -35,7 +35,6 @@ the world size, the global batch and the learning rate.
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import functools
 import math
 import time
@@ -54,12 +53,12 @@ from symgrasp.config import LossWeights, TrainConfig, ValidityLoss
 from symgrasp.device import resolve_device
 from symgrasp.model import distributed
 from symgrasp.model.averaging import WeightAverage
-from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
+from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint, trained_gripper
 from symgrasp.model.loss import grasp_losses
 from symgrasp.model.metrics import MetricAccumulator
 from symgrasp.model.network import GraspNet
 from symgrasp.model.schedule import learning_rate
-from symgrasp.sim.grippers import get_gripper, same_name_note
+from symgrasp.sim.grippers import GripperSpec, get_gripper, same_name_note
 
 Tensor = torch.Tensor
 Batch = dict[str, Tensor]
@@ -113,9 +112,9 @@ class FirstScenes(Dataset):
         return self.dataset[self.indices[i]]
 
 
-def check_dataset(dataset: Any, config: TrainConfig) -> None:
-    """Raise ValueError unless ``dataset`` was produced for ``config.gripper`` (the same spec)."""
-    asked = get_gripper(config.gripper)
+def check_dataset(dataset: Any, config: TrainConfig, asked: GripperSpec) -> None:
+    """Raise ValueError unless ``dataset`` was produced for ``asked``, the spec of
+    ``config.gripper``."""
     if dataset.gripper != asked:
         raise ValueError(
             f"dataset {config.data!r} was produced for the gripper {dataset.gripper.name!r}, "
@@ -138,8 +137,9 @@ def train(
         train_set = FirstScenes(train_set, config.train_scenes)
     if config.val_scenes:
         val_set = FirstScenes(val_set, config.val_scenes, "val_scenes")
+    asked = get_gripper(config.gripper)
     for dataset in (train_set, val_set):
-        check_dataset(dataset, config)
+        check_dataset(dataset, config, asked)
     rank, world, device = distributed.start(resolve_device(config.device))
     generator = torch.Generator()  # seeded per epoch: the same shuffle on every rank
     batches = distributed.ShardedBatches(len(train_set), config.batch_size, generator, rank, world)
@@ -162,7 +162,7 @@ def train(
     history: list[dict[str, float]] = []
     best_val_loss = math.inf
     if config.resume and (out / "last.pt").exists():  # nothing to resume: a fresh start
-        state = load_checkpoint(out / "last.pt", config.representation, device)
+        state = load_checkpoint(out / "last.pt", config.network.representation, device)
         _check_resume(state, train_set, config)
         if average:
             net.load_state_dict(state["model_raw"])
@@ -220,12 +220,12 @@ def train(
         history.append(row)
         state = {
             "symgrasp_version": symgrasp.__version__,
-            "representation": config.representation,
+            "representation": config.network.representation,
             "gripper": train_set.gripper.to_dict(),
             "object_set": train_set.manifest.get("object_set"),
             "dataset_hash": train_set.manifest.get("dataset_hash"),
             "network": asdict(config.network),
-            "config": asdict(config),
+            "config": config.record(),
             "epoch": epoch + 1,
             "world_size": world,
             "history": history,
@@ -263,7 +263,7 @@ def _check_finite(loss: Tensor, what: str, config: TrainConfig) -> None:
 
 
 def _check_resume(state: dict[str, Any], train_set: Any, config: TrainConfig) -> None:
-    trained_for = get_gripper(state["gripper"])
+    trained_for = trained_gripper(state)
     if trained_for != train_set.gripper:
         raise ValueError(
             f"cannot resume: the checkpoint was trained for the gripper {trained_for.name!r}, "
@@ -280,15 +280,15 @@ def _check_resume(state: dict[str, Any], train_set: Any, config: TrainConfig) ->
             f"cannot resume: network {asdict(config.network)} differs from the checkpoint's "
             f"{state['network']}"
         )
-    recorded = recorded_config(state)
+    recorded, asked = TrainConfig.from_record(state["config"]).record(), config.record()
     fixed = _RECIPE if _flat(config) else (*_RECIPE, "epochs", "batch_size")
-    changed = [name for name in fixed if recorded[name] != getattr(config, name)]
+    changed = [name for name in fixed if recorded[name] != asked[name]]
     if changed:
         raise ValueError(
             "cannot resume: the checkpoint's run has "
             + ", ".join(f"{name} {recorded[name]!r}" for name in changed)
             + "; asked for "
-            + ", ".join(f"{name} {getattr(config, name)!r}" for name in changed)
+            + ", ".join(f"{name} {asked[name]!r}" for name in changed)
             + " (a run keeps its recipe"
             + ("" if _flat(config) else " and the length its lr schedule spans")
             + "; start a new --out to change it)"
@@ -308,16 +308,8 @@ _RECIPE = (
     "focal_alpha",
     "train_scenes",
 )
-"""The fields of `TrainConfig` a resumed run must keep: changed midway, they would make a run
-that no straight run reproduces."""
-
-_RECIPE_DEFAULTS = {f.name: f.default for f in dataclasses.fields(TrainConfig) if f.name in _RECIPE}
-
-
-def recorded_config(state: dict[str, Any]) -> dict[str, Any]:
-    """The `TrainConfig` of a checkpoint's run as a dict, with the recipe fields it predates at
-    their defaults (what it was trained with)."""
-    return {**_RECIPE_DEFAULTS, **state["config"]}
+"""The fields of `TrainConfig` a resumed run must keep (by their names in its `record`):
+changed midway, they would make a run that no straight run reproduces."""
 
 
 def _flat(config: TrainConfig) -> bool:

@@ -98,7 +98,7 @@ class ObjectSource:
         kind: str,
         objects: Sequence[ObjectSpec],
         seed: int,
-        gripper: GripperSpec | str | None = None,
+        gripper: GripperSpec | None = None,
     ) -> World:
         """A settled scene of ``kind`` holding ``objects`` (`symgrasp.sim.world`)."""
         from symgrasp.sim import world
@@ -184,7 +184,7 @@ def make_scene(
     objects: str | Path | ObjectSource | Sequence[ObjectSpec] = "household-train",
     n: int = 5,
     seed: int = 0,
-    gripper: GripperSpec | str | None = None,
+    gripper: GripperSpec | None = None,
 ) -> World:
     """A settled ``scene`` ("pile" or "packed") of ``n`` objects of the set ``objects`` (a
     name or folder for `resolve`, or a resolved source; or these objects, in a procedural

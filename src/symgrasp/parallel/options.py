@@ -7,7 +7,8 @@ from __future__ import annotations
 import argparse
 
 from symgrasp.arguments import integer, sentence
-from symgrasp.config import MAX_WORKERS, ParallelConfig, field_docs
+from symgrasp.config import MAX_WORKERS, ParallelConfig
+from symgrasp.fields import field_docs
 from symgrasp.names import BACKENDS
 
 

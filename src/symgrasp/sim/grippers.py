@@ -44,7 +44,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from symgrasp.config import field_docs
+from symgrasp.fields import field_docs
 from symgrasp.names import GRIPPER_SPEC_SUFFIX, GRIPPERS
 from symgrasp.sim.physics import WELD_SOLREF
 
@@ -536,16 +536,15 @@ def same_name_note(a: GripperSpec, b: GripperSpec) -> str:
     return " (another spec of the same name: its dimensions differ)" if a.name == b.name else ""
 
 
-def get_gripper(gripper: GripperSpec | str | Path | Mapping[str, Any]) -> GripperSpec:
-    """The spec of ``gripper``: a spec as it is; a built-in's name (one of
-    `symgrasp.names.GRIPPERS`); a ``.toml`` spec file; or a spec's `GripperSpec.to_dict`, as
-    models and datasets store it. Call it once, where a gripper comes in.
+def get_gripper(gripper: str | Path | Mapping[str, Any]) -> GripperSpec:
+    """The spec of ``gripper``: a built-in's name (one of `symgrasp.names.GRIPPERS`); a
+    ``.toml`` spec file; or a spec's `GripperSpec.to_dict`, as models and datasets store it.
+    Call it once, where a gripper comes in (a command's option, a stored record): every
+    function inside the package takes the `GripperSpec`.
 
     A file may not take a built-in's name with other dimensions: models and datasets name
     their gripper, and ``franka`` must mean one hand.
     """
-    if isinstance(gripper, GripperSpec):
-        return gripper
     if isinstance(gripper, Mapping):
         return GripperSpec.from_dict(gripper, source="the stored gripper spec")
     if isinstance(gripper, str) and gripper in _SPECS:

@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from symgrasp.sim.grippers import PREFIX, GripperSpec, get_gripper
+from symgrasp.sim.grippers import PREFIX, GripperSpec
 from symgrasp.sim.objects import ObjectSpec
 from symgrasp.sim.physics import HAND_GROUP, HIDDEN_GROUP, option_xml
 from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
@@ -124,7 +124,7 @@ class World:
     Args:
         objects: the objects, in order; object ``i`` is body ``obj_i``.
         poses: (n, 4, 4) initial ``T_world_object``; default: all at the workspace centre.
-        gripper: the hand to include (a spec, or a built-in's name), or None for no hand.
+        gripper: the hand to include, or None for no hand.
         walls: include the removable walls used to drop a pile.
     """
 
@@ -132,11 +132,11 @@ class World:
         self,
         objects: Sequence[ObjectSpec] = (),
         poses: np.ndarray | None = None,
-        gripper: GripperSpec | str | None = None,
+        gripper: GripperSpec | None = None,
         walls: bool = False,
     ) -> None:
         self.objects = list(objects)
-        self.gripper = None if gripper is None else get_gripper(gripper)
+        self.gripper = gripper
         self.walls = walls
         if poses is None:
             poses = np.tile(np.eye(4), (len(self.objects), 1, 1))
@@ -295,7 +295,7 @@ class World:
 
     def _require_hand(self) -> GripperSpec:
         if self.gripper is None:
-            raise ValueError("this world has no gripper; build it with gripper=<name>")
+            raise ValueError("this world has no gripper; build it with gripper=<a GripperSpec>")
         return self.gripper
 
     def set_hand_pose(self, T_world_tcp: np.ndarray) -> None:
@@ -427,7 +427,7 @@ def _random_rotation(rng: np.random.Generator) -> np.ndarray:
 def pile_scene(
     objects: Sequence[ObjectSpec],
     seed: int = 0,
-    gripper: GripperSpec | str | None = None,
+    gripper: GripperSpec | None = None,
     max_settle: float = 1.5,
 ) -> World:
     """Drop ``objects`` with random orientations into a box at the workspace centre, let them
@@ -459,7 +459,7 @@ def pile_scene(
 def packed_scene(
     objects: Sequence[ObjectSpec],
     seed: int = 0,
-    gripper: GripperSpec | str | None = None,
+    gripper: GripperSpec | None = None,
     max_settle: float = 1.0,
     attempts: int = 200,
 ) -> World:
@@ -508,7 +508,7 @@ def _bounding_centre(obj: ObjectSpec) -> np.ndarray:
 def vgn_pile_scene(
     objects: Sequence[ObjectSpec],
     seed: int = 0,
-    gripper: GripperSpec | str | None = None,
+    gripper: GripperSpec | None = None,
     max_settle: float = 1.0,
 ) -> World:
     """A pile as VGN builds one (``generate_pile_scene`` of Breyer et al.'s simulator): inside
@@ -535,7 +535,7 @@ def vgn_pile_scene(
 def vgn_packed_scene(
     objects: Sequence[ObjectSpec],
     seed: int = 0,
-    gripper: GripperSpec | str | None = None,
+    gripper: GripperSpec | None = None,
     max_settle: float = 1.0,
     attempts: int = VGN_PACKED_ATTEMPTS,
 ) -> World:

@@ -18,7 +18,8 @@ what is done and a killed declutter validation resumes round by round), writes
 ``selection.csv`` and ``selection.json`` (every measure of every checkpoint, the choice) and
 copies the chosen checkpoint to ``best.pt``, recording the choice in it (``"selection"``).
 
-The simulator is imported only when a declutter validation runs: training does not load it.
+Selection plays the benchmark, so it lives above it, in the benchmark package; training
+(`symgrasp.model`) never imports it.
 """
 
 from __future__ import annotations
@@ -32,7 +33,10 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from torch.utils.data import DataLoader
+
 from symgrasp.atomic import write_atomic, write_csv
+from symgrasp.benchmark.runner import run_or_reuse, summarise
 from symgrasp.config import (
     TEST_SEED_LIMIT,
     VALIDATION_OBJECTS,
@@ -40,8 +44,20 @@ from symgrasp.config import (
     VALIDATION_SEED,
     BenchmarkConfig,
     ParallelConfig,
+    TrainConfig,
 )
+from symgrasp.data.dataset import GraspDataset, collate_scenes
+from symgrasp.device import resolve_device
+from symgrasp.model.checkpoint import (
+    file_sha256,
+    load_checkpoint,
+    load_model,
+    save_checkpoint,
+    trained_gripper,
+)
+from symgrasp.model.train import FirstScenes, evaluate
 from symgrasp.names import OBJECT_SETS
+from symgrasp.sim.grippers import same_name_note
 
 __all__ = [
     "TEST_SEED_LIMIT",
@@ -198,9 +214,6 @@ def declutter_validation(
         parallel = ParallelConfig(workers=workers)
     elif workers is not None:
         raise ValueError("workers: give workers or parallel, not both")
-
-    from symgrasp.benchmark.runner import run_or_reuse, summarise
-
     summary = summarise(run_or_reuse(config, out, parallel), seed)
     keys = ("rounds", "objects", "executed", "successes", "success_ratio", "success_ratio_ci95",
             "clear_ratio", "clear_ratio_ci95")  # fmt: skip
@@ -225,45 +238,30 @@ def validation_metrics(
     ``val_scenes``, batch size and validity loss), so that metrics.csv's values come back.
     ``datasets`` = (val split, collate function) replaces the dataset folder: that split, whole
     (tests and quick benchmarks pass synthetic scenes)."""
-    from torch.utils.data import DataLoader
-
-    from symgrasp.config import LossWeights, ValidityLoss
-    from symgrasp.device import resolve_device
-    from symgrasp.model.checkpoint import load_model
-    from symgrasp.model.train import FirstScenes, evaluate, recorded_config
-
     model, state = load_model(checkpoint)
-    recorded = recorded_config(state)
+    recorded = TrainConfig.from_record(state["config"])
     if datasets is None:
-        from symgrasp.data.dataset import GraspDataset, collate_scenes
-        from symgrasp.sim.grippers import get_gripper, same_name_note
-
-        folder = data or state["config"]["data"]
+        folder = data or recorded.data
         val_set = GraspDataset(folder, split="val", augment=False)
-        trained_for = get_gripper(state["gripper"])
+        trained_for = trained_gripper(state)
         if val_set.gripper != trained_for:
             raise ValueError(
                 f"data: {folder} was produced for the gripper {val_set.gripper.name!r}, "
                 f"{checkpoint} was trained for {trained_for.name!r}"
                 f"{same_name_note(val_set.gripper, trained_for)}"
             )
-        if data is None and recorded.get("val_scenes"):
-            val_set = FirstScenes(val_set, recorded["val_scenes"], "the run's val_scenes")
+        if data is None and recorded.val_scenes:
+            val_set = FirstScenes(val_set, recorded.val_scenes, "the run's val_scenes")
         datasets = (val_set, collate_scenes)
     val_set, collate = datasets
     if not len(val_set):
-        raise ValueError(f"data: {data or state['config']['data']} has no validation scene")
+        raise ValueError(f"data: {data or recorded.data} has no validation scene")
     device = resolve_device(device)
-    loader = DataLoader(
-        val_set, batch_size=batch_size or recorded["batch_size"], collate_fn=collate
-    )
-    weights = LossWeights(**recorded.get("loss_weights", {}))
-    validity = ValidityLoss(
-        recorded["validity_loss"], recorded["focal_gamma"], recorded["focal_alpha"]
-    )
+    loader = DataLoader(val_set, batch_size=batch_size or recorded.batch_size, collate_fn=collate)
     losses, metrics = evaluate(
-        model.to(device), loader, weights, device, validity, recorded["autocast"]
-    )
+        model.to(device), loader, recorded.loss_weights, device, recorded.validity,
+        recorded.autocast,
+    )  # fmt: skip
     return {**{f"val_{k}": v for k, v in losses.items()}, **metrics}
 
 
@@ -285,8 +283,6 @@ def find_checkpoints(run_dir: str | Path) -> list[tuple[int, Path]]:
             "--keep-every N to keep them)"
         )
     if (run / "last.pt").is_file():
-        from symgrasp.model.checkpoint import load_checkpoint
-
         last = load_checkpoint(run / "last.pt")["epoch"]
         kept.setdefault(int(last), run / "last.pt")
     return sorted(kept.items())
@@ -307,8 +303,6 @@ def _metric_rows(run: Path, checkpoints: list[tuple[int, Path]]) -> dict[int, di
         with open(path, newline="") as file:
             rows = list(csv.DictReader(file))
     else:
-        from symgrasp.model.checkpoint import load_checkpoint
-
         rows = load_checkpoint(checkpoints[-1][1]).get("history", [])
     return {int(float(row["epoch"])): {k: _number(v) for k, v in row.items()} for row in rows}
 
@@ -318,8 +312,6 @@ class _Cache:
     atomically after each new piece."""
 
     def __init__(self, folder: Path, path: Path, epoch: int) -> None:
-        from symgrasp.model.checkpoint import file_sha256
-
         self.sha = file_sha256(path)
         self.id = f"{path.stem}-{self.sha[:12]}"  # as checkpoint_id
         self.file = folder / f"{self.id}.json"
@@ -384,8 +376,6 @@ def checkpoint_measures(
 def checkpoint_id(path: str | Path) -> str:
     """A checkpoint's name for caches: its file stem and the start of its SHA-256, so that a
     file overwritten by other weights is never taken for the old one."""
-    from symgrasp.model.checkpoint import file_sha256
-
     return f"{Path(path).stem}-{file_sha256(path)[:12]}"
 
 
@@ -458,8 +448,6 @@ def selected_checkpoint(run_dir: str | Path, by: str = "declutter") -> Path:
     run, measure = Path(run_dir), ALIASES.get(by, by)
     best = run / "best.pt"
     if best.is_file():
-        from symgrasp.model.checkpoint import load_checkpoint
-
         if load_checkpoint(best).get("selection", {}).get("by") == measure:
             return best
     raise ValueError(
@@ -505,8 +493,6 @@ def _install(run: Path, chosen: Path, selection: dict[str, Any]) -> None:
     """Copy ``chosen`` to ``run/best.pt`` with the choice recorded in it (``"selection"``),
     atomically. A best.pt that training chose by validation loss is kept once, as
     ``best_val_loss.pt``."""
-    from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint
-
     best = run / "best.pt"
     if best.is_file() and not (run / "best_val_loss.pt").exists():
         previous = load_checkpoint(best)
