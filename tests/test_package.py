@@ -72,7 +72,16 @@ def test_write_csv_takes_every_key_in_first_seen_order(tmp_path):
     assert rows == [{"a": "1", "b": "2", "c": ""}, {"a": "", "b": "3", "c": "4"}]
 
 
-ROOT_MODULES = {"atomic", "config", "device", "fields", "gl_backend", "names", "workspace"}
+ROOT_MODULES = {
+    "arguments",
+    "atomic",
+    "config",
+    "device",
+    "fields",
+    "gl_backend",
+    "names",
+    "workspace",
+}
 """The small root modules every layer reads (docs/architecture.md); they read only each other."""
 
 LAYERS = {
@@ -80,7 +89,7 @@ LAYERS = {
     "rotation": {"bingham"},
     "perception": set(),
     "sim": {"perception"},
-    "objects": {"sim"},
+    "objects": {"sim", "parallel"},
     "parallel": set(),
     "data": {"perception", "sim", "objects", "parallel"},
     "model": {"bingham", "rotation", "perception", "sim", "data"},

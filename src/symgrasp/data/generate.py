@@ -175,7 +175,6 @@ def generate(
         TasksFailed: some tasks raised (the other scenes are written).
     """
     hand = get_gripper(cfg.gripper)  # the names, resolved once (a ValueError names a bad one)
-    pool = scene_pool(cfg)
     check_range("scenes", scenes, 1, MAX_SCENES)
     check_range("seed", seed, 0, SEED_MAX)
     root = check_folder(out)
@@ -198,6 +197,7 @@ def generate(
             raise ValueError(f"out {root} holds a dataset of another configuration or seed")
     elif any((root / "scenes").glob("*.npz")) and not resume:
         raise ValueError(f"out {root} already holds scenes; pass resume=True (--resume)")
+    pool = scene_pool(cfg)  # after the cheap checks: a bad --out is named before objects load
     with open_executor(parallel) as executor:  # a cluster is joined before anything is written
         root.mkdir(parents=True, exist_ok=True)
         if not manifest_path.exists():  # records the configuration that --resume must match
