@@ -270,7 +270,7 @@ API = {
     "Bingham normalizer method": (lambda d: bingham.log_normalizer(torch.zeros(3), method="laplace"), "`method`"),
 }  # fmt: skip
 """Bad calls of the API: each raises ValueError or TypeError naming the argument. The Bingham
-rows cover its entry points; tests/test_bingham_*.py hold the rest of its cases."""
+rows cover its entry points; tests/bingham/ hold the rest of its cases."""
 
 
 @pytest.mark.parametrize("case", API)

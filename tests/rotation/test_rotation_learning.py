@@ -6,7 +6,7 @@ closing axis e_z as an antipodally symmetric distribution and learns it up to si
 `rotmat6d_naive` regresses e_z directly, is pulled towards +e_z and −e_z equally, and its
 decoded closing axis is arbitrary (mode averaging, Ko et al. 2024, Sec. 4.1).
 
-Run ``python tests/test_rotation_learning.py`` to print the errors of every representation.
+Run ``python tests/rotation/test_rotation_learning.py`` to print the errors of every representation.
 """
 
 import math
