@@ -30,12 +30,12 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 import torch
-from common import machine, parse_args
 
 from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
 from symgrasp.data.card import dataset_card
 from symgrasp.data.generate import generate
 from symgrasp.data.grasp_db import cached_database
+from symgrasp.scripts import machine, parse_args, run_main
 from symgrasp.sim.render import make_renderer
 
 TARGET_SCENES, TARGET_MINUTES, DEFAULT_POOL = 2000, 60.0, SceneConfig().pool_size
@@ -132,4 +132,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)
