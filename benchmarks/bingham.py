@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import machine, parse_args
 from tqdm import tqdm
 
 from symgrasp.bingham import Bingham, eigh3, log_normalizer, nll, triu_to_sym
 from symgrasp.bingham.normalizer import _S2_NODES, _S2_WINDOW, _gauss_legendre, _s2_quadrature
 from symgrasp.bingham.reference import log_normalizer_mpmath
+from symgrasp.scripts import machine, parse_args, run_main
 
 RESULTS = Path(__file__).parent / "results" / "bingham.json"
 METHODS = {3: ["quadrature", "paper"], 4: ["bessel", "paper"]}
@@ -258,4 +258,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

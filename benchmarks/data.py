@@ -30,13 +30,13 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 import torch
-from common import machine, parse_args
 
 from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
 from symgrasp.data.card import dataset_card
 from symgrasp.data.generate import generate
 from symgrasp.data.grasp_db import cached_database
 from symgrasp.data.scenes import scene_pool
+from symgrasp.scripts import machine, parse_args, run_main
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.sim.render import make_renderer
 
@@ -135,4 +135,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

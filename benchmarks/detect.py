@@ -20,10 +20,9 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
-from common import machine, parse_args
-
 from symgrasp.detect import GraspDetector
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
+from symgrasp.scripts import machine, parse_args, run_main
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
@@ -74,4 +73,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

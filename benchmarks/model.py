@@ -30,7 +30,6 @@ from pathlib import Path
 
 import torch
 import torch.nn.functional as F
-from common import best_seconds, machine, parse_args
 
 from symgrasp import rotation
 from symgrasp.model import (
@@ -45,6 +44,7 @@ from symgrasp.model.checkpoint import load_checkpoint
 from symgrasp.model.loss import at_voxels
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 from symgrasp.model.train import accumulate_gradient, collate_chunks
+from symgrasp.scripts import best_seconds, machine, parse_args, run_main
 
 RESULTS = Path(__file__).parent / "results" / "model.json"
 
@@ -225,4 +225,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -18,10 +18,10 @@ import sys
 from pathlib import Path
 
 import torch
-from common import best_seconds, machine, parse_args
 
 from symgrasp import rotation
 from symgrasp.bingham import eigh3, log_normalizer, triu_to_sym
+from symgrasp.scripts import best_seconds, machine, parse_args, run_main
 
 RESULTS = Path(__file__).parent / "results" / "rotation.json"
 
@@ -148,4 +148,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -23,9 +23,9 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
-from common import machine, parse_args
 
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, default_extrinsic
+from symgrasp.scripts import machine, parse_args, run_main
 from symgrasp.sim import World, execute_grasp, get_gripper, make_scene
 from symgrasp.sim.execute import top_grasp
 from symgrasp.sim.objects import ObjectSpec, Part
@@ -130,4 +130,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -2,10 +2,11 @@
 
 import dataclasses
 import json
+import math
 
 import pytest
 
-from symgrasp.benchmark.compare import compare_table, paired_change, paired_rounds
+from symgrasp.benchmark.compare import compare_table, paired_change, paired_rounds, percent_change
 from symgrasp.cli import main
 from symgrasp.config import BenchmarkConfig
 
@@ -51,6 +52,27 @@ def test_a_round_that_crashed_in_either_is_left_out(tmp_path):
     b = _bench(tmp_path / "b", {s: (2, 2, 5) for s in range(5)})
     rounds_a, _ = paired_rounds(a, b)
     assert [r["seed"] for r in rounds_a] == [0, 1, 2, 3]
+
+
+def test_an_undefined_ratio_is_nan_not_zero(tmp_path):
+    """No rounds, or no grasp executed: SR is undefined, in the change and in the table."""
+    assert all(math.isnan(v) for r in paired_change([], []).values() for v in r)
+    a = _bench(tmp_path / "a", {s: (0, 0, 5) for s in range(3)})  # nothing found, ever
+    b = _bench(tmp_path / "b", {s: (1, 2, 5) for s in range(3)})
+    change = paired_change(*paired_rounds(a, b))
+    assert all(math.isnan(v) for v in change["success_ratio"])
+    assert change["clear_ratio"] == pytest.approx([-0.2, -0.2, -0.2])
+    assert "| SR % | nan | 50.0 | +nan [+nan, +nan] |" in compare_table(a, b)
+
+
+def test_rounds_that_crashed_are_refused_not_read():
+    crashed = [{"seed": 0, "error": "RuntimeError: unstable"}]
+    with pytest.raises(ValueError, match="crashed"):
+        paired_change(crashed, [{"seed": 0, "successes": 1, "executed": 1, "objects": 5}])
+
+
+def test_a_change_prints_as_signed_points():
+    assert percent_change([0.061, -0.036, 0.155]) == "+6.1 [-3.6, +15.5]"
 
 
 def test_different_worlds_are_refused(tmp_path, capsys):

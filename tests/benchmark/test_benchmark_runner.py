@@ -1,4 +1,5 @@
-"""The declutter benchmark's bookkeeping: pooled ratios, bootstrap intervals, crashed rounds."""
+"""The declutter benchmark's bookkeeping: pooled ratios, bootstrap intervals, crashed rounds, a
+benchmark whose every round failed, an object set missing before any round is played."""
 
 import json
 
@@ -7,7 +8,9 @@ import pytest
 import torch
 
 from symgrasp.benchmark import runner
-from symgrasp.benchmark.runner import BenchmarkConfig, markdown_table, summarise
+from symgrasp.benchmark.runner import BenchmarkConfig, markdown_table, pooled_ratio, summarise
+from symgrasp.objects.folder import DATA_ENV, MissingData
+from symgrasp.parallel import TasksFailed
 
 
 def _round(seed, objects, outcomes, modes=None, targets=None):
@@ -48,6 +51,17 @@ def test_ratios_pool_all_rounds_and_the_interval_brackets_them():
     assert summarise(rounds) == s  # seeded bootstrap
     row = markdown_table(s, BenchmarkConfig(rounds=4)).splitlines()[2]
     assert "70.0 [" in row and "50.0 [" in row and row.endswith("| 1 |")
+
+
+def test_a_ratio_of_nothing_counted_is_undefined():
+    assert pooled_ratio(np.array([1.0, 2.0]), np.array([2.0, 2.0])) == 0.75
+    assert np.isnan(pooled_ratio(np.zeros(0), np.zeros(0)))
+    assert np.isnan(pooled_ratio(np.zeros(3), np.zeros(3)))  # no grasp executed: SR undefined
+    by_row = pooled_ratio(np.array([[1.0, 1.0], [0.0, 0.0]]), np.array([[2.0, 2.0], [0.0, 0.0]]))
+    assert by_row[0] == 0.5 and np.isnan(by_row[1])
+    none = summarise([{"seed": 0, "error": "RuntimeError: unstable"}])
+    assert np.isnan(none["success_ratio"]) and np.isnan(none["clear_ratio"])
+    assert np.isnan(none["success_ratio_ci95"]).all()
 
 
 def test_attempts_are_counted_per_aimed_at_family():
@@ -101,6 +115,31 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
     assert [x["seed"] for x in lines] == [10, 11, 12]
     assert "simulation unstable" in lines[1]["traceback"]
     assert json.loads((tmp_path / "results.json").read_text())["config"]["seed"] == 10
+
+
+def test_a_benchmark_whose_every_round_failed_stops_naming_the_first_error(monkeypatch, tmp_path):
+    def failing_round(detector, objects, num_objects, seed, scene, observer, diagnose):
+        raise RuntimeError(f"no object in round {seed}")
+
+    monkeypatch.setattr(runner, "run_round", failing_round)
+    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
+        config=config, detector=None, out=out))  # fmt: skip
+    config = BenchmarkConfig(rounds=2, seed=10)
+    expected = "every one of the 2 rounds in .* failed; the first \\(seed 10\\): RuntimeError: no object in round 10"
+    with pytest.raises(TasksFailed, match=expected):
+        runner.run_benchmark(config, tmp_path)
+    assert len((tmp_path / "rounds.jsonl").read_text().splitlines()) == 2  # recorded all the same
+    with pytest.raises(TasksFailed, match=expected):  # read back, not taken for a result
+        runner.run_or_reuse(config, tmp_path)
+
+
+def test_a_missing_object_set_stops_the_benchmark_before_any_round(monkeypatch, tmp_path):
+    monkeypatch.setenv(DATA_ENV, str(tmp_path / "no-data"))
+    monkeypatch.setattr(runner, "_init_worker", lambda *args: pytest.fail("a worker started"))
+    config = BenchmarkConfig(objects="vgn-pile-train", rounds=2)
+    with pytest.raises(MissingData, match="object set vgn-pile-train is not in the data folder"):
+        runner.run_benchmark(config, tmp_path / "b")
+    assert not (tmp_path / "b" / "config.json").exists()
 
 
 @pytest.mark.parametrize("given", [1, 2])

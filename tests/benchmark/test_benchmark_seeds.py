@@ -1,11 +1,18 @@
 """Ratios over training seeds (`symgrasp.benchmark.seeds`): the mean over seeds, intervals
-that include the seed's luck, and the spread the rounds' noise alone would make."""
+that include the seed's luck, one detector's lead over another in every pairing of seeds, and
+the spread the rounds' noise alone would make."""
 
 import numpy as np
 import pytest
 
 from symgrasp.benchmark.runner import summarise
-from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios, spread_null
+from symgrasp.benchmark.seeds import (
+    common_rounds,
+    seed_lead,
+    seed_paired_change,
+    seed_ratios,
+    spread_null,
+)
 
 
 def _run(counts, first=0):
@@ -93,6 +100,22 @@ def test_runs_of_other_rounds_are_refused():
         seed_paired_change([[{"seed": 0, "error": "x"}]], [[{"seed": 0, "error": "x"}]])
     with pytest.raises(ValueError, match="runs"):
         seed_ratios([])
+
+
+def test_the_lead_counts_every_pairing_of_seeds_on_the_rounds_every_run_finished():
+    """A grasps 2 of 2 in every round with seeds 0 and 1, 0 of 2 with seed 2; B 1 of 2 with
+    every seed: A is ahead in the 6 pairings of its seeds 0 and 1, behind in the 3 of seed 2.
+    A round that crashed in one run is left out of the change and of that run's pairings."""
+    good, bad, half = _run([(2, 2, 5)] * 20), _run([(0, 2, 5)] * 20), _run([(1, 2, 5)] * 20)
+    crashed = [*half[:5], {"seed": 5, "error": "RuntimeError: unstable"}, *half[6:]]
+    lead = seed_lead([good, good, bad], [half, half, crashed])
+    assert (lead["ahead"], len(lead["pairings"]), lead["rounds"]) == (6, 9, 19)
+    assert [p["success_ratio"][0] > 0 for p in lead["pairings"]] == [True] * 6 + [False] * 3
+    change, low, high = lead["change"]["success_ratio"]
+    assert change == pytest.approx(2 / 3 - 1 / 2)
+    assert low < 0 < high  # one seed of three is worse in every round: the seed decides
+    shared = common_rounds(good, good, bad, half, half, crashed)
+    assert lead["change"] == seed_paired_change(shared[:3], shared[3:])
 
 
 def test_common_rounds_keeps_the_seeds_every_run_finished():

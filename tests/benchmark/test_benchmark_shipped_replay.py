@@ -1,5 +1,5 @@
 """Every shipped model replays the rounds of the Table 1 cell it comes from
-(benchmarks/results/declutter_rounds.tar.gz): a cell of docs/results.md reproduced without
+(experiments/results/declutter_rounds.tar.gz): a cell of docs/results.md reproduced without
 training, with the round's scene, grasps and outcomes the same."""
 
 import json
@@ -15,7 +15,7 @@ from symgrasp.objects.folder import DATA_ENV
 from symgrasp.objects.sets import resolve
 
 ROOT = Path(__file__).resolve().parents[2]
-ARCHIVE = ROOT / "benchmarks" / "results" / "declutter_rounds.tar.gz"
+ARCHIVE = ROOT / "experiments" / "results" / "declutter_rounds.tar.gz"
 
 
 @pytest.mark.parametrize("name", PRETRAINED)

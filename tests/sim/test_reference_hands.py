@@ -1,46 +1,60 @@
-"""The code-built hands against MuJoCo Menagerie's reference models (benchmarks/hands.py): every
-row of the comparison that has a tolerance holds it. Runs where the tests' shared data holds the
-reference models (conftest's `menagerie`; CI has them); the package itself never loads them."""
+"""The code-built hands against MuJoCo Menagerie's reference models (experiments/hands.py, run as
+a script): every row of its comparison that has a tolerance holds it, and its probes see what
+they probe. Runs where the data folder holds the reference models (``reference/menagerie``; CI
+has them); the package itself never loads them."""
 
+import json
+import os
+import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from conftest import missing_data
+
+from symgrasp.objects.folder import DATA_ENV
+from symgrasp.scripts import EX_NOINPUT
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "benchmarks"))
-hands = pytest.importorskip("hands")
 
 
-@pytest.fixture(scope="module", params=list(hands.HANDS))
-def measured(request, menagerie):
-    name = request.param
-    spec = hands.HANDS[name]
-    ours = hands.measure(lambda bodies: hands.ours(spec, bodies), quick=False)
-    reference = hands.measure(lambda bodies: hands.reference(name, menagerie, bodies), quick=False)
-    return name, ours, reference
+@pytest.fixture(scope="module")
+def measured(shared, tmp_path_factory):
+    """The script's result (its cells by hand and model) and its Markdown table."""
+    out = tmp_path_factory.mktemp("hands")
+    done = subprocess.run(
+        [sys.executable, "experiments/hands.py", "--result", str(out / "hands"),
+         "--figure", str(out / "hands.png")],
+        cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT / "src"), DATA_ENV: str(shared)},
+        capture_output=True, text=True,
+    )  # fmt: skip
+    if done.returncode == EX_NOINPUT:
+        missing_data(done.stderr.strip())
+    assert done.returncode == 0, done.stderr[-3000:]
+    cells = json.loads((out / "hands.json").read_text())["cells"]
+    return {(c["hand"], c["model"]): c for c in cells}, (out / "hands.md").read_text()
 
 
-@pytest.mark.parametrize("row", [r for r in hands.ROWS if r[2] != "info"], ids=lambda r: r[0])
-def test_within_tolerance_of_the_reference(measured, row):
-    name, ours, reference = measured
-    label, read, kind = row
-    if kind == "parallel" and name == "franka":
-        pytest.skip("rigid fingers have no pad hinge")
-    assert hands.verdict(kind, name, read(ours), read(reference)) == "yes", (
-        f"{name}: {label}: symgrasp {read(ours)}, Menagerie {read(reference)}"
-    )
+@pytest.mark.data
+def test_within_tolerance_of_the_reference(measured):
+    verdicts, hand = [], None  # (hand, row, verdict) of every row of the table
+    for line in measured[1].splitlines():
+        if line.startswith("**"):
+            hand = line.strip("*")
+        elif line.startswith("| ") and not line.startswith("| |"):  # a row, not the header
+            label, ours, theirs, verdict = (c.strip() for c in line.strip("|").split("|"))
+            verdicts.append((hand, f"{label}: symgrasp {ours}, Menagerie {theirs}", verdict))
+    assert {hand for hand, _, _ in verdicts} == {"robotiq-2f85", "franka"}
+    assert sum(verdict == "yes" for _, _, verdict in verdicts) >= 10
+    assert [(hand, row) for hand, row, verdict in verdicts if verdict not in ("yes", "–")] == []
 
 
-def test_the_probes_see_what_they_probe(menagerie):
+@pytest.mark.data
+def test_the_probes_see_what_they_probe(measured):
     """Oracles for the probes themselves: the reference 2F-85 opens 85 mm (its datasheet), its
     pads stay parallel in a pinch and wrap in a power grasp; a rigid jaw's pads do not move
     along the approach axis."""
-    build = lambda bodies: hands.reference("robotiq-2f85", menagerie, bodies)  # noqa: E731
-    geometry = hands.geometry(build)
-    assert geometry["opening_mm"] == pytest.approx(85, abs=1)
-    pinch = hands.pull_out(build, geometry["tip_x_mm"] / 1e3 - 0.005)
-    power = hands.pull_out(build, geometry["palm_face_x_mm"] / 1e3 + 0.022)
-    assert pinch["tilt_deg"] < 2 < 20 < power["tilt_deg"]
-    path = hands.settled_path(lambda bodies: hands.ours(hands.HANDS["franka"], bodies))
-    assert path == []  # a motor-driven jaw cannot be held part-way: nothing to compare
+    reference = measured[0]["robotiq-2f85", "menagerie"]
+    assert reference["geometry"]["opening_mm"] == pytest.approx(85, abs=1)
+    assert reference["pinch"]["tilt_deg"] < 2 < 20 < reference["power"]["tilt_deg"]
+    assert measured[0]["franka", "symgrasp"]["settled_path"] == []  # nothing to compare

@@ -14,7 +14,15 @@ from typing import Any
 
 import numpy as np
 
-from symgrasp.benchmark.runner import BOOTSTRAP, read_rounds, recorded_config
+from symgrasp.benchmark.runner import (
+    BOOTSTRAP,
+    COUNTS,
+    RATIOS,
+    pooled_ratio,
+    read_rounds,
+    recorded_config,
+    round_counts,
+)
 
 SAME_WORLD = ("objects", "mesh_unit", "scene", "num_objects")
 """Configuration fields that decide what the rounds play: two benchmarks compare only when
@@ -24,23 +32,35 @@ these agree (the model, thresholds and diagnosis may differ)."""
 def paired_change(
     rounds: list[dict[str, Any]], baseline: list[dict[str, Any]], seed: int = 0
 ) -> dict[str, list[float]]:
-    """CR and SR of ``rounds`` minus those of ``baseline`` (the same seeds, in order): the
-    change and its 95 % interval, ``[change, low, high]``, from one bootstrap over rounds
-    resampled in pairs."""
+    """CR and SR (`symgrasp.benchmark.runner.pooled_ratio`) of ``rounds`` minus those of
+    ``baseline`` (the same seeds, in order, none crashed: `paired_rounds`,
+    `symgrasp.benchmark.seeds.common_rounds`): the change and its 95 % interval, ``[change,
+    low, high]``, from one bootstrap over rounds resampled in pairs; NaN where a ratio is
+    undefined (no rounds, no grasp executed)."""
     if [r["seed"] for r in rounds] != [r["seed"] for r in baseline]:
         raise ValueError("rounds and baseline must be the same seeds in the same order")
-    counts = {name: np.array([[r[key] for r in rs] for key in ("successes", "executed", "objects")],
-                             dtype=float) for name, rs in (("a", rounds), ("b", baseline))}  # fmt: skip
+    if any("error" in r for r in (*rounds, *baseline)):
+        raise ValueError("rounds and baseline: leave out the rounds that crashed in either first")
+    a, b = round_counts(rounds), round_counts(baseline)
     picks = np.random.default_rng(seed).integers(len(rounds), size=(BOOTSTRAP, len(rounds)))
     change = {}
-    for name, row in (("clear_ratio", 2), ("success_ratio", 1)):
-        a, b = counts["a"], counts["b"]
-        point = a[0].sum() / a[row].sum() - b[0].sum() / b[row].sum()
-        resampled = a[0][picks].sum(1) / a[row][picks].sum(1) - b[0][picks].sum(1) / b[row][
-            picks
-        ].sum(1)
-        change[name] = [float(point), *map(float, np.percentile(resampled, [2.5, 97.5]))]
+    for name in ("clear_ratio", "success_ratio"):
+        row = COUNTS.index(RATIOS[name])
+        point = pooled_ratio(a[0], a[row]) - pooled_ratio(b[0], b[row])
+        resampled = pooled_ratio(a[0][picks], a[row][picks]) - pooled_ratio(
+            b[0][picks], b[row][picks]
+        )
+        resampled = resampled[np.isfinite(resampled)]
+        interval = np.percentile(resampled, [2.5, 97.5]) if len(resampled) else [np.nan] * 2
+        change[name] = [float(point), *map(float, interval)]
     return change
+
+
+def percent_change(change: list[float]) -> str:
+    """A change of ratios and its interval, ``[change, low, high]`` (`paired_change`), as signed
+    percent points: ``+6.1 [-3.6, +15.5]``."""
+    point, low, high = (100 * v for v in change)
+    return f"{point:+.1f} [{low:+.1f}, {high:+.1f}]"
 
 
 def paired_rounds(a: str | Path, b: str | Path) -> tuple[list[dict], list[dict]]:
@@ -75,23 +95,18 @@ def compare_table(a: str | Path, b: str | Path) -> str:
     paired 95 % interval."""
     rounds_a, rounds_b = paired_rounds(a, b)
     change = paired_change(rounds_a, rounds_b)
-
-    def ratio(rounds: list[dict], key: str) -> float:
-        return 100 * sum(r["successes"] for r in rounds) / max(sum(r[key] for r in rounds), 1)
-
+    counts = (round_counts(rounds_a), round_counts(rounds_b))
     lines = [
         f"{len(rounds_a)} rounds played by both (seeds {rounds_a[0]['seed']}–{rounds_a[-1]['seed']})",
         "",
         "| | A | B | A − B [paired 95 % CI] |",
         "|---|---|---|---|",
     ]
-    for name, key in (("SR %", "executed"), ("CR %", "objects")):
-        point, low, high = (
-            100 * v for v in change["success_ratio" if key == "executed" else "clear_ratio"]
-        )
+    for label, name in (("SR %", "success_ratio"), ("CR %", "clear_ratio")):
+        row = COUNTS.index(RATIOS[name])
+        ratio_a, ratio_b = (100 * pooled_ratio(c[0], c[row]) for c in counts)
         lines.append(
-            f"| {name} | {ratio(rounds_a, key):.1f} | {ratio(rounds_b, key):.1f} | "
-            f"{point:+.1f} [{low:+.1f}, {high:+.1f}] |"
+            f"| {label} | {ratio_a:.1f} | {ratio_b:.1f} | {percent_change(change[name])} |"
         )
     lines.append(f"\nA: {a}\nB: {b}")
     return "\n".join(lines)

@@ -3,9 +3,11 @@
 Round ``r`` of a benchmark with seed ``s`` is `run_round` with seed ``s + r``: a pure task, so
 rounds run on any executor (`symgrasp.parallel`: this process, local processes, a Ray
 cluster) and a round can be rerun alone. A round that raises is recorded as an error with its
-seed, the message and the traceback; the benchmark goes on. Ratios pool all rounds, as the paper and VGN do (SR = successes / executed grasps,
-CR = successes / objects presented); their 95 % intervals come from a bootstrap over rounds
-(rounds are the independent units; attempts within a round are not).
+seed, the message and the traceback; the benchmark goes on, and only a benchmark whose every
+round failed stops (`TasksFailed`, naming the first round's error). Ratios pool all rounds, as
+the paper and VGN do (`RATIOS`: SR = successes / executed grasps, CR = successes / objects
+presented, `pooled_ratio`); their 95 % intervals come from a bootstrap over rounds (rounds are
+the independent units; attempts within a round are not).
 
 Layout of a benchmark folder (`run_benchmark`)::
 
@@ -39,13 +41,36 @@ from symgrasp.config import BenchmarkConfig, ParallelConfig
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.model.checkpoint import file_sha256
 from symgrasp.objects.sets import resolve
-from symgrasp.parallel import Executor, Failure, Job, open_executor
+from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor
 
 MODEL_SHA = "model.sha256"
 """The file of a benchmark folder that records the SHA-256 of the model file it plays."""
 
 BOOTSTRAP = 2000
-"""Bootstrap resamples of the rounds for the confidence intervals."""
+"""Bootstrap resamples for the confidence intervals (of the rounds, and of whatever else a study
+resamples)."""
+
+COUNTS = ("successes", "executed", "objects")
+"""What a finished round counts: successful grasps, executed grasps, objects presented."""
+
+RATIOS = {"success_ratio": "executed", "clear_ratio": "objects"}
+"""Each pooled ratio and the count of `COUNTS` it divides the successes by: SR = successes /
+executed grasps, CR = successes / objects presented (the paper's and VGN's)."""
+
+
+def round_counts(rounds: list[dict[str, Any]]) -> np.ndarray:
+    """``(3, n)`` float array of `COUNTS` of the ``n`` rounds that did not crash, in order."""
+    done = [r for r in rounds if "error" not in r]
+    return np.array([[r[k] for r in done] for k in COUNTS], dtype=float)
+
+
+def pooled_ratio(successes: np.ndarray, denominator: np.ndarray) -> np.ndarray:
+    """``sum(successes) / sum(denominator)`` over the last axis (the rounds), the one definition
+    of SR and CR (`RATIOS`); NaN where the denominator sums to 0: no grasp executed (SR) or no
+    object presented (CR) leaves the ratio undefined, not 0."""
+    total = denominator.sum(-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(total > 0, successes.sum(-1) / total, np.nan)
 
 
 def round_record(record: Round) -> dict[str, Any]:
@@ -141,9 +166,7 @@ def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
     """Pooled SR and CR with bootstrap 95 % intervals, outcome and failure-mode counts,
     executed grasps, successes and wrong yaws per aimed-at object family, planning time."""
     done = [r for r in rounds if "error" not in r]
-    successes = np.array([r["successes"] for r in done], dtype=float)
-    executed = np.array([r["executed"] for r in done], dtype=float)
-    objects = np.array([r["objects"] for r in done], dtype=float)
+    counts = dict(zip(COUNTS, round_counts(done), strict=True))
     outcomes = Counter(a["outcome"] for r in done for a in r["attempts"])
     modes = Counter(a.get("mode") for r in done for a in r["attempts"])
     modes.pop(None, None)
@@ -151,11 +174,13 @@ def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
     summary = {
         "rounds": len(rounds),
         "errors": [{"seed": r["seed"], "error": r["error"]} for r in rounds if "error" in r],
-        "objects": int(objects.sum()),
-        "executed": int(executed.sum()),
-        "successes": int(successes.sum()),
-        "success_ratio": _ratio(successes, executed),
-        "clear_ratio": _ratio(successes, objects),
+        "objects": int(counts["objects"].sum()),
+        "executed": int(counts["executed"].sum()),
+        "successes": int(counts["successes"].sum()),
+        **{
+            name: float(pooled_ratio(counts["successes"], counts[by]))
+            for name, by in RATIOS.items()
+        },
         "outcomes": dict(sorted(outcomes.items())),
         "modes": {mode: modes[mode] for mode in MODES if mode in modes},
         "families": _by_family([a for r in done for a in r["attempts"]]),
@@ -164,12 +189,11 @@ def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
     }
     rng = np.random.default_rng(seed)
     picks = rng.integers(len(done), size=(BOOTSTRAP, len(done))) if done else None
-    for name, denominator in (("success_ratio", executed), ("clear_ratio", objects)):
+    for name, by in RATIOS.items():
         interval = [float("nan")] * 2
-        if picks is not None and denominator.sum() > 0:
-            totals = denominator[picks].sum(1)
-            ratios = successes[picks].sum(1)[totals > 0] / totals[totals > 0]
-            interval = [float(np.percentile(ratios, q)) for q in (2.5, 97.5)]
+        if picks is not None and counts[by].sum() > 0:
+            ratios = pooled_ratio(counts["successes"][picks], counts[by][picks])
+            interval = [float(np.percentile(ratios[np.isfinite(ratios)], q)) for q in (2.5, 97.5)]
         summary[f"{name}_ci95"] = interval
     return summary
 
@@ -187,12 +211,6 @@ def _by_family(attempts: list[dict[str, Any]]) -> dict[str, dict[str, int]]:
         counts["wrong_yaw"] += a.get("mode") == "wrong_yaw"
     keys = ("executed", "successes", "wrong_yaw")
     return {name: {k: families[name][k] for k in keys} for name in sorted(families)}
-
-
-def _ratio(numerator: np.ndarray, denominator: np.ndarray) -> float:
-    """Pooled ratio sum(numerator) / sum(denominator), NaN when the denominator is 0."""
-    total = float(denominator.sum())
-    return float(numerator.sum()) / total if total else float("nan")
 
 
 def percent_with_interval(summary: dict[str, Any], name: str) -> str:
@@ -325,13 +343,16 @@ def run_benchmark(
     to ``rounds.jsonl`` as it finishes (in any order with several workers). At the end
     ``rounds.jsonl`` is rewritten in seed order, and ``results.json`` and ``results.md`` are
     derived from it. With ``resume``, only the rounds missing from ``out`` are played.
-    Raises ValueError as `check_out` and `open_executor` do, before anything is played or
-    written."""
+    Raises ValueError as `check_out` and `open_executor` do, and
+    `symgrasp.objects.folder.MissingData` when the object set is not in the data folder, before
+    anything is played or written; `TasksFailed` after writing them when every round failed."""
     out = Path(out)
     check_out(config, out, resume)
     path = out / "rounds.jsonl"
     done = read_rounds(path)
     missing = [seed for seed in round_seeds(config) if seed not in done]
+    if missing:  # here, once, rather than in every round a worker plays
+        resolve(config.objects, config.mesh_unit)
     # a cluster is joined (or refused) before anything is written, and not at all for no rounds
     with open_executor(parallel if missing else ParallelConfig()) as executor:
         if not (out / "config.json").exists():
@@ -349,7 +370,20 @@ def run_benchmark(
     result = {"config": asdict(config), "summary": summary}
     _write_text(out / "results.json", json.dumps(result, indent=1) + "\n")
     _write_text(out / "results.md", markdown_table(summary, config))
+    _check_finished(rounds, out)
     return summary
+
+
+def _check_finished(rounds: list[dict[str, Any]], out: Path) -> None:
+    """`TasksFailed` naming the first round's error when every one of ``rounds`` (those of the
+    benchmark in ``out``) failed: its ratios are undefined, and whatever failed (a missing
+    object set on a worker, a broken model) failed for all. Some failed rounds are data."""
+    if rounds and all("error" in r for r in rounds):
+        raise TasksFailed(
+            f"every one of the {len(rounds)} rounds in {out} failed; the first (seed "
+            f"{rounds[0]['seed']}): {rounds[0]['error']} (tracebacks in {out / 'rounds.jsonl'}; "
+            "delete the folder to play them again)"
+        )
 
 
 def saved_rounds(
@@ -374,9 +408,11 @@ def run_or_reuse(
     """The round records of ``config``: those in ``out`` when it holds them all
     (`saved_rounds`), else `run_benchmark`'s resuming ``out``, so scripts over many benchmarks
     skip finished ones and finish interrupted ones. Raises ValueError when ``out`` holds
-    another configuration's benchmark."""
+    another configuration's benchmark, and as `run_benchmark` does (`TasksFailed` when every
+    round failed, read back or played)."""
     rounds = saved_rounds(config, out)
     if rounds is None:
         run_benchmark(config, out, resume=True, parallel=parallel)
         rounds = saved_rounds(config, out)
+    _check_finished(rounds, Path(out))
     return rounds

@@ -7,7 +7,8 @@ run, not the recipe. Here each detector is a list of runs (one per training seed
 of round records (`symgrasp.benchmark.runner`), and:
 
 - the point estimate is the **mean over training seeds** of each run's pooled ratio
-  (SR = successes / executed grasps, CR = successes / objects presented);
+  (`symgrasp.benchmark.runner.pooled_ratio`: SR = successes / executed grasps, CR = successes
+  / objects presented);
 - the 95 % interval is a **hierarchical bootstrap** (Davison & Hinkley 1997, §3.8; Field &
   Welsh 2007): resample the training seeds with replacement, then the rounds within each drawn
   run, and take the mean of the drawn runs' ratios; the percentiles of 2 000 such means;
@@ -16,6 +17,9 @@ of round records (`symgrasp.benchmark.runner`), and:
   and one draw of rounds shared by every run of both (the same seeds drop the same objects the
   same way, so the rounds' luck cancels, as in `symgrasp.benchmark.compare`).
 
+- one detector's **lead** over another (`seed_lead`): that change, and the paired change of
+  every pairing of their training seeds (`symgrasp.benchmark.compare.paired_change`), with the
+  number of pairings in which the first is ahead;
 - how much of a **spread** between the seeds (max − min of their ratios) the rounds' own noise
   makes when the seeds are equally good: under that hypothesis the runs' records of one round
   are exchangeable, so a permutation test (Good 2005, ch. 3) shuffles them among the runs
@@ -28,28 +32,16 @@ intervals are then a floor on the uncertainty, and the per-seed values belong be
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
 
-from symgrasp.benchmark.runner import BOOTSTRAP
+from symgrasp.benchmark.compare import paired_change
+from symgrasp.benchmark.runner import BOOTSTRAP, COUNTS, RATIOS, pooled_ratio, round_counts
 
-RATIOS = {"success_ratio": 1, "clear_ratio": 2}
-"""Each pooled ratio and the row of `_counts` it divides the successes by (executed grasps,
-objects presented)."""
-
-
-def _counts(rounds: list[dict[str, Any]]) -> np.ndarray:
-    """(3, rounds) successes, executed grasps, objects of the rounds that did not crash."""
-    done = [r for r in rounds if "error" not in r]
-    return np.array([[r[k] for r in done] for k in ("successes", "executed", "objects")], float)
-
-
-def _ratio(successes: np.ndarray, denominator: np.ndarray) -> np.ndarray:
-    """successes / denominator along the last axis; NaN where nothing was counted."""
-    total = denominator.sum(-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(total > 0, successes.sum(-1) / total, np.nan)
+ROWS = {name: COUNTS.index(by) for name, by in RATIOS.items()}
+"""Each pooled ratio and the row of `round_counts` it divides the successes (row 0) by."""
 
 
 def _check(runs: list[list[dict[str, Any]]], name: str) -> None:
@@ -72,18 +64,18 @@ def seed_ratios(runs: list[list[dict[str, Any]]], seed: int = 0) -> dict[str, li
     high]}``, the interval by the hierarchical bootstrap (module docstring), and
     ``per_seed_<name>``: each run's pooled ratio."""
     _check(runs, "runs")
-    counts = [_counts(run) for run in runs]
+    counts = [round_counts(run) for run in runs]
     rng = np.random.default_rng(seed)
     result: dict[str, list[float]] = {}
-    for name, row in RATIOS.items():
-        per_seed = [float(_ratio(c[0], c[row])) for c in counts]
+    for name, row in ROWS.items():
+        per_seed = [float(pooled_ratio(c[0], c[row])) for c in counts]
         means = np.empty(BOOTSTRAP)
         for b in range(BOOTSTRAP):
             drawn = rng.integers(len(counts), size=len(counts))
             ratios = []
             for s in drawn:
                 picks = rng.integers(counts[s].shape[1], size=counts[s].shape[1])
-                ratios.append(_ratio(counts[s][0, picks], counts[s][row, picks]))
+                ratios.append(pooled_ratio(counts[s][0, picks], counts[s][row, picks]))
             means[b] = np.nanmean(ratios) if np.isfinite(ratios).any() else np.nan
         means = means[np.isfinite(means)]
         interval = np.percentile(means, [2.5, 97.5]) if len(means) else [np.nan] * 2
@@ -111,24 +103,49 @@ def seed_paired_change(
     _check(runs_a, "runs_a")
     _check(runs_b, "runs_b")
     _check_aligned([*runs_a, *runs_b], "runs_a, runs_b")
-    a = np.stack([_counts(run) for run in runs_a])  # (seeds, 3, rounds)
-    b = np.stack([_counts(run) for run in runs_b])
+    a = np.stack([round_counts(run) for run in runs_a])  # (seeds, 3, rounds)
+    b = np.stack([round_counts(run) for run in runs_b])
     rng = np.random.default_rng(seed)
     result = {}
-    for name, row in RATIOS.items():
-        point = np.nanmean(_ratio(a[:, 0], a[:, row])) - np.nanmean(_ratio(b[:, 0], b[:, row]))
+    for name, row in ROWS.items():
+        point = np.nanmean(pooled_ratio(a[:, 0], a[:, row])) - np.nanmean(
+            pooled_ratio(b[:, 0], b[:, row])
+        )
         changes = np.empty(BOOTSTRAP)
         for i in range(BOOTSTRAP):
             picks = rng.integers(a.shape[2], size=a.shape[2])  # the rounds, shared
             da = a[rng.integers(len(a), size=len(a))][:, :, picks]
             db = b[rng.integers(len(b), size=len(b))][:, :, picks]
-            changes[i] = np.nanmean(_ratio(da[:, 0], da[:, row])) - np.nanmean(
-                _ratio(db[:, 0], db[:, row])
+            changes[i] = np.nanmean(pooled_ratio(da[:, 0], da[:, row])) - np.nanmean(
+                pooled_ratio(db[:, 0], db[:, row])
             )
         changes = changes[np.isfinite(changes)]
         interval = np.percentile(changes, [2.5, 97.5]) if len(changes) else [np.nan] * 2
         result[name] = [float(point), *map(float, interval)]
     return result
+
+
+def seed_lead(
+    runs_a: list[list[dict[str, Any]]], runs_b: list[list[dict[str, Any]]], seed: int = 0
+) -> dict[str, Any]:
+    """Detector A's lead over detector B, each given as runs (one per training seed) of the same
+    round seeds:
+
+    - ``change``: `seed_paired_change` on the ``rounds`` rounds every run of both finished
+      (`common_rounds`);
+    - ``pairings``: for every pairing of a run of A with a run of B (A's runs outer), the
+      paired change of SR and CR on the rounds those two finished (`paired_change`);
+    - ``ahead``: the number of pairings in which A's SR is higher.
+
+    A lead that holds in every pairing holds whichever seeds one had trained with."""
+    shared = common_rounds(*runs_a, *runs_b)
+    pairings = [paired_change(*common_rounds(a, b)) for a, b in itertools.product(runs_a, runs_b)]
+    return {
+        "rounds": len(shared[0]),
+        "change": seed_paired_change(shared[: len(runs_a)], shared[len(runs_a) :], seed),
+        "pairings": pairings,
+        "ahead": sum(p["success_ratio"][0] > 0 for p in pairings),
+    }
 
 
 def spread_null(runs: list[list[dict[str, Any]]], seed: int = 0) -> dict[str, dict[str, float]]:
@@ -141,16 +158,18 @@ def spread_null(runs: list[list[dict[str, Any]]], seed: int = 0) -> dict[str, di
     if len(runs) < 2:
         raise ValueError(f"runs: a spread needs two or more runs, got {len(runs)}")
     _check_aligned(runs, "runs")
-    counts = np.stack([_counts(run) for run in runs])  # (runs, 3, rounds)
+    counts = np.stack([round_counts(run) for run in runs])  # (runs, 3, rounds)
     n_runs, _, n_rounds = counts.shape
     rng = np.random.default_rng(seed)
     # one permutation of the runs per round and draw: which run's record each run gets
     order = rng.permuted(np.broadcast_to(np.arange(n_runs), (BOOTSTRAP, n_rounds, n_runs)), axis=2)
     shuffled = counts[order, :, np.arange(n_rounds)[None, :, None]]  # (draws, rounds, runs, 3)
     result = {}
-    for name, row in RATIOS.items():
-        observed = _ratio(counts[:, 0], counts[:, row])
-        ratios = _ratio(shuffled[..., 0].transpose(0, 2, 1), shuffled[..., row].transpose(0, 2, 1))
+    for name, row in ROWS.items():
+        observed = pooled_ratio(counts[:, 0], counts[:, row])
+        ratios = pooled_ratio(
+            shuffled[..., 0].transpose(0, 2, 1), shuffled[..., row].transpose(0, 2, 1)
+        )
         spreads = ratios.max(1) - ratios.min(1)
         spread = float(observed.max() - observed.min())
         result[name] = {

@@ -28,7 +28,7 @@ score) and the first k are taken, for each k of `TOP_K`:
   targets. Labels are sparse (a few hundred sampled grasps per object, each in the one voxel
   holding its TCP), so a voxel next to labelled ones is often a good grasp the labels missed;
   the strict metric counts it as a miss. Both are kept, and the selection study
-  (``benchmarks/selection.py``) measures which one ranks checkpoints as the declutter SR does;
+  (``experiments/selection.py``) measures which one ranks checkpoints as the declutter SR does;
 - ``top{k}_ex_deg`` / ``top{k}_ez_deg``: median e_x / e_z angle over the picked voxels that
   are labelled valid, pooled over scenes (NaN when there is none);
 - ``top_empty``: the share of scenes where the detector would pick no voxel at all.

@@ -4,7 +4,7 @@ MuJoCo collides a mesh geom as its convex hull, so a concave object (a mug, a bo
 cut into convex parts first. The parts come from CoACD (Wei et al., "Approximate Convex
 Decomposition for 3D Meshes with Collision-Aware Concavity and Tree Search", SIGGRAPH 2022;
 the ``coacd`` package of the ``meshes`` extra), chosen over V-HACD by
-``benchmarks/decomposition.py`` (docs/objects.md has the numbers). A decomposition takes
+``experiments/decomposition.py`` (docs/objects.md has the numbers). A decomposition takes
 seconds to a minute, so it is kept in ``<data>/cache/decomposition/<key>.npz``, the key a
 hash of the mesh file's bytes and the `SETTINGS`: a second load of the same file reads the
 parts back without the library, and changed settings compute a new entry. Where the data

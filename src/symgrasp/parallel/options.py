@@ -1,6 +1,6 @@
 """The command-line options of a job's executor (`ParallelConfig`): ``--backend``,
 ``--workers`` and ``--ray-address``, for the ``symgrasp`` commands that map tasks and for the
-scripts in ``benchmarks/``. Argparse only: adding them imports neither torch nor Ray."""
+scripts in ``experiments/``. Argparse only: adding them imports neither torch nor Ray."""
 
 from __future__ import annotations
 

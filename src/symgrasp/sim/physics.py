@@ -57,7 +57,7 @@ magnitude (5 g to 7 kg in VGN's sets), and MuJoCo's soft contact penetrates in p
 the load over the contact's effective mass, so a 0.5 kg shampoo bottle sank up to 38 mm into
 a 30 g pair of pliers with the default softness. Over 150 settled VGN piles (seeds 0–149),
 objects interpenetrating deeper than 2 mm fell from 39 of 740 to 3 of 731 (deepest 4.8 mm),
-objects still moving from 7 to 2, and settling got faster (benchmarks/scene_physics.py holds
+objects still moving from 7 to 2, and settling got faster (experiments/scene_physics.py holds
 the 1 000-scene counts). Procedural objects keep ``OBJECT_SOLREF``, so every result
 published on them stands."""
 

@@ -1,6 +1,6 @@
-"""Data generation on a Ray cluster against the process pool → benchmarks/results/scale.json.
+"""Data generation on a Ray cluster against the process pool → experiments/results/scale.json.
 
-    PYTHONPATH=src python benchmarks/scale.py [--scenes 100] [--pool 4] [--noop 2000] \
+    PYTHONPATH=src python experiments/scale.py [--scenes 100] [--pool 4] [--noop 2000] \
         [--repeats 3] [--quick [DIR]]
 
 On this machine, for the process pool and for Ray (a local instance of as many CPUs as
@@ -27,10 +27,11 @@ import shutil
 import time
 from pathlib import Path
 
-from common import add_result_option, parse_args, write_result
+from common import add_result_option
 
 from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
 from symgrasp.parallel import Job, open_executor
+from symgrasp.scripts import parse_args, run_main, write_result
 
 RUNS = (("process", 1), ("process", 2), ("ray", 1), ("ray", 2))
 MILLION = 1_000_000
@@ -145,7 +146,7 @@ def main() -> None:
     )
     print(table)
     command = (
-        f"PYTHONPATH=src python benchmarks/scale.py --scenes {args.scenes} --pool {args.pool} "
+        f"PYTHONPATH=src python experiments/scale.py --scenes {args.scenes} --pool {args.pool} "
         f"--grasps {args.grasps} --directions {args.directions} --noop {args.noop} "
         f"--repeats {args.repeats}"
     )
@@ -161,4 +162,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -1,7 +1,7 @@
 """How the validity head's probabilities meet the detector's fixed threshold, per checkpoint →
-benchmarks/results/validity_calibration.{json,md}.
+experiments/results/validity_calibration.{json,md}.
 
-    PYTHONPATH=src python benchmarks/validity_calibration.py --checkpoints A.pt B.pt \\
+    PYTHONPATH=src python experiments/validity_calibration.py --checkpoints A.pt B.pt \\
         [--data DIR] [--scenes 40] [--threshold 0.08] [--quick [DIR]]
 
 The detector keeps the voxels whose validity probability is at least a fixed threshold
@@ -25,15 +25,10 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from common import (
-    add_checkpoint_options,
-    add_result_option,
-    parse_args,
-    per_checkpoint,
-    write_result,
-)
+from common import add_checkpoint_options, add_result_option, per_checkpoint
 
 from symgrasp.model.checkpoint import load_model
+from symgrasp.scripts import parse_args, run_main, write_result
 
 BINS = (0.0, 0.01, 0.02, 0.04, 0.08, 0.15, 0.3, 0.5, 1.0)
 """Edges of the reliability table's probability bins (fine near the threshold)."""
@@ -113,7 +108,7 @@ def main() -> None:
     write_result(
         args.result,
         "the validity head's probabilities against the detector's threshold",
-        "PYTHONPATH=src python benchmarks/validity_calibration.py --scenes "
+        "PYTHONPATH=src python experiments/validity_calibration.py --scenes "
         f"{args.scenes} --threshold {args.threshold} --checkpoints " + " ".join(args.checkpoints),
         cells,
         table,
@@ -123,4 +118,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -1,8 +1,7 @@
 """symgrasp's code-built hands against MuJoCo Menagerie's reference models →
-benchmarks/results/hands.{json,md} and docs/figures/hands_reference.png.
+experiments/results/hands.{json,md} and docs/figures/hands_reference.png.
 
-    PYTHONPATH=src python benchmarks/hands.py [--reference ../shared/reference/menagerie]
-        [--quick [DIR]]
+    PYTHONPATH=src python experiments/hands.py [--reference DIR] [--quick [DIR]]
 
 Every hand is measured by the same probes, in its own model with its own physics options (the
 reference models as published), through a frame H that each hand defines alike: origin at the
@@ -30,7 +29,8 @@ ray along −x sees the palm. The probes:
   tilted and the gap changed;
 - ``silhouette``: the hands' collision geometry seen along y and along z (ray grids), and the
   overlap of ours with the reference's (intersection over union).
-The reference models are read from ``--reference`` only here: the package never loads them.
+The reference models are read from ``--reference`` (default: ``reference/menagerie`` in the data
+folder, ``$SYMGRASP_DATA``, where the object sets are) only here: the package never loads them.
 """
 
 from __future__ import annotations
@@ -42,8 +42,10 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-from common import add_result_option, parse_args, write_result
+from common import add_result_option
 
+from symgrasp.objects.folder import DATA_ENV, MissingData, data_folder
+from symgrasp.scripts import parse_args, run_main, write_result
 from symgrasp.sim.grippers import FRANKA, PREFIX, ROBOTIQ_2F85, GripperSpec
 from symgrasp.sim.world import world_xml
 
@@ -212,21 +214,42 @@ def _reference_frame(m: mujoco.MjModel, pads: dict[str, str], open_qpos: dict) -
     return T
 
 
+MENAGERIE = Path("reference") / "menagerie"
+"""Menagerie's hands, relative to the data folder."""
+MODELS = {
+    "robotiq-2f85": Path("robotiq_2f85") / "2f85.xml",
+    "franka": Path("franka_hand") / "hand.xml",
+}
+"""Each hand's reference model file in Menagerie's folder."""
+
+
+def reference_model(name: str, folder: Path) -> Path:
+    """The reference model file of hand ``name`` in Menagerie's ``folder``; `MissingData`
+    naming it and how to get it when it is not there."""
+    path = folder / MODELS[name]
+    if not path.is_file():
+        raise MissingData(
+            f"the reference hands are not in {folder}: {path} does not exist; put MuJoCo "
+            "Menagerie's robotiq_2f85/ and franka_hand/ (github.com/google-deepmind/"
+            f"mujoco_menagerie) there, point {DATA_ENV} at a folder holding {MENAGERIE}, or pass "
+            "--reference"
+        )
+    return path
+
+
 def reference(name: str, folder: Path, bodies: list[Body]) -> Rig:
     """Menagerie's hand ``name`` ("robotiq-2f85" or "franka"), its base fixed at the world
     origin, its own physics options kept."""
     if name == "robotiq-2f85":
-        path, pads, base = folder / "robotiq_2f85" / "2f85.xml", "{}_pad", ["base_mount", "base"]
+        pads, base = "{}_pad", ["base_mount", "base"]
         finger_roots = {s: [f"{s}_driver", f"{s}_spring_link"] for s in SIDES}
         open_ctrl, close_ctrl, open_qpos = 0.0, 255.0, {}
     else:
-        path, pads, base = folder / "franka_hand" / "hand.xml", "{}_finger", ["hand"]
+        pads, base = "{}_finger", ["hand"]
         finger_roots = {s: [f"{s}_finger"] for s in SIDES}
         open_ctrl, close_ctrl = 255.0, 0.0
         open_qpos = {"finger_joint1": 0.04, "finger_joint2": 0.04}
-    if not path.is_file():
-        raise FileNotFoundError(f"no reference model at {path}: pass --reference")
-    mj = mujoco.MjSpec.from_file(str(path))
+    mj = mujoco.MjSpec.from_file(str(reference_model(name, folder)))
     T = _reference_frame(mj.compile(), {s: pads.format(s) for s in SIDES}, open_qpos)
     _add_bodies(mj, T, bodies)
     m = mj.compile()
@@ -657,8 +680,9 @@ def figure(cells: list[dict], masks: dict, path: str) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--reference", type=Path, default=Path("../shared/reference/menagerie"),
-                        help="folder holding Menagerie's robotiq_2f85/ and franka_hand/")  # fmt: skip
+    parser.add_argument("--reference", type=Path, default=None,
+                        help="folder holding Menagerie's robotiq_2f85/ and franka_hand/ (default: "
+                        f"{MENAGERIE} in the data folder, ${DATA_ENV})")  # fmt: skip
     add_result_option(parser, "hands")
     parser.add_argument(
         "--figure",
@@ -668,6 +692,9 @@ def main() -> None:
     args = parse_args(
         parser, outputs=("result", "figure"), quick={}, also="geometry and 0.2 s of closing only"
     )
+    args.reference = args.reference or data_folder() / MENAGERIE
+    for name in HANDS:  # before any hand is measured
+        reference_model(name, args.reference)
     cells, masks = [], {}
     for name, spec in HANDS.items():
         for source, build in (
@@ -682,7 +709,7 @@ def main() -> None:
         write_result(
             args.result,
             "hands against Menagerie",
-            "PYTHONPATH=src python benchmarks/hands.py --quick",
+            "PYTHONPATH=src python experiments/hands.py --quick",
             cells,
         )
         return
@@ -693,9 +720,9 @@ def main() -> None:
     markdown = table(cells)
     print(markdown)
     figure(cells, masks, args.figure)
-    write_result(args.result, "hands against Menagerie", "PYTHONPATH=src python benchmarks/hands.py",
+    write_result(args.result, "hands against Menagerie", "PYTHONPATH=src python experiments/hands.py",
                  cells, markdown, tolerance_mm=LENGTH_TOLERANCE_MM)  # fmt: skip
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

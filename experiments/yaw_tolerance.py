@@ -1,6 +1,6 @@
-"""How many yaws a good grasp tolerates → benchmarks/results/yaw_tolerance.{json,md}.
+"""How many yaws a good grasp tolerates → experiments/results/yaw_tolerance.{json,md}.
 
-    PYTHONPATH=src python benchmarks/yaw_tolerance.py [--rounds 200] [--quick [DIR]]
+    PYTHONPATH=src python experiments/yaw_tolerance.py [--rounds 200] [--quick [DIR]]
 
 A regressor trained towards both rotations of a symmetric grasp outputs an averaged yaw; what
 that costs depends on how many yaws would have worked. For the first grasp of each declutter
@@ -19,7 +19,7 @@ from collections import defaultdict
 from typing import Any
 
 import numpy as np
-from common import add_result_option, parse_args, write_result
+from common import GRIPPERS, add_result_option
 from tqdm import tqdm
 
 from symgrasp.benchmark.declutter import first_free
@@ -27,12 +27,12 @@ from symgrasp.benchmark.failures import YAW_OFFSETS, aimed_object, turned_about_
 from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.detect import GraspDetector
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
+from symgrasp.scripts import parse_args, run_main, write_result
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
 
-GRIPPERS = ("robotiq-2f85", "franka")
 OBJECTS = ("household-test", "large-box")
 
 
@@ -122,7 +122,7 @@ def main() -> None:
     write_result(
         args.result,
         "yaw tolerance of the first grasp of each declutter round",
-        "PYTHONPATH=src python benchmarks/yaw_tolerance.py",
+        "PYTHONPATH=src python experiments/yaw_tolerance.py",
         cells,
         table,
         rounds=args.rounds,
@@ -131,4 +131,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

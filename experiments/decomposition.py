@@ -1,7 +1,7 @@
-"""Convex decomposition libraries on concave meshes → benchmarks/results/decomposition.json.
+"""Convex decomposition libraries on concave meshes → experiments/results/decomposition.json.
 
-    SYMGRASP_DATA=../shared PYTHONPATH=src python benchmarks/decomposition.py [--points 20000]
-        [--out benchmarks/results/decomposition.json] [--quick [DIR]]
+    SYMGRASP_DATA=../shared PYTHONPATH=src python experiments/decomposition.py [--points 20000]
+        [--out experiments/results/decomposition.json] [--quick [DIR]]
 
 Bare meshes need a convex decomposition (MuJoCo collides each mesh geom as its convex hull);
 this picks the library and its settings. The meshes: VGN's visual meshes of concave objects
@@ -30,11 +30,11 @@ from collections.abc import Callable
 
 import numpy as np
 import trimesh
-from common import parse_args, write_result
 from scipy.spatial import ConvexHull
 
 from symgrasp.objects.folder import set_folder
 from symgrasp.objects.urdf import read_obj_groups
+from symgrasp.scripts import parse_args, run_main, write_result
 
 VGN_MESHES = (
     "mug",
@@ -201,7 +201,7 @@ def main() -> None:
         "--points", type=int, default=20_000, help="points per fidelity test (default: 20000)"
     )
     parser.add_argument(
-        "--out", default="benchmarks/results/decomposition.json", help="result file (JSON)"
+        "--out", default="experiments/results/decomposition.json", help="result file (JSON)"
     )
     args = parse_args(
         parser, outputs=("out",), quick={"points": 2000}, also="the cup and 2 settings only"
@@ -247,7 +247,7 @@ def main() -> None:
     write_result(
         str(args.out).removesuffix(".json"),
         "convex decomposition of concave meshes",
-        f"python benchmarks/decomposition.py --points {args.points}",
+        f"python experiments/decomposition.py --points {args.points}",
         cells,
         table,
         summary=summary,
@@ -259,4 +259,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

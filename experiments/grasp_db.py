@@ -1,7 +1,7 @@
 """Grasp databases on VGN's meshes: cost, yield, and what more grasps and score directions buy
-→ benchmarks/results/grasp_db.json.
+→ experiments/results/grasp_db.json.
 
-    SYMGRASP_DATA=../shared PYTHONPATH=src python benchmarks/grasp_db.py [--objects 8]
+    SYMGRASP_DATA=../shared PYTHONPATH=src python experiments/grasp_db.py [--objects 8]
         [--grasps 300] [--direction-grasps 15] [--scenes 20] [--out ...] [--quick [DIR]]
 
 For the first ``--objects`` objects of the training pool of ``vgn-pile-train,vgn-packed-train``
@@ -31,7 +31,6 @@ import dataclasses
 import time
 
 import numpy as np
-from common import parse_args, write_result
 from tqdm import tqdm
 
 from symgrasp.config import DatabaseConfig, SceneConfig
@@ -40,6 +39,7 @@ from symgrasp.data.directions import fibonacci_directions, interpolate
 from symgrasp.data.grasp_db import GraspDatabase, build_database
 from symgrasp.data.scenes import make_scene_record, scene_pool
 from symgrasp.names import GRIPPERS
+from symgrasp.scripts import parse_args, run_main, write_result
 from symgrasp.sim.grippers import get_gripper
 
 OBJECTS = "vgn-pile-train,vgn-packed-train"
@@ -212,7 +212,7 @@ def main() -> None:
     )
     parser.add_argument("--scenes", type=int, default=20, help="scenes per database size")
     parser.add_argument(
-        "--out", default="benchmarks/results/grasp_db.json", help="result file (JSON)"
+        "--out", default="experiments/results/grasp_db.json", help="result file (JSON)"
     )
     args = parse_args(
         parser,
@@ -223,7 +223,7 @@ def main() -> None:
     write_result(
         str(args.out).removesuffix(".json"),
         "grasp databases on VGN meshes",
-        f"python benchmarks/grasp_db.py --objects {args.objects} --grasps {args.grasps} "
+        f"python experiments/grasp_db.py --objects {args.objects} --grasps {args.grasps} "
         f"--direction-grasps {args.direction_grasps} --scenes {args.scenes}",
         cells,
         objects=OBJECTS,
@@ -231,4 +231,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

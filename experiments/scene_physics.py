@@ -1,7 +1,7 @@
-"""Physics sanity of VGN-style scenes on real meshes → benchmarks/results/scene_physics.json.
+"""Physics sanity of VGN-style scenes on real meshes → experiments/results/scene_physics.json.
 
-    SYMGRASP_DATA=../shared PYTHONPATH=src python benchmarks/scene_physics.py [--scenes 1000]
-        [--out benchmarks/results/scene_physics.json] [--quick [DIR]]
+    SYMGRASP_DATA=../shared PYTHONPATH=src python experiments/scene_physics.py [--scenes 1000]
+        [--out experiments/results/scene_physics.json] [--quick [DIR]]
 
 Builds ``--scenes`` settled scenes of each kind (pile from ``vgn-pile-train``, packed from
 ``vgn-packed-train``, 5 objects drawn per scene as in the benchmark, seeds 0 … scenes − 1)
@@ -19,10 +19,10 @@ import math
 import time
 
 import numpy as np
-from common import parse_args, write_result
 from tqdm import tqdm
 
 from symgrasp.objects.sets import resolve
+from symgrasp.scripts import parse_args, run_main, write_result
 from symgrasp.sim.world import World
 
 PENETRATION = 0.002
@@ -88,14 +88,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenes", type=int, default=1000, help="scenes per kind (default: 1000)")
     parser.add_argument(
-        "--out", default="benchmarks/results/scene_physics.json", help="result file (JSON)"
+        "--out", default="experiments/results/scene_physics.json", help="result file (JSON)"
     )
     args = parse_args(parser, outputs=("out",), quick={"scenes": 3})
     cells = [measure(kind, args.scenes) for kind in SETS]
     write_result(
         str(args.out).removesuffix(".json"),
         "scene physics on VGN meshes",
-        f"python benchmarks/scene_physics.py --scenes {args.scenes}",
+        f"python experiments/scene_physics.py --scenes {args.scenes}",
         cells,
         penetration_m=PENETRATION,
     )
@@ -104,4 +104,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -1,11 +1,11 @@
 """The learning curve: declutter test SR against the number of training scenes →
-benchmarks/results/learning_curve.{json,md}, docs/figures/learning_curve.png.
+experiments/results/learning_curve.{json,md}, docs/figures/learning_curve.png.
 
-    PYTHONPATH=src python benchmarks/learning_curve.py \\
-        [--study benchmarks/results/selection.json] [--by declutter] [--bench DIR]
+    PYTHONPATH=src python experiments/learning_curve.py \\
+        [--study experiments/results/selection.json] [--by declutter] [--bench DIR]
         [--quick [DIR]]
 
-Reads the model-selection study (``benchmarks/selection.py``: every kept checkpoint of each
+Reads the model-selection study (``experiments/selection.py``: every kept checkpoint of each
 run with its validation measures and its test SR on vgn-pile-test, 100 rounds) and groups its
 runs by the training scenes they used (their ``--train-scenes``; 0 = the whole split). Per
 run, the checkpoint ``--by`` chooses (the rule of ``symgrasp select``,
@@ -27,11 +27,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option, parse_args, percent_change, write_result
+from common import add_result_option
 
 from symgrasp.benchmark import selection as sel
-from symgrasp.benchmark.compare import paired_change, paired_rounds
+from symgrasp.benchmark.compare import paired_change, paired_rounds, percent_change
 from symgrasp.model.checkpoint import load_checkpoint
+from symgrasp.scripts import parse_args, run_main, write_result
 
 
 def train_scenes(checkpoint: Path) -> int:
@@ -128,8 +129,8 @@ def figure(path: Path, cells: list[dict[str, Any]]) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--study", default="benchmarks/results/selection.json",
-                        help="result of benchmarks/selection.py (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--study", default="experiments/results/selection.json",
+                        help="result of experiments/selection.py (default: %(default)s)")  # fmt: skip
     parser.add_argument("--by", default="declutter",
                         help="the selection measure that chooses each run's checkpoint, as "
                         "symgrasp select --by (default: %(default)s)")  # fmt: skip
@@ -152,7 +153,9 @@ def main() -> None:
             raise SystemExit(done.returncode)
         study_path = args.quick / "study" / "selection.json"
     if not study_path.is_file():
-        raise SystemExit(f"error: --study {study_path}: no such file (run benchmarks/selection.py)")
+        raise SystemExit(
+            f"error: --study {study_path}: no such file (run experiments/selection.py)"
+        )
     study = json.loads(study_path.read_text())
     bench = args.bench or study["settings"].get("out")
     if bench is None:
@@ -165,7 +168,7 @@ def main() -> None:
         args.result,
         "declutter test SR against training scenes, each run's checkpoint chosen by a "
         "validation measure",
-        f"PYTHONPATH=src python benchmarks/learning_curve.py --study {args.study} --by {args.by}"
+        f"PYTHONPATH=src python experiments/learning_curve.py --study {args.study} --by {args.by}"
         f" --bench {bench}",
         cells,
         table,
@@ -177,4 +180,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -1,6 +1,6 @@
-"""How sharp a Bingham head's mode is where the detector looks → benchmarks/results/eigen_gap.{json,md}.
+"""How sharp a Bingham head's mode is where the detector looks → experiments/results/eigen_gap.{json,md}.
 
-    PYTHONPATH=src python benchmarks/eigen_gap.py --checkpoints A.pt B.pt \\
+    PYTHONPATH=src python experiments/eigen_gap.py --checkpoints A.pt B.pt \\
         [--data DIR] [--scenes 50] [--threshold 0.08] [--quick [DIR]]
 
 The mode of a Bingham density exp(vᵀAv) is A's top eigenvector, and it is well defined only as
@@ -25,15 +25,10 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from common import (
-    add_checkpoint_options,
-    add_result_option,
-    parse_args,
-    per_checkpoint,
-    write_result,
-)
+from common import add_checkpoint_options, add_result_option, per_checkpoint
 
 from symgrasp.model.checkpoint import load_model
+from symgrasp.scripts import parse_args, run_main, write_result
 
 
 def gaps(checkpoint: str | Path, items: list[dict[str, torch.Tensor]], threshold: float) -> dict:
@@ -90,7 +85,7 @@ def main() -> None:
     write_result(
         args.result,
         "eigenvalue gaps of the Bingham heads' A at the voxels the detector considers",
-        "PYTHONPATH=src python benchmarks/eigen_gap.py --scenes "
+        "PYTHONPATH=src python experiments/eigen_gap.py --scenes "
         f"{args.scenes} --threshold {args.threshold} --checkpoints " + " ".join(args.checkpoints),
         cells,
         table,
@@ -99,4 +94,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -1,6 +1,6 @@
-"""Which validation measure ranks checkpoints as the declutter test does → benchmarks/results/selection.{json,md}, docs/figures/selection.png.
+"""Which validation measure ranks checkpoints as the declutter test does → experiments/results/selection.{json,md}, docs/figures/selection.png.
 
-    PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/selection.py \\
+    PYTHONPATH=src SYMGRASP_DATA=DIR python experiments/selection.py \\
         --runs runs/bingham2d-robotiq-seed0 runs/bingham2d-robotiq-seed1 [--revalidate] \\
         [--workers 2] [--backend ray [--ray-address HOST:PORT]] [--quick [DIR]]
 
@@ -37,18 +37,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import add_result_option, parse_args, write_result
+from common import SHIPPED, add_result_option
 from scipy.stats import spearmanr
 
 from symgrasp.benchmark import selection as sel
-from symgrasp.benchmark.runner import BenchmarkConfig, run_or_reuse, summarise
+from symgrasp.benchmark.runner import BOOTSTRAP, BenchmarkConfig, run_or_reuse, summarise
 from symgrasp.config import VALIDATION_OBJECTS, VALIDATION_SEED
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-
-BOOTSTRAP = 2000
-"""Bootstrap resamples of the checkpoints for the correlation's interval."""
-
-SHIPPED = "bingham2d-robotiq-2f85"
+from symgrasp.scripts import parse_args, run_main, write_result
 
 
 def spearman(x: np.ndarray, y: np.ndarray) -> float:
@@ -328,7 +324,7 @@ def main() -> None:
         args.result,
         "how well each candidate selection measure ranks checkpoints as the declutter test SR, "
         "CR and SR + CR do (signed Spearman ρ, bootstrap over checkpoints)",
-        f"PYTHONPATH=src python benchmarks/selection.py --val-rounds {args.val_rounds} "
+        f"PYTHONPATH=src python experiments/selection.py --val-rounds {args.val_rounds} "
         f"--out {args.out} --runs " + " ".join(settings["runs"]),
         rows,
         table,
@@ -339,4 +335,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

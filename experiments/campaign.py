@@ -1,11 +1,12 @@
 """Run a plan of long commands (datasets, training runs, benchmarks) that outlives any session.
 
-    PYTHONPATH=src python benchmarks/campaign.py run PLAN.toml [PLAN.toml ...] [--root DIR] [--cores 2]
-    PYTHONPATH=src python benchmarks/campaign.py status PLAN.toml [PLAN.toml ...] [--root DIR]
-    PYTHONPATH=src python benchmarks/campaign.py run --quick [DIR]
+    PYTHONPATH=src python experiments/campaign.py run PLAN.toml [PLAN.toml ...] [--root DIR] [--cores 2]
+    PYTHONPATH=src python experiments/campaign.py status PLAN.toml [PLAN.toml ...] [--root DIR]
+    PYTHONPATH=src python experiments/campaign.py show PLAN.toml [PLAN.toml ...] [--root DIR]
+    PYTHONPATH=src python experiments/campaign.py run --quick [DIR]
 
 A plan is a TOML file of steps, each a shell command with the cores it uses and the steps it
-needs (``benchmarks/campaigns/*.toml``)::
+needs (``experiments/campaigns/*.toml``)::
 
     [vars]                      # {name} in a command; --root sets {root}
     data = "{root}/data/vgn-robotiq"
@@ -33,7 +34,8 @@ next ``run``; the steps needing it wait. A running step has ``ROOT/running/NAME`
 id, the boot and tick it started at, its start time): ``status`` tells a running step from one
 whose driver was killed (a process id reused after a restart included), and a second ``run``
 on the same root while the first still runs a step is refused. Output goes to
-``ROOT/logs/NAME.log``. ``--quick`` runs a four-step plan of Python one-liners (one failing)
+``ROOT/logs/NAME.log``. ``show`` prints the steps as ``run`` would start them, their vars filled
+in, one JSON object a line (``name``, ``cores``, ``needs``, ``run``). ``--quick`` runs a four-step plan of Python one-liners (one failing)
 twice and writes ``campaign.json``.
 """
 
@@ -41,6 +43,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import json
 import os
 import shlex
 import subprocess
@@ -50,7 +53,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from common import parse_args, write_result
+from symgrasp.scripts import parse_args, run_main, write_result
 
 try:
     import tomllib
@@ -273,8 +276,9 @@ run = "{{py}} -c 'print(1)'"
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("action", nargs="?", default="run", choices=("run", "status"),
-                        help="run the plan (default), or list its steps' state")  # fmt: skip
+    parser.add_argument("action", nargs="?", default="run", choices=("run", "status", "show"),
+                        help="run the plan (default), list its steps' state, or show its steps "
+                        "as JSON lines, their vars filled in")  # fmt: skip
     parser.add_argument("plan", nargs="*", type=Path,
                         help="the plan's TOML files: a later file may use the vars and need "
                         "the steps of an earlier one")  # fmt: skip
@@ -300,6 +304,11 @@ def main() -> None:
         for name, state in status(steps, root).items():
             print(f"{name:30s} {state}")
         return
+    if args.action == "show":
+        for step in steps:
+            print(json.dumps({"name": step.name, "cores": step.cores, "needs": list(step.needs),
+                              "run": step.run}))  # fmt: skip
+        return
     outcome = run(steps, root, args.cores)
     if args.quick:  # again: only what failed runs
         again = run(steps, root, args.cores)
@@ -313,4 +322,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

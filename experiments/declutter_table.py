@@ -1,9 +1,9 @@
 """The paper's Table 1 on VGN's objects with three training seeds per cell, and the field's
-pile/packed table → benchmarks/results/declutter.{json,md}, docs/figures/declutter_comparison.png,
+pile/packed table → experiments/results/declutter.{json,md}, docs/figures/declutter_comparison.png,
 docs/results.md (between its markers) and the rounds behind them,
-benchmarks/results/declutter_rounds.tar.gz.
+experiments/results/declutter_rounds.tar.gz.
 
-    PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/declutter_table.py --runs ROOT/runs \\
+    PYTHONPATH=src SYMGRASP_DATA=DIR python experiments/declutter_table.py --runs ROOT/runs \\
         [--out ROOT/bench/table] [--grippers G ...] [--reps REP ...] [--seeds 0 1 2] \\
         [--rounds 100] [--workers 2] [--collate-only | --play-only] [--quick [DIR]]
 
@@ -34,12 +34,12 @@ A campaign plays each run's cells in a step of its own as soon as the run is sel
 not the field's) and collates once at the end (``--collate-only``).
 
 Every collation also packs the rounds it collated into ``--archive``
-(benchmarks/results/declutter_rounds.tar.gz, the same bytes for the same rounds). Unpacked into
+(experiments/results/declutter_rounds.tar.gz, the same bytes for the same rounds). Unpacked into
 ``--out``, they collate again on a machine without the training runs, to the same tables and
 the same archive::
 
-    mkdir -p out/bench/table && tar xzf benchmarks/results/declutter_rounds.tar.gz -C out/bench/table
-    PYTHONPATH=src python benchmarks/declutter_table.py --collate-only
+    mkdir -p out/bench/table && tar xzf experiments/results/declutter_rounds.tar.gz -C out/bench/table
+    PYTHONPATH=src python experiments/declutter_table.py --collate-only
 
 ``--quick``: the shipped Robotiq model stands in for every run; two seeds, one round of one
 household-test object (pile and packed), the Robotiq only, a copy of the page updated.
@@ -57,21 +57,21 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option, parse_args, percent_change, write_result
+from common import GRIPPERS, SHIPPED, add_result_option
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.cells import Cell
-from symgrasp.benchmark.compare import paired_change
+from symgrasp.benchmark.compare import percent_change
 from symgrasp.benchmark.failures import MODES
 from symgrasp.benchmark.runner import recorded_config, run_or_reuse, saved_rounds, summarise
-from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios
+from symgrasp.benchmark.seeds import seed_lead, seed_ratios
 from symgrasp.benchmark.selection import selected_checkpoint
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
+from symgrasp.scripts import parse_args, run_main, write_result
 
-GRIPPERS = ("robotiq-2f85", "franka")
 PREFIXES = {"robotiq-2f85": "final", "franka": "final-franka"}
-"""The run folders' prefix per gripper (benchmarks/campaigns/*.toml)."""
+"""The run folders' prefix per gripper (experiments/campaigns/*.toml)."""
 REPS = ("bingham2d", "rotmat6d", "quaternion", "bingham3d")
 ROWS = (("bingham2d", True), ("bingham2d", False), ("rotmat6d", True), ("quaternion", True),
         ("bingham3d", True))  # fmt: skip
@@ -109,7 +109,6 @@ packed test scenes, from other simulators and protocols. Sources: GIGA = Jiang e
 2211.00191v1), Table I (EdgeGraspNet's packed GSR: Table III, 64-4k), read through a reading
 note. What each protocol does and how it differs from ours: docs/benchmark.md, "Published
 numbers on VGN's scenes"."""
-SHIPPED = "bingham2d-robotiq-2f85"
 ARCHIVED = ("config.json", "model.sha256", "rounds.jsonl")
 """What ``--archive`` keeps of a cell folder: enough to collate it again (`stored_rounds`)."""
 
@@ -222,9 +221,9 @@ def row(played: dict[Cell, dict], gripper: str, rep: str, threshold: bool, objec
 
 
 def lead(played: dict[Cell, dict], a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any] | None:
-    """Row ``a`` minus row ``b`` (same gripper and objects) on the rounds every one of their
-    runs finished: the change of the means over seeds with the hierarchical interval, and the
-    number of seed pairings in which ``a``'s SR is ahead, each paired round by round."""
+    """Row ``a`` minus row ``b`` (same gripper and objects): their runs' `seed_lead`, the change
+    of the means over seeds on the rounds every run finished and the number of seed pairings in
+    which ``a``'s SR is ahead."""
     if not a["seeds"] or not b["seeds"]:
         return None
 
@@ -232,16 +231,12 @@ def lead(played: dict[Cell, dict], a: dict[str, Any], b: dict[str, Any]) -> dict
         return [played[Cell(r["gripper"], r["rep"], s, r["objects"], r["scene"],
                             r["threshold"])]["rounds"] for s in r["seeds"]]  # fmt: skip
 
-    runs_a, runs_b = runs(a), runs(b)
-    shared = common_rounds(*runs_a, *runs_b)
-    ahead = sum(paired_change(*common_rounds(x, y))["success_ratio"][0] > 0
-                for x, y in itertools.product(runs_a, runs_b))  # fmt: skip
+    m = seed_lead(runs(a), runs(b))
     return {
         "a": [a["rep"], a["threshold"]], "b": [b["rep"], b["threshold"]],
         "gripper": a["gripper"], "objects": a["objects"], "scene": a["scene"],
-        "rounds": len(shared[0]),
-        "change": seed_paired_change(shared[: len(runs_a)], shared[len(runs_a) :]),
-        "ahead": ahead, "pairings": len(runs_a) * len(runs_b),
+        "rounds": m["rounds"], "change": m["change"],
+        "ahead": m["ahead"], "pairings": len(m["pairings"]),
     }  # fmt: skip
 
 
@@ -446,7 +441,7 @@ def main() -> None:
                         help="bar chart path")  # fmt: skip
     parser.add_argument("--docs", default="docs/results.md",
                         help="page whose text between the declutter-table markers is replaced")  # fmt: skip
-    parser.add_argument("--archive", default="benchmarks/results/declutter_rounds.tar.gz",
+    parser.add_argument("--archive", default="experiments/results/declutter_rounds.tar.gz",
                         help="the collated cells' rounds as one .tar.gz; unpacked into --out, "
                         "they collate again without the training runs")  # fmt: skip
     args = parse_args(
@@ -489,7 +484,7 @@ def main() -> None:
         "Table 1 over training seeds: SR / CR per gripper, object set and representation (mean "
         "over seeds, hierarchical intervals), bingham2d's paired leads, failure modes, and the "
         "field's pile/packed table with bingham2d's paired leads on its packed scenes",
-        f"PYTHONPATH=src python benchmarks/declutter_table.py --runs {args.runs} --out "
+        f"PYTHONPATH=src python experiments/declutter_table.py --runs {args.runs} --out "
         f"{args.out} --seeds {' '.join(map(str, args.seeds))}",
         rows,
         table,
@@ -508,4 +503,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

@@ -1,7 +1,7 @@
 """The recipe study: each training factor against the baseline recipe, per training seed, on
-declutter rounds no checkpoint was chosen by → benchmarks/results/recipe.{json,md}.
+declutter rounds no checkpoint was chosen by → experiments/results/recipe.{json,md}.
 
-    PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/recipe.py --runs ROOT/runs \\
+    PYTHONPATH=src SYMGRASP_DATA=DIR python experiments/recipe.py --runs ROOT/runs \\
         [--factor NAME=RUN,RUN ...] [--flags NAME=OPTIONS ...] [--rounds 400] [--seed 2000000]
         [--workers 2] [--quick [DIR]]
 
@@ -30,14 +30,15 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option, parse_args, percent_change, write_result
+from common import SHIPPED, add_result_option
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark import selection as sel
-from symgrasp.benchmark.compare import paired_change, paired_rounds
+from symgrasp.benchmark.compare import paired_change, paired_rounds, percent_change
 from symgrasp.config import JUDGE_SEED
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
+from symgrasp.scripts import parse_args, run_main, write_result
 
 FACTORS = {
     "baseline": ("lc-7200-s0", "base-s1"),
@@ -46,12 +47,10 @@ FACTORS = {
     "focal": ("focal-s0", "focal-s1"),
     "batch16": ("batch16-s0", "batch16-s1"),
 }
-"""Default factors: their runs in ``benchmarks/campaigns/robust_training.toml`` (stage 2)."""
+"""Default factors: their runs in ``experiments/campaigns/robust_training.toml`` (stage 2)."""
 
 QUICK_FACTORS = {"baseline": ("a-s0",), "other": ("b-s0",)}
 QUICK_FLAGS = {"other": "--ema 0.999"}
-
-SHIPPED = "bingham2d-robotiq-2f85"
 
 
 def training_seed(run: str) -> int:
@@ -89,7 +88,8 @@ def main() -> None:
     parser.add_argument("--factor", type=parse_factor, action="append", default=None,
                         help="NAME=RUN,RUN: a factor's runs, one per training seed; the first "
                         "factor is the baseline (default: the stage-2 runs of "
-                        "robust_training.toml)")  # fmt: skip
+                        "robust_training.toml, "
+                        + " ".join(f"{f}={','.join(r)}" for f, r in FACTORS.items()) + ")")  # fmt: skip
     parser.add_argument("--flags", type=parse_flags, action="append", default=None,
                         help="NAME=OPTIONS: the options of symgrasp train a factor changes, for "
                         "every factor but the baseline; the adopted ones go to RESULT.flags")  # fmt: skip
@@ -156,7 +156,7 @@ def main() -> None:
         args.result,
         "each training factor against the baseline recipe per training seed, on judging "
         "declutter rounds of training objects (paired by round)",
-        "PYTHONPATH=src python benchmarks/recipe.py --runs " + str(args.runs),
+        "PYTHONPATH=src python experiments/recipe.py --runs " + str(args.runs),
         cells,
         table,
         judging=asdict(validation),
@@ -239,4 +239,4 @@ def evidence(cells: list[dict[str, Any]], verdicts: dict[str, Any], baseline: st
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

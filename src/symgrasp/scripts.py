@@ -1,5 +1,11 @@
-"""Helpers every benchmark script shares: its ``--quick`` mode, what machine it ran on, how to
-time a call, how to write a result, and which validation scenes a checkpoint is looked at on."""
+"""What the scripts of benchmarks/ and experiments/ share: their ``--quick`` mode, how they stop
+when the data a user downloads is missing, what machine a number was measured on, how to time a
+call, and how to write a result.
+
+The scripts are not part of the package; this module is, so that both folders (and the tests)
+import one definition. A script imports it before it does any work (its `LOAD_AT_START` is the
+machine's load when the script started) and ends with ``run_main(main)``.
+"""
 
 from __future__ import annotations
 
@@ -16,6 +22,8 @@ from pathlib import Path
 from typing import Any
 
 from symgrasp.atomic import write_atomic
+from symgrasp.objects.folder import MissingData
+from symgrasp.parallel import TasksFailed
 
 QUICK_DIR = Path("out/bench-quick")
 """Where ``--quick`` writes when given no folder."""
@@ -23,17 +31,34 @@ QUICK_DIR = Path("out/bench-quick")
 LOAD_AT_START = os.getloadavg()
 """The 1/5/15-minute load averages when the script started (it imports this module first)."""
 
+EX_NOINPUT = 66
+"""The exit status of a script whose input data is missing (sysexits.h: "cannot open input"),
+so that a caller (the tests) tells missing data from a failure."""
+
+
+def run_main(main: Callable[[], None]) -> None:
+    """Run a script's ``main``. Data it needs that is not there (`MissingData`: an object set,
+    the reference hands) stops it with one line on stderr naming what is missing and how to get
+    it, and exit status `EX_NOINPUT`; tasks that failed (`TasksFailed`: e.g. every round of a
+    benchmark) stop it with one line naming the first cause and exit status 1. Never a
+    traceback for either."""
+    try:
+        main()
+    except (MissingData, TasksFailed) as error:
+        print(f"error: {error}", file=sys.stderr)
+        sys.exit(EX_NOINPUT if isinstance(error, MissingData) else 1)
+
 
 def parse_args(
     parser: argparse.ArgumentParser, outputs: tuple[str, ...], quick: dict[str, Any], also: str = ""
 ) -> argparse.Namespace:
-    """Parse a benchmark script's command line, with ``--quick [DIR]`` added: a smoke run in
-    seconds through the script's real code, for the test that keeps every benchmark running
-    (its numbers mean nothing). Quick mode gives the options in ``quick`` those values unless
-    the command line sets them, and moves the ``outputs`` (options naming a file, stem or
-    folder) into DIR under their default's name; setting one of those is an error, so a quick
-    run never writes into benchmarks/results/ or docs/. ``also`` tells the help what else
-    quick mode does. An option without a help text is refused: ``--help`` explains every
+    """Parse a script's command line, with ``--quick [DIR]`` added: a smoke run in seconds
+    through the script's real code, for the test that keeps every script running (its numbers
+    mean nothing). Quick mode gives the options in ``quick`` those values unless the command
+    line sets them, and moves the ``outputs`` (options naming a file, stem or folder) into DIR
+    under their default's name; setting one of those is an error, so a quick run never writes
+    into the committed results or docs/. ``also`` tells the help what else quick mode does. An
+    option without a help text is refused (ValueError naming it): ``--help`` explains every
     option."""
 
     def option(dest: str) -> str:
@@ -54,8 +79,8 @@ def parse_args(
         metavar="DIR",
         help="a smoke run in seconds, its numbers meaningless"
         + (f" ({sizes})" if sizes else "")
-        + f"; writes every output under DIR (default: {QUICK_DIR}), never into "
-        "benchmarks/results/ or docs/",
+        + f"; writes every output under DIR (default: {QUICK_DIR}), never into the committed "
+        "results or docs/",
     )
     args = parser.parse_args()
     if args.quick:
@@ -69,70 +94,6 @@ def parse_args(
             setattr(args, dest, args.quick / Path(defaults[dest]).name)
         args.quick.mkdir(parents=True, exist_ok=True)
     return args
-
-
-def add_result_option(parser: argparse.ArgumentParser, name: str) -> None:
-    """``--result STEM``, where `write_result` writes, by default ``benchmarks/results/NAME``."""
-    default = f"benchmarks/results/{name}"
-    parser.add_argument(
-        "--result",
-        default=default,
-        metavar="STEM",
-        help="where the result goes: STEM.json (the numbers, the command, the machine and its "
-        f"load) and STEM.md (its tables, if it has any) (default: {default})",
-    )
-
-
-def add_checkpoint_options(parser: argparse.ArgumentParser, scenes: int, threshold: str) -> None:
-    """``--checkpoints``, ``--data``, ``--scenes`` and ``--threshold``: the checkpoints a script
-    looks at, the validation scenes it looks at them on (`validation_items`) and the validity
-    probability it cuts at (``threshold`` says what for)."""
-    from symgrasp.config import DEFAULT_VALIDITY
-
-    parser.add_argument("--checkpoints", nargs="+", default=["bingham2d-robotiq-2f85"],
-                        help="checkpoint files or shipped model names (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--data", default=None,
-                        help="dataset folder whose validation split is read (default: each "
-                        "checkpoint's own training data)")  # fmt: skip
-    parser.add_argument("--scenes", type=int, default=scenes,
-                        help=f"validation scenes, spread evenly over the split (default: {scenes})")  # fmt: skip
-    parser.add_argument("--threshold", type=float, default=DEFAULT_VALIDITY,
-                        help=f"{threshold} (default: %(default)s)")  # fmt: skip
-
-
-def per_checkpoint(
-    args: argparse.Namespace, measure: Callable[[Path, list[dict[str, Any]], float], dict]
-) -> list[dict[str, Any]]:
-    """``measure(checkpoint, items, threshold)`` of each of ``args.checkpoints`` on its
-    validation items (`validation_items`), with its name as ``model``."""
-    cells = []
-    for name in args.checkpoints:
-        checkpoint, items = validation_items(name, args.data, args.scenes, args.quick)
-        cells.append({**measure(checkpoint, items, args.threshold), "model": name})
-    return cells
-
-
-def validation_items(
-    name: str, data: str | None, scenes: int, quick: bool
-) -> tuple[Path, list[dict[str, Any]]]:
-    """The checkpoint file of ``name`` (a path or a shipped model's name) and ``scenes`` items
-    spread evenly over the validation split of ``data`` (None: the checkpoint's own training
-    data), not augmented; in quick mode, synthetic scenes."""
-    from symgrasp.detect.pretrained import resolve_model
-    from symgrasp.model.checkpoint import load_checkpoint
-
-    checkpoint = resolve_model(name)
-    if quick:
-        from symgrasp.model.synthetic import SyntheticGraspDataset
-
-        split = SyntheticGraspDataset(scenes, seed=0)
-    else:
-        from symgrasp.data.dataset import GraspDataset
-
-        data = data or load_checkpoint(checkpoint)["config"]["data"]
-        split = GraspDataset(data, split="val", augment=False)
-    step = max(1, len(split) // scenes)
-    return checkpoint, [split[i] for i in range(0, len(split), step)][:scenes]
 
 
 def cpu_model() -> str:
@@ -204,10 +165,3 @@ def write_result(
     write_atomic(f"{stem}.json", lambda f: f.write(json.dumps(result, indent=1) + "\n"), mode="w")
     if table is not None:
         write_atomic(f"{stem}.md", lambda f: f.write(table), mode="w")
-
-
-def percent_change(triple: list[float]) -> str:
-    """A change of ratios and its interval, ``[change, low, high]``, as signed percent points:
-    ``+6.1 [-3.6, +15.5]``."""
-    point, low, high = (100 * v for v in triple)
-    return f"{point:+.1f} [{low:+.1f}, {high:+.1f}]"

@@ -1,6 +1,6 @@
-"""Declutter results per validity threshold → benchmarks/results/validity_sweep.{json,md}.
+"""Declutter results per validity threshold → experiments/results/validity_sweep.{json,md}.
 
-    PYTHONPATH=src python benchmarks/validity_sweep.py [--rounds 100] [--choosing-rounds 200]
+    PYTHONPATH=src python experiments/validity_sweep.py [--rounds 100] [--choosing-rounds 200]
         [--num-objects 5] [--workers 2] [--backend ray [--ray-address HOST:PORT]] [--quick [DIR]]
 
 The detector keeps voxels whose validity is at least a threshold (`DEFAULT_VALIDITY`, one
@@ -30,17 +30,19 @@ import argparse
 import math
 from pathlib import Path
 
-from common import add_result_option, parse_args, percent_change, write_result
+from common import add_result_option
 
-from symgrasp.benchmark.compare import paired_change
+from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import (
     BenchmarkConfig,
     percent_with_interval,
     run_or_reuse,
     summarise,
 )
+from symgrasp.benchmark.seeds import common_rounds
 from symgrasp.config import DEFAULT_VALIDITY, JUDGE_SEED
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
+from symgrasp.scripts import parse_args, run_main, write_result
 
 MODELS = {  # hand: (the paper's detector, the baseline it is compared with)
     "robotiq-2f85": ("bingham2d-robotiq-2f85", "rotmat6d-robotiq-2f85"),
@@ -139,7 +141,8 @@ def main() -> None:
                     played[validity] = run_or_reuse(config, folder, parallel_from_args(args))
                 cells = [{"gripper": gripper, "model": model, "objects": objects, "seed": seed,
                           "validity": validity, "summary": _pooled(played[validity], seed),
-                          "change": paired_change(played[validity], played[DEFAULT_VALIDITY])}
+                          "change": paired_change(*common_rounds(played[validity],
+                                                               played[DEFAULT_VALIDITY]))}
                          for validity in thresholds]  # fmt: skip
                 if objects == CHOOSING[0]:
                     own[model] = own_threshold(cells)
@@ -148,7 +151,9 @@ def main() -> None:
                 rows += [{**cell, "own": own[model]} for cell in cells]
         paper, baseline = models
         for pair in ((DEFAULT_VALIDITY, DEFAULT_VALIDITY), (own[paper], own[baseline])):
-            change = paired_change(test_rounds[paper][pair[0]], test_rounds[baseline][pair[1]])
+            change = paired_change(
+                *common_rounds(test_rounds[paper][pair[0]], test_rounds[baseline][pair[1]])
+            )
             points.append({"gripper": gripper, "models": list(models), "thresholds": list(pair),
                            "objects": TESTING[0], "change": change})  # fmt: skip
     table = markdown(rows, points)
@@ -158,7 +163,7 @@ def main() -> None:
         "declutter SR / CR of the shipped bingham2d and rotmat6d models per validity threshold, "
         "each model's own threshold chosen on training objects, and bingham2d − rotmat6d at the "
         "default and at the own thresholds",
-        "PYTHONPATH=src python benchmarks/validity_sweep.py",
+        "PYTHONPATH=src python experiments/validity_sweep.py",
         rows,
         table,
         operating_points=points,
@@ -170,4 +175,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

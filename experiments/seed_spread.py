@@ -1,7 +1,7 @@
 """How much the training seed moves the declutter result, and whether the representations'
-ordering survives it → benchmarks/results/seed_spread.{json,md}.
+ordering survives it → experiments/results/seed_spread.{json,md}.
 
-    PYTHONPATH=src SYMGRASP_DATA=DIR python benchmarks/seed_spread.py --runs ROOT/runs \\
+    PYTHONPATH=src SYMGRASP_DATA=DIR python experiments/seed_spread.py --runs ROOT/runs \\
         [--prefix final] [--reps bingham2d rotmat6d] [--seeds 0 1 2] [--gripper robotiq-2f85] \\
         [--objects vgn-pile-test large-box] [--rounds 100] [--out ROOT/bench/table] \\
         [--workers 2] [--quick [DIR]]
@@ -33,20 +33,18 @@ import argparse
 import itertools
 from typing import Any
 
-from common import add_result_option, parse_args, write_result
+from common import SHIPPED, add_result_option
 
 from symgrasp.benchmark.cells import Cell
-from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.runner import run_or_reuse, summarise
-from symgrasp.benchmark.seeds import common_rounds, seed_paired_change, seed_ratios, spread_null
+from symgrasp.benchmark.seeds import common_rounds, seed_lead, seed_ratios, spread_null
 from symgrasp.benchmark.selection import selected_checkpoint
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
+from symgrasp.scripts import parse_args, run_main, write_result
 
 SPREAD_TARGET = 0.06
 """Issue 17's target for the SR spread between training seeds of one representation."""
-
-SHIPPED = "bingham2d-robotiq-2f85"
 
 
 def spread(cells: list[dict[str, Any]], rounds: dict, rep: str, objects: str) -> dict[str, Any]:
@@ -157,31 +155,24 @@ def main() -> None:
                       "folder": str(folder), "summary": summarise(rounds[rep, seed, objects])})  # fmt: skip
     spreads = [spread(cells, rounds, rep, objects) for rep in args.reps for objects in args.objects]
     first = args.reps[0]
-    pairings = [
-        {"a": first, "seed_a": sa, "b": other, "seed_b": sb, "objects": objects,
-         "change": paired_change(*common_rounds(rounds[first, sa, objects],
-                                                rounds[other, sb, objects]))}
-        for other in args.reps[1:] for objects in args.objects
-        for sa, sb in itertools.product(args.seeds, args.seeds)
-    ]  # fmt: skip
-    mean_changes = []  # first rep minus each other one, means over seeds, hierarchical interval
+    pairings, mean_changes = [], []  # the first rep minus each other one, per object set
+    ahead: dict[str, bool] = {}  # in every pairing of training seeds
     for other, objects in itertools.product(args.reps[1:], args.objects):
-        shared = common_rounds(*(rounds[rep, s, objects] for rep in (first, other)
-                                 for s in args.seeds))  # fmt: skip
-        n = len(args.seeds)
-        mean_changes.append({"a": first, "b": other, "objects": objects,
-                             "change": seed_paired_change(shared[:n], shared[n:])})  # fmt: skip
-    ahead: dict[str, bool] = {}  # first rep ahead of each other one, per object set
-    for p in pairings:
-        key = f"{p['b']} {p['objects']}"
-        ahead[key] = ahead.get(key, True) and p["change"]["success_ratio"][0] > 0
+        runs = {rep: [rounds[rep, s, objects] for s in args.seeds] for rep in (first, other)}
+        m = seed_lead(runs[first], runs[other])
+        pairings += [{"a": first, "seed_a": sa, "b": other, "seed_b": sb, "objects": objects,
+                      "change": change}
+                     for (sa, sb), change in zip(itertools.product(args.seeds, args.seeds),
+                                                 m["pairings"], strict=True)]  # fmt: skip
+        mean_changes.append({"a": first, "b": other, "objects": objects, "change": m["change"]})
+        ahead[f"{other} {objects}"] = m["ahead"] == len(m["pairings"])
     table = markdown(cells, spreads, pairings, mean_changes)
     print(table, end="")
     write_result(
         args.result,
         "training-seed spread of the declutter SR/CR per representation, and the first "
         "representation's paired lead over each other in every pairing of training seeds",
-        f"PYTHONPATH=src python benchmarks/seed_spread.py --runs {args.runs} --prefix "
+        f"PYTHONPATH=src python experiments/seed_spread.py --runs {args.runs} --prefix "
         f"{args.prefix} --reps {' '.join(args.reps)} --seeds {' '.join(map(str, args.seeds))}",
         cells,
         table,
@@ -194,4 +185,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_main(main)

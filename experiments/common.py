@@ -1,0 +1,90 @@
+"""What the experiments share beyond `symgrasp.scripts`: where their results go, the shipped
+model that stands in for every training run in ``--quick`` mode, the order their tables list
+the hands in, and which validation scenes a checkpoint is looked at on."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from symgrasp.names import GRIPPERS as BUILT_IN
+
+RESULTS = Path("experiments/results")
+"""Where an experiment's result goes by default (`add_result_option`)."""
+
+PAPER_HAND = "robotiq-2f85"
+"""The hand of the paper's Table 1 (Ko et al. 2024): first in every table."""
+
+GRIPPERS = (PAPER_HAND, *(g for g in BUILT_IN if g != PAPER_HAND))
+"""The built-in hands (`symgrasp.names.GRIPPERS`) in the order the tables list them."""
+
+SHIPPED = f"bingham2d-{PAPER_HAND}"
+"""The paper's detector for that hand, shipped with the package: the checkpoint looked at by
+default, and what ``--quick`` plays in place of every training run."""
+
+
+def add_result_option(parser: argparse.ArgumentParser, name: str) -> None:
+    """``--result STEM``, where `symgrasp.scripts.write_result` writes, by default
+    ``experiments/results/NAME``."""
+    default = str(RESULTS / name)
+    parser.add_argument(
+        "--result",
+        default=default,
+        metavar="STEM",
+        help="where the result goes: STEM.json (the numbers, the command, the machine and its "
+        f"load) and STEM.md (its tables, if it has any) (default: {default})",
+    )
+
+
+def add_checkpoint_options(parser: argparse.ArgumentParser, scenes: int, threshold: str) -> None:
+    """``--checkpoints``, ``--data``, ``--scenes`` and ``--threshold``: the checkpoints a script
+    looks at, the validation scenes it looks at them on (`validation_items`) and the validity
+    probability it cuts at (``threshold`` says what for)."""
+    from symgrasp.config import DEFAULT_VALIDITY
+
+    parser.add_argument("--checkpoints", nargs="+", default=[SHIPPED],
+                        help="checkpoint files or shipped model names (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--data", default=None,
+                        help="dataset folder whose validation split is read (default: each "
+                        "checkpoint's own training data)")  # fmt: skip
+    parser.add_argument("--scenes", type=int, default=scenes,
+                        help=f"validation scenes, spread evenly over the split (default: {scenes})")  # fmt: skip
+    parser.add_argument("--threshold", type=float, default=DEFAULT_VALIDITY,
+                        help=f"{threshold} (default: %(default)s)")  # fmt: skip
+
+
+def per_checkpoint(
+    args: argparse.Namespace, measure: Callable[[Path, list[dict[str, Any]], float], dict]
+) -> list[dict[str, Any]]:
+    """``measure(checkpoint, items, threshold)`` of each of ``args.checkpoints`` on its
+    validation items (`validation_items`), with its name as ``model``."""
+    cells = []
+    for name in args.checkpoints:
+        checkpoint, items = validation_items(name, args.data, args.scenes, args.quick)
+        cells.append({**measure(checkpoint, items, args.threshold), "model": name})
+    return cells
+
+
+def validation_items(
+    name: str, data: str | None, scenes: int, quick: bool
+) -> tuple[Path, list[dict[str, Any]]]:
+    """The checkpoint file of ``name`` (a path or a shipped model's name) and ``scenes`` items
+    spread evenly over the validation split of ``data`` (None: the checkpoint's own training
+    data), not augmented; in quick mode, synthetic scenes."""
+    from symgrasp.detect.pretrained import resolve_model
+    from symgrasp.model.checkpoint import load_checkpoint
+
+    checkpoint = resolve_model(name)
+    if quick:
+        from symgrasp.model.synthetic import SyntheticGraspDataset
+
+        split = SyntheticGraspDataset(scenes, seed=0)
+    else:
+        from symgrasp.data.dataset import GraspDataset
+
+        data = data or load_checkpoint(checkpoint)["config"]["data"]
+        split = GraspDataset(data, split="val", augment=False)
+    step = max(1, len(split) // scenes)
+    return checkpoint, [split[i] for i in range(0, len(split), step)][:scenes]

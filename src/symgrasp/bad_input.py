@@ -1,0 +1,199 @@
+"""The bad input symgrasp refuses, as tables of cases: every command-line case ends with a
+non-zero exit and one line that names the argument or file, every API case with a ValueError or
+TypeError naming the argument; never a traceback, a hang or a silently wrong run.
+
+Two players read these tables: tests/test_bad_input.py runs each case in-process on every
+``make test``, and experiments/bad_input.py runs each command-line case as a real ``symgrasp``
+process with a time limit and sorts the outcomes (clear error, unclear, traceback, silent,
+hang). The cases live in the package, the one place both may import, as `symgrasp.model.synthetic`
+and `symgrasp.bingham.reference` do for tests and benchmarks.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from symgrasp import bingham
+from symgrasp.config import BenchmarkConfig
+from symgrasp.detect.pretrained import shipped_path
+
+MODEL = "bingham2d-robotiq-2f85"
+"""The shipped model the cases play (and break: a truncated copy of its file)."""
+
+
+def make_files(folder: Path, wide_jaw: Path) -> Path:
+    """Valid and broken input files in the folder ``folder``, by name, that the `CLI` cases
+    name; the bad gripper specs are made from the spec file ``wide_jaw`` (the tests' made-up
+    110 mm jaw, tests/wide-jaw.toml, whose lines `BAD_SPECS` replaces)."""
+    spec = wide_jaw.read_text()
+    for name, old, new in BAD_SPECS:
+        assert old in spec
+        (folder / name).write_text(spec.replace(old, new))
+    depth = np.full((48, 64), 0.6, dtype=np.float32)
+    np.save(folder / "depth.npy", depth)
+    np.save(folder / "depth_mm.npy", depth * 1000)
+    (folder / "intrinsic.json").write_text(json.dumps({"fx": 50, "fy": 50, "cx": 32, "cy": 24}))
+    (folder / "no_fx.json").write_text(json.dumps({"fy": 50, "cx": 32, "cy": 24}))
+    (folder / "extrinsic.json").write_text(json.dumps(np.eye(4).tolist()))
+    (folder / "garbage.pt").write_bytes(b"not a checkpoint at all")
+    whole = shipped_path(MODEL).read_bytes()
+    (folder / "truncated.pt").write_bytes(whole[: len(whole) // 2])
+    (folder / "garbage.npy").write_bytes(b"\x93NUMPY garbage")
+    (folder / "a_file").write_text("x")
+    (folder / "unrelated").mkdir()
+    (folder / "unrelated" / "notes.txt").write_text("mine")
+    (folder / "folder").mkdir()
+    unfinished = folder / "unfinished"
+    (unfinished / "scenes").mkdir(parents=True)
+    manifest = {"gripper": "franka", "object_set": "blocks", "k_max": 8, "scene_ids": []}
+    (unfinished / "manifest.json").write_text(json.dumps(manifest))
+    (unfinished / "scenes" / "scene_000000.npz").write_bytes(b"")
+    _urdf_object(folder / "no_mesh", mesh=None)
+    _urdf_object(folder / "too_big", mesh=0.4)
+    (folder / "bench").mkdir()  # a benchmark folder of the default configuration
+    config = json.loads(json.dumps(dataclasses.asdict(BenchmarkConfig())))
+    (folder / "bench" / "config.json").write_text(json.dumps(config))
+    return folder
+
+
+def _urdf_object(folder, mesh):
+    """A folder holding ``thing.urdf`` whose collision mesh is a cube of side ``mesh`` [m], or
+    names a file that is not there (``mesh=None``)."""
+    folder.mkdir()
+    if mesh is not None:
+        corners = np.array(np.meshgrid([0, mesh], [0, mesh], [0, mesh])).reshape(3, -1).T
+        faces = "f 1 2 4\nf 5 6 8\nf 1 3 5\nf 2 4 8\n"
+        (folder / "thing.obj").write_text(
+            "".join(f"v {x} {y} {z}\n" for x, y, z in corners) + faces
+        )
+    (folder / "thing.urdf").write_text(
+        '<robot name="thing"><link name="l"><inertial><mass value="0.2"/></inertial>'
+        '<collision><geometry><mesh filename="thing.obj"/></geometry></collision></link></robot>'
+    )
+
+
+def detect_argv(d, *extra, depth="depth.npy", intrinsic="intrinsic.json", model=MODEL):
+    """``symgrasp detect``'s argv on the files of `make_files` in ``d``, with ``extra``."""
+    return ["detect", "--depth", str(d / depth), "--intrinsic", str(d / intrinsic),
+            "--extrinsic", str(d / "extrinsic.json"), "--model", str(model),
+            "--out", str(d / "out"), *extra]  # fmt: skip
+
+
+BAD_SPECS = (
+    ("negative.toml", "pad_width = 0.03", "pad_width = -0.03"),
+    ("wide_pad.toml", "pad_width = 0.03", "pad_width = 0.08"),
+    ("no_force.toml", "grip_force = 80.0", ""),
+    ("colour.toml", "grip_force = 80.0", 'grip_force = 80.0\ncolour = "red"'),
+)
+"""Gripper spec files made from the made-up wide jaw's: (file, text replaced, replacement)."""
+
+CLI = {  # case: (argv of the `make_files` folder, text the one-line message names)
+    # argument ranges and names, refused by the parser
+    "bench --workers 0": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--workers", "0"], "--workers"),
+    "bench --backend spark": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--backend", "spark"], "--backend"),
+    "data generate --ray-address without --backend ray": (lambda d: ["data", "generate", "--out", str(d / "g"), "--ray-address", "10.0.0.1:6379"], "ray_address"),
+    "bench --num-objects 1000": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--num-objects", "1000"], "num_objects"),
+    "bench --objects bogus": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--objects", "bogus"], "--objects"),
+    "bench --confidence nan": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--confidence", "nan"], "--confidence"),
+    "bench --validity 2": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--validity", "2"], "--validity"),
+    "bench --seed 2**70": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--seed", str(2**70)], "seed"),
+    "bench --rounds 0": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--rounds", "0"], "rounds"),
+    "data generate --k-max 0": (lambda d: ["data", "generate", "--out", str(d / "g"), "--k-max", "0"], "k_max"),
+    "data generate --seed -1": (lambda d: ["data", "generate", "--out", str(d / "g"), "--seed", "-1"], "--seed"),
+    "data generate --scenes 10**12": (lambda d: ["data", "generate", "--out", str(d / "g"), "--scenes", str(10**12)], "--scenes"),
+    "data generate --grasps 0": (lambda d: ["data", "generate", "--out", str(d / "g"), "--grasps", "0"], "grasps"),
+    "data generate --kinds heap": (lambda d: ["data", "generate", "--out", str(d / "g"), "--kinds", "heap"], "--kinds"),
+    "data generate --camera-distance 0.7 0.4": (lambda d: ["data", "generate", "--out", str(d / "g"), "--camera-distance", "0.7", "0.4"], "camera_distance"),
+    "train --lr inf": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--lr", "inf"], "lr"),
+    "train --epochs 0": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--epochs", "0"], "epochs"),
+    "train --nproc 2 --batch-size 3": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--nproc", "2", "--batch-size", "3"], "batch_size 3 must be a multiple of the 2"),
+    "train --nproc 0": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--nproc", "0"], "--nproc"),
+    "train --widths 0 1 2 3": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--widths", "0", "1", "2", "3"], "widths"),
+    "train --schedule step": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--schedule", "step"], "--schedule"),
+    "train --schedule onecycle without --warmup": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--schedule", "onecycle"], "warmup in (0, 1)"),
+    "train --min-lr with the constant schedule": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--min-lr", "1e-5"], "min_lr"),
+    "train --ema 1": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--ema", "1"], "ema"),
+    "train --focal-gamma with bce": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--focal-gamma", "3"], "focal_gamma"),
+    "train --train-scenes -1": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--train-scenes", "-1"], "train_scenes"),
+    "detect --samples-per-voxel 10**6": (lambda d: detect_argv(d, "--samples-per-voxel", str(10**6)), "--samples-per-voxel"),
+    "detect --top-k 0": (lambda d: detect_argv(d, "--top-k", "0"), "--top-k"),
+    "detect --workspace-origin nan": (lambda d: detect_argv(d, "--workspace-origin", "nan", "0", "0"), "--workspace-origin"),
+    "figures percentiles --samples 10**12": (lambda d: ["figures", "percentiles", "--samples", str(10**12), "--out", str(d)], "--samples"),
+    "figures distribution --height nan": (lambda d: ["figures", "distribution", "--model", MODEL, "--height", "nan", "--out", str(d)], "--height"),
+    "sim show --n 1000": (lambda d: ["sim", "show", "--n", "1000", "--out", str(d)], "--n"),
+    "demo --num-objects 1000": (lambda d: ["demo", "--num-objects", "1000", "--out", str(d)], "--num-objects"),
+    "an unknown command": (lambda d: ["declutter"], "declutter"),
+    # files: named in the message
+    "bench into an existing benchmark": (lambda d: ["bench", "declutter", "--out", str(d / "bench")], "--resume"),
+    "bench --resume of another configuration": (lambda d: ["bench", "declutter", "--out", str(d / "bench"), "--resume", "--rounds", "3"], "rounds differ"),
+    "data generate --out ''": (lambda d: ["data", "generate", "--out", ""], "out"),
+    "data generate --out a file": (lambda d: ["data", "generate", "--out", str(d / "a_file")], "a_file"),
+    "data generate --out unrelated files": (lambda d: ["data", "generate", "--out", str(d / "unrelated")], "not a symgrasp dataset"),
+    "data inspect unfinished": (lambda d: ["data", "inspect", str(d / "unfinished")], "unfinished"),
+    "data inspect not a dataset": (lambda d: ["data", "inspect", str(d / "folder")], "manifest"),
+    "detect intrinsic without fx": (lambda d: detect_argv(d, intrinsic="no_fx.json"), "no_fx.json"),
+    "detect missing depth": (lambda d: detect_argv(d, depth="nothing.npy"), "nothing.npy"),
+    "detect garbage depth": (lambda d: detect_argv(d, depth="garbage.npy"), "garbage.npy"),
+    "detect depth in millimetres": (lambda d: detect_argv(d, depth="depth_mm.npy"), "metres"),
+    "detect garbage checkpoint": (lambda d: detect_argv(d, model=d / "garbage.pt"), "garbage.pt"),
+    "detect truncated checkpoint": (lambda d: detect_argv(d, model=d / "truncated.pt"), "truncated.pt"),
+    "detect unknown model": (lambda d: detect_argv(d, model="bingham9d-hand"), "bingham9d-hand"),
+    "detect --out under a file": (lambda d: [*detect_argv(d)[:-1], str(d / "a_file" / "out")], "a_file"),
+    "detect --out is a file": (lambda d: [*detect_argv(d)[:-1], str(d / "a_file")], "a_file"),
+    "sim show --out is a file": (lambda d: ["sim", "show", "--n", "1", "--out", str(d / "a_file")], "a_file"),
+    "export into a folder": (lambda d: ["export", str(shipped_path(MODEL)), str(d / "folder")], "folder"),
+    "sim show --objects an empty folder": (lambda d: ["sim", "show", "--objects", str(d / "folder"), "--out", str(d / "s")], "holds no .urdf file"),
+    "sim show --objects a URDF without its mesh": (lambda d: ["sim", "show", "--objects", str(d / "no_mesh"), "--out", str(d / "s")], "thing.obj"),
+    "sim show --objects an object larger than the workspace": (lambda d: ["sim", "show", "--objects", str(d / "too_big"), "--out", str(d / "s")], "larger than the 0.3 m workspace"),
+    "sim show --objects an unknown set": (lambda d: ["sim", "show", "--objects", "kitchen", "--out", str(d / "s")], "data folder"),
+    "gripper show an unknown name": (lambda d: ["gripper", "show", "shadow-hand"], "shadow-hand"),
+    "gripper show a missing spec file": (lambda d: ["gripper", "show", str(d / "nothing.toml")], "nothing.toml"),
+    "gripper show a negative size": (lambda d: ["gripper", "show", str(d / "negative.toml")], "negative.toml: pad_width must be in (0, 1] m"),
+    "gripper show a pad wider than the palm": (lambda d: ["gripper", "show", str(d / "wide_pad.toml")], "pad_width (0.08 m) is wider than the palm"),
+    "gripper show a missing key": (lambda d: ["gripper", "show", str(d / "no_force.toml")], "no_force.toml: missing key grip_force"),
+    "gripper show an unknown key": (lambda d: ["gripper", "show", str(d / "colour.toml")], "colour.toml: unknown key colour"),
+    "data generate --gripper a bad spec": (lambda d: ["data", "generate", "--out", str(d / "g"), "--gripper", str(d / "negative.toml")], "pad_width"),
+    "train --gripper a missing spec file": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--gripper", str(d / "nothing.toml")], "--gripper"),
+    "demo --gripper a spec file without --model": (lambda d: ["demo", "--gripper", str(d / "negative.toml"), "--out", str(d)], "--model"),
+    "bench --gripper another than the model's": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--gripper", "franka"], "--gripper franka, but --model bingham2d-robotiq-2f85 is robotiq-2f85"),
+    "objects inspect a procedural set": (lambda d: ["objects", "inspect", "blocks"], "built in code"),
+    "export a garbage checkpoint": (lambda d: ["export", str(d / "garbage.pt"), str(d / "x.pt")], "garbage.pt"),
+}  # fmt: skip
+
+
+def _construct(**options):
+    from symgrasp.detect import GraspDetector
+
+    return GraspDetector.from_pretrained(MODEL, device="cpu", **options)
+
+
+API = {
+    "confidence_threshold=nan": (lambda d: _construct(confidence_threshold=float("nan")), "confidence_threshold"),
+    "top_k=2.5": (lambda d: _construct(top_k=2.5), "top_k"),
+    "nms_radius=1.5": (lambda d: _construct(nms_radius=1.5), "nms_radius"),
+    "samples_per_voxel=2.5": (lambda d: _construct(samples_per_voxel=2.5), "samples_per_voxel"),
+    "samples_per_voxel=10**6": (lambda d: _construct(samples_per_voxel=10**6), "samples_per_voxel"),
+    "validity_threshold=nan": (lambda d: _construct(validity_threshold=float("nan")), "validity_threshold"),
+    "workspace_origin nan": (lambda d: _construct(workspace_origin=(float("nan"), 0, 0)), "workspace_origin"),
+    "gripper=bogus": (lambda d: _construct(gripper="bogus"), "bogus"),
+    "depth in millimetres": (lambda d: d.detect(np.full((48, 64), 600.0), np.diag([50.0, 50, 1]), np.eye(4)), "metres"),
+    "raw uint16 depth": (lambda d: d.detect(np.full((48, 64), 600, np.uint16), np.diag([50.0, 50, 1]), np.eye(4)), "uint16"),
+    "NaN intrinsics": (lambda d: d.detect(np.full((48, 64), 0.6), np.diag([np.nan, 50, 1]), np.eye(4)), "fx"),
+    "depth (H, W, 2)": (lambda d: d.detect(np.full((48, 64, 2), 0.6), np.diag([50.0, 50, 1]), np.eye(4)), "depth"),
+    "extrinsic not rigid": (lambda d: d.detect(np.full((48, 64), 0.6), np.diag([50.0, 50, 1]), 2 * np.eye(4)), "extrinsic"),
+    "unknown object set": (lambda d: __import__("symgrasp.sim", fromlist=["x"]).object_set("kitchen", 3), "household-train"),
+    "unknown gripper": (lambda d: __import__("symgrasp.sim", fromlist=["x"]).get_gripper("shadow"), "robotiq-2f85"),
+    "unknown representation": (lambda d: __import__("symgrasp.rotation", fromlist=["x"]).get("rotmat9d"), "bingham2d"),
+    "Bingham A (2, 3)": (lambda d: bingham.Bingham(torch.zeros(2, 3)), "`A` must be"),
+    "Bingham NaN A, sampled": (lambda d: bingham.Bingham(torch.full((3, 3), torch.nan)).sample(), "`A` must be finite"),
+    "Bingham nll of a non-unit v": (lambda d: bingham.nll(torch.zeros(3, 3), torch.tensor([2.0, 0, 0])), "unit vectors"),
+    "Bingham normalizer method": (lambda d: bingham.log_normalizer(torch.zeros(3), method="laplace"), "`method`"),
+}  # fmt: skip
+"""Bad calls of the API, each ``case: (call of a detector of `MODEL`, text its message names)``:
+each raises ValueError or TypeError naming the argument. The Bingham rows cover its entry
+points; tests/bingham/ holds the rest of its cases."""
