@@ -52,6 +52,7 @@ import gzip
 import io
 import itertools
 import shutil
+import statistics
 import tarfile
 from collections import Counter
 from pathlib import Path
@@ -68,6 +69,7 @@ from symgrasp.benchmark.seeds import seed_lead, seed_ratios
 from symgrasp.benchmark.selection import selected_checkpoint
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
+from symgrasp.rotation import get as get_representation
 from symgrasp.scripts import parse_args, run_main, write_result
 
 PREFIXES = {"robotiq-2f85": "final", "franka": "final-franka"}
@@ -217,7 +219,21 @@ def row(played: dict[Cell, dict], gripper: str, rep: str, threshold: bool, objec
     modes = sum((Counter(s["modes"]) for s in summaries.values()), Counter())
     result["modes"] = {mode: modes[mode] for mode in MODES}
     result["executed"] = sum(s["executed"] for s in summaries.values())
+    threshold = get_representation(rep).default_confidence
+    if threshold is not None:
+        result["confidence"] = confidences([r for runs in mine.values() for r in runs], threshold)
     return result
+
+
+def confidences(rounds: list[dict], threshold: float) -> dict[str, Any]:
+    """The confidences of the grasps executed in ``rounds``: how many, how many below
+    ``threshold`` (those the confidence threshold would have removed from the ranking's top;
+    none where it was on), their median."""
+    values = [a["confidence"] for r in rounds for a in r.get("attempts", ())
+              if a["confidence"] is not None]  # fmt: skip
+    return {"threshold": threshold, "executed": len(values),
+            "below": sum(v < threshold for v in values),
+            "median": statistics.median(values) if values else None}  # fmt: skip
 
 
 def lead(played: dict[Cell, dict], a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any] | None:
@@ -272,6 +288,25 @@ def _leads_table(leads: list[dict], with_scene: bool = False) -> list[str]:
     return rows
 
 
+def _confidence_table(rows: list[dict], gripper: str) -> list[str]:
+    """Markdown lines: the confidences of the grasps each row with a confidence executed, and
+    how many lie below its threshold (what the threshold removes)."""
+    if not rows:
+        return []
+    threshold = rows[0]["confidence"]["threshold"]
+    text = ["", f"Confidence of the executed grasps, pooled over seeds ({gripper}): how many the "
+            f"confidence threshold ({threshold:g}) removes from the top of the ranking:", "",
+            f"| representation | objects | executed | below {threshold:g} | median confidence |",
+            "|---|---|---|---|---|"]  # fmt: skip
+    for r in rows:
+        c = r["confidence"]
+        below = f"{c['below']} ({c['below'] / c['executed']:.1%})" if c["executed"] else "–"
+        median = "–" if c["median"] is None else f"{c['median']:.1f}"
+        text.append(f"| {label(r['rep'], r['threshold'])} | {r['objects']} | {c['executed']} | "
+                    f"{below} | {median} |")  # fmt: skip
+    return text
+
+
 def markdown(rows: list[dict], leads: list[dict], field: list[dict], field_leads: list[dict],
              args: argparse.Namespace, waiting: list[str]) -> str:  # fmt: skip
     """Table 1 per gripper with the paper's numbers, the leads, the failure modes, the field's
@@ -308,6 +343,7 @@ def markdown(rows: list[dict], leads: list[dict], field: list[dict], field_leads
             share = f"{r['modes']['wrong_yaw'] / r['executed']:.0%}" if r["executed"] else "–"
             text.append(f"| {label(r['rep'], r['threshold'])} | {r['objects']} | "
                         + " | ".join(str(r["modes"][m]) for m in MODES) + f" | {share} |")  # fmt: skip
+        text += _confidence_table([r for r in mine if r.get("confidence")], gripper)
         text.append("")
     if not args.field:
         return "\n".join(text) + _waiting(waiting)
