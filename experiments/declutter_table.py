@@ -230,7 +230,7 @@ def confidences(rounds: list[dict], threshold: float) -> dict[str, Any]:
     ``threshold`` (those the confidence threshold would have removed from the ranking's top;
     none where it was on), their median."""
     values = [a["confidence"] for r in rounds for a in r.get("attempts", ())
-              if a["confidence"] is not None]  # fmt: skip
+              if a.get("confidence") is not None]  # fmt: skip
     return {"threshold": threshold, "executed": len(values),
             "below": sum(v < threshold for v in values),
             "median": statistics.median(values) if values else None}  # fmt: skip

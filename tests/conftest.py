@@ -81,10 +81,11 @@ def menagerie() -> Path:
     return folder
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def ray_cluster():
-    """A one-node Ray cluster of 2 CPUs (``.address`` is its host:port), started once per session
-    (several seconds) and stopped at its end; skips the tests that use it when Ray, the
+    """A one-node Ray cluster of 2 CPUs (``.address`` is its host:port), started once per test
+    module (several seconds) and stopped at its end: left running, it would be the cluster
+    that a later script's ``ray.init`` joins. Skips the tests that use it when Ray, the
     optional extra 'cluster', is not installed."""
     pytest.importorskip("ray")
     from ray.cluster_utils import Cluster

@@ -1,4 +1,4 @@
-"""The Ray backend on a local one-node cluster of 2 CPUs (the session's `ray_cluster`): the
+"""The Ray backend on a local one-node cluster of 2 CPUs (the module's `ray_cluster`): the
 same bytes as the process pool for a dataset and a benchmark, a killed worker's task run
 again, a raising task recorded and not retried, and a cluster of other versions refused."""
 
