@@ -3,6 +3,8 @@
 import subprocess
 import sys
 
+import pytest
+
 
 def loaded_after(statement: str) -> set[str]:
     """Top-level modules loaded by ``statement`` in a fresh interpreter."""
@@ -141,3 +143,12 @@ def test_training_loads_neither_the_simulator_nor_the_benchmark():
     code = "import sys, symgrasp.model.train; print('symgrasp.benchmark' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("name", ["mps", "meta", "xla", "bogus", "cuda:x"])
+def test_a_device_symgrasp_does_not_run_on_is_refused_naming_the_choices(name):
+    from symgrasp.device import resolve_device
+
+    with pytest.raises(ValueError, match="device must be 'auto', 'cpu' or 'cuda"):
+        resolve_device(name)
+    assert resolve_device("cpu").type == "cpu"

@@ -95,6 +95,56 @@ def test_density_integrates_to_one():
     assert integral.item() == pytest.approx(1.0, abs=0.01)
 
 
+def fibonacci_sphere(n: int) -> torch.Tensor:
+    """``n`` points of the Fibonacci lattice on S², each standing for an area 4π/n."""
+    i = torch.arange(n, dtype=F64) + 0.5
+    z = 1 - 2 * i / n
+    phi = math.pi * (3 - math.sqrt(5)) * i
+    r = (1 - z**2).sqrt()
+    return torch.stack([r * phi.cos(), r * phi.sin(), z], -1)
+
+
+@pytest.mark.parametrize("d", [3, 4])
+def test_any_accepted_matrix_gives_a_density_that_integrates_to_one(d):
+    """A non-symmetric A is used by its symmetric part, the one vᵀAv reads: the normaliser used
+    to read one triangle (the density of triu(A) then integrated to 0.014 on S², 7.1 on S³)."""
+    generator = torch.Generator().manual_seed(7)
+    A = torch.randn(d, d, generator=generator, dtype=F64) * 3  # not symmetric
+    assert not torch.equal(A, A.T)
+    dist = Bingham(A)
+    if d == 3:  # the lattice's quadrature: error far below the tolerance for this smooth density
+        integral = dist.log_prob(fibonacci_sphere(200_000)).exp().mean() * 4 * math.pi
+        assert integral.item() == pytest.approx(1.0, abs=1e-3)
+    else:  # Monte Carlo under the uniform distribution on S³, of area 2π²
+        integral = dist.log_prob(uniform_sphere(1_000_000, 4, 8)).exp().mean() * 2 * math.pi**2
+        assert integral.item() == pytest.approx(1.0, abs=0.03)
+    v = uniform_sphere(16, d, 9)
+    torch.testing.assert_close(dist.log_prob(v), Bingham((A + A.T) / 2).log_prob(v))
+    torch.testing.assert_close(nll(A, v), nll((A + A.T) / 2, v))
+    symmetric = (A + A.T) / 2
+    assert torch.equal(Bingham(symmetric).A, symmetric), "a symmetric A is kept bit for bit"
+
+
+def test_bad_sizes_and_types_are_refused_naming_the_argument():
+    dist = Bingham(torch.diag(torch.tensor([-5.0, -1.0, 0.0])))
+    with pytest.raises(ValueError, match="`sample_shape` must be an integer ≥ 0, got -1"):
+        dist.sample((-1,))
+    with pytest.raises(ValueError, match=r"at most .* per call"):
+        dist.sample((10**12,))  # refused before it allocates
+    with pytest.raises(TypeError, match="`sample_shape` must be a tuple"):
+        dist.sample(5)
+    for bad in (lambda: dist.acceptance_rate(0), lambda: dist.percentile_angle_mc(0.9, 0, 0)):
+        with pytest.raises(ValueError, match="`num_samples` must be an integer ≥ 1, got 0"):
+            bad()
+    with pytest.raises(ValueError, match="N ≥ 1"):
+        fit(torch.zeros(0, 3))
+    with pytest.raises(TypeError, match=r"`A` must be a torch.Tensor, got ndarray"):
+        Bingham(torch.eye(3).numpy())
+    with pytest.raises(TypeError, match=r"`v` must be a torch\.Tensor"):
+        nll(torch.eye(3), [1.0, 0.0, 0.0])
+    assert dist.sample((0,)).shape == (0, 3)  # an empty draw is a valid one
+
+
 def test_nll_validation():
     A, v = torch.zeros(3, 3), torch.tensor([1.0, 0.0, 0.0])
     with pytest.raises(ValueError, match="`A` must be symmetric"):

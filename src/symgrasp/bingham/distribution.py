@@ -24,6 +24,7 @@ from symgrasp.bingham.normalizer import (
 )
 from symgrasp.bingham.sampling import sample_in_eigenbasis
 from symgrasp.bingham.validation import (
+    check_count,
     check_density_args,
     check_finite,
     check_matrix,
@@ -31,6 +32,10 @@ from symgrasp.bingham.validation import (
 )
 
 Tensor = torch.Tensor
+
+MAX_SAMPLE_VALUES = 2**28
+"""The most values (samples × batch × d) one `Bingham.sample` call returns: 2 GiB in float64,
+so that a mistyped size is refused before it allocates the machine's memory."""
 
 
 def eigh(A: Tensor) -> tuple[Tensor, Tensor]:
@@ -69,11 +74,12 @@ def nll(A: Tensor, v: Tensor, method: str = "auto", validate_args: bool = False)
 
     The gradient is d nll/dA = E[vvᵀ] − vvᵀ (exponential-family identity), computed from one
     eigendecomposition; it stays finite at degenerate spectra (A = 0, λ₁ = λ₂), where a backward
-    through ``eigh`` eigenvectors is NaN. Only the upper triangle of A is read on S². Not twice
-    differentiable.
+    through ``eigh`` eigenvectors is NaN. A is used by its symmetric part (A + Aᵀ)/2, the only
+    part vᵀAv sees, so the density integrates to 1 for any A. Not twice differentiable.
 
     Args:
-        A: ``[..., d, d]`` symmetric, d = 3 or 4.
+        A: ``[..., d, d]``, d = 3 or 4; symmetrised (refused unless symmetric with
+            ``validate_args``).
         v: ``[..., d]`` unit vectors; batch dimensions broadcast with A's. Refused unless
             |‖v‖ − 1| is within `validation.unit_tolerance` of v's dtype.
         method: normaliser method, see `log_normalizer`.
@@ -92,7 +98,8 @@ class Bingham:
     """Bingham distribution with parameter matrix A.
 
     Args:
-        A: ``[*batch_shape, d, d]``, symmetric, d = 3 (S²) or 4 (S³); integer and bool
+        A: ``[*batch_shape, d, d]``, d = 3 (S²) or 4 (S³), used by its symmetric part
+            (A + Aᵀ)/2 (refused unless symmetric with ``validate_args``); integer and bool
             tensors are promoted to the default float dtype.
         validate_args: check symmetry and finiteness of A here and in `log_prob` (off by
             default: a NaN in A gives NaN results, except in `sample`, which always refuses
@@ -174,15 +181,29 @@ class Bingham:
     def acceptance_rate(
         self, num_samples: int = 1000, generator: torch.Generator | None = None
     ) -> Tensor:
-        """``[...]`` fraction of ACG candidates the sampler accepts, measured on fresh draws."""
+        """``[...]`` fraction of ACG candidates the sampler accepts, measured on ``num_samples``
+        (≥ 1) fresh draws."""
+        check_count(num_samples, "num_samples", lo=1)
         _, drawn = self._sample_with_count((num_samples,), generator)
         return num_samples / drawn.to(torch.float64)
 
     def _sample_with_count(
         self, sample_shape: tuple[int, ...] | torch.Size, generator: torch.Generator | None
     ) -> tuple[Tensor, Tensor]:
-        check_finite(self.A, "A")  # no candidate is ever accepted for a non-finite A
+        if not isinstance(sample_shape, tuple | torch.Size):
+            raise TypeError(
+                f"`sample_shape` must be a tuple of integers, e.g. (n,), got {sample_shape!r}"
+            )
+        for size in sample_shape:
+            check_count(size, "sample_shape")
         n = math.prod(sample_shape)
+        values = n * math.prod(self.batch_shape) * self.dim
+        if values > MAX_SAMPLE_VALUES:
+            raise ValueError(
+                f"`sample_shape` {tuple(sample_shape)} asks for {values:.3g} values for the batch "
+                f"{tuple(self.batch_shape)}; at most {MAX_SAMPLE_VALUES:.3g} per call (draw in parts)"
+            )
+        check_finite(self.A, "A")  # no candidate is ever accepted for a non-finite A
         lam, vectors = (t.detach().to(torch.float64) for t in self._eigh)
         concentrations = (lam[..., -1:] - lam).reshape(-1, self.dim)
         x, drawn = sample_in_eigenbasis(concentrations, n, generator)  # [B, n, d]
@@ -212,8 +233,10 @@ class Bingham:
         num_samples: int = 100_000,
         generator: torch.Generator | None = None,
     ) -> Tensor:
-        """Monte-Carlo θᵢ^(p): 2 arcsin of the p-quantile of |⟨v, dᵢ⟩| over exact samples."""
+        """Monte-Carlo θᵢ^(p): 2 arcsin of the p-quantile of |⟨v, dᵢ⟩| over ``num_samples`` (≥ 1)
+        exact samples."""
         self._check_percentile_args(p, axis)
+        check_count(num_samples, "num_samples", lo=1)
         v = self.sample((num_samples,), generator)
         cosine = torch.einsum("n...i,...i->n...", v, self.eigenvectors[..., axis]).abs()
         return 2 * torch.asin(torch.quantile(cosine.to(torch.float64), p, dim=0).clamp(max=1)).to(
@@ -237,9 +260,10 @@ def fit(v: Tensor, steps: int = 100) -> Bingham:
     E[vᵢ²] = Sᵢᵢ, the minimum of the convex −Σ λᵢ Sᵢᵢ + log C(λ), found by L-BFGS over
     log-concentrations (λ_d = 0).
     """
+    if not isinstance(v, Tensor) or v.ndim != 2 or v.shape[-1] not in (3, 4) or not len(v):
+        shape = tuple(v.shape) if isinstance(v, Tensor) else type(v).__name__
+        raise ValueError(f"fit: `v` must be [N, 3] or [N, 4] with N ≥ 1, got {shape}")
     v = check_unit_vectors(v, v.shape[-1], "v")
-    if v.ndim != 2 or v.shape[-1] not in (3, 4):
-        raise ValueError(f"fit: `v` must be [N, 3] or [N, 4], got shape {tuple(v.shape)}")
     scatter = torch.einsum("ni,nj->ij", v, v).to(torch.float64) / v.shape[0]
     moments, vectors = torch.linalg.eigh(scatter)
     target = moments[:-1].clamp(min=1e-12)

@@ -6,14 +6,20 @@ rows and finding the first one happens only when it fails.
 
 - Integer and bool tensors are promoted to ``torch.get_default_dtype()``, and ``A`` and ``v`` of
   different floating dtypes to ``torch.promote_types`` of the two, as torch's own operators do.
-- Complex tensors are refused (`TypeError`); so are batch shapes that do not broadcast,
-  vectors that are not unit, and a non-finite ``A`` where NaN cannot simply propagate (the
-  sampler would never accept a candidate) or when ``validate_args`` asks (`ValueError`).
+- ``A`` is used by its symmetric part (A + Aᵀ)/2: the density exp(vᵀAv) depends on nothing
+  else, and the normaliser's eigendecomposition must read the same matrix as the quadratic
+  form, or the density would not integrate to 1. With ``validate_args`` a non-symmetric ``A``
+  is refused instead. A symmetric ``A`` is returned bit for bit.
+- Anything but a tensor is refused (`TypeError`: `torch.as_tensor` it first), and so are
+  complex tensors; so are batch shapes that do not broadcast, vectors that are not unit, and a
+  non-finite ``A`` where NaN cannot simply propagate (the sampler would never accept a
+  candidate) or when ``validate_args`` asks (`ValueError`).
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 
 import torch
 
@@ -33,8 +39,17 @@ def unit_tolerance(dtype: torch.dtype) -> float:
     return max(math.sqrt(torch.finfo(dtype).eps), _UNIT_TOLERANCE_FLOOR)
 
 
+def check_tensor(t: Tensor, name: str) -> None:
+    """Refuse anything but a tensor, naming the argument and the conversion."""
+    if not isinstance(t, Tensor):
+        raise TypeError(
+            f"`{name}` must be a torch.Tensor, got {type(t).__name__} (torch.as_tensor({name}))"
+        )
+
+
 def as_floating(t: Tensor, name: str) -> Tensor:
     """``t`` if real floating point; integer and bool tensors in the default float dtype."""
+    check_tensor(t, name)
     if t.is_complex():
         raise TypeError(f"`{name}` must be real, got {t.dtype}")
     return t if t.is_floating_point() else t.to(torch.get_default_dtype())
@@ -46,7 +61,9 @@ def _offenders(bad: Tensor) -> tuple[str, tuple[int, ...]]:
 
 
 def check_matrix(A: Tensor, name: str, symmetric: bool) -> Tensor:
-    """``A [..., d, d]``, d = 3 or 4, as floating point; its symmetry checked if ``symmetric``."""
+    """``A [..., d, d]``, d = 3 or 4, as floating point and symmetrised, (A + Aᵀ)/2; refused
+    unless symmetric to a relative 1e-5 if ``symmetric``."""
+    check_tensor(A, name)
     if A.ndim < 2 or A.shape[-1] != A.shape[-2] or A.shape[-1] not in (3, 4):
         raise ValueError(f"`{name}` must be [..., 3, 3] or [..., 4, 4], got shape {tuple(A.shape)}")
     A = as_floating(A, name)
@@ -58,7 +75,19 @@ def check_matrix(A: Tensor, name: str, symmetric: bool) -> Tensor:
                 f"`{name}` must be symmetric, got relative asymmetry {asymmetry.max().item():.3g} "
                 f"(shape {tuple(A.shape)})"
             )
-    return A
+    return (
+        A + (A.transpose(-1, -2) - A) / 2
+    )  # (A + Aᵀ)/2, exactly A when symmetric, even near overflow
+
+
+def check_count(value: int, name: str, lo: int = 0) -> int:
+    """``value`` as an int if it is an integer ≥ ``lo``, else a ValueError (a TypeError for a
+    non-integer) naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"`{name}` must be an integer, got {type(value).__name__}")
+    if value < lo:
+        raise ValueError(f"`{name}` must be an integer ≥ {lo}, got {value}")
+    return int(value)
 
 
 def check_finite(A: Tensor, name: str) -> None:
@@ -76,6 +105,7 @@ def check_finite(A: Tensor, name: str) -> None:
 
 def check_unit_vectors(v: Tensor, d: int, name: str) -> Tensor:
     """``v [..., d]`` as floating point, refused unless every vector is finite and unit."""
+    check_tensor(v, name)
     if v.ndim == 0 or v.shape[-1] != d:
         raise ValueError(f"`{name}` must be [..., {d}], got shape {tuple(v.shape)}")
     v = as_floating(v, name)
