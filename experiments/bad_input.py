@@ -7,6 +7,9 @@ in-process) as a real ``symgrasp`` process with a time limit, calls every API ca
 outcome the way the probes that found these defects did: a *clear error* (non-zero exit, one
 line that names the argument or file, no traceback), a *traceback*, an *unclear* message (one
 that does not name what was wrong), a *silent* run (exit 0) or a *hang* (the time limit).
+The valid inputs that give no grasp for a visible cause (the tables ``WARNED_*``) are played
+too: a *clear warning* (exit 0 and one ``warning:`` line naming the cause; a `NoGraspWarning`)
+is what they should end with, a run without one is *silent*.
 The seconds of each case show whether it was checked before any work started.
 """
 
@@ -17,22 +20,26 @@ import subprocess
 import sys
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 from common import add_result_option
 
-from symgrasp.bad_input import API, CLI, MODEL, make_files
+from symgrasp.bad_input import API, CLI, MODEL, WARNED_API, WARNED_CLI, make_files
 from symgrasp.scripts import parse_args, run_main, write_result
 
 WIDE_JAW = Path(__file__).resolve().parents[1] / "tests" / "wide-jaw.toml"
 """The tests' made-up 110 mm jaw, a spec file whose lines the bad gripper specs replace: read
 here as data, the one file, so the cases play alike in the test and here."""
 
-OUTCOMES = ("clear error", "unclear", "traceback", "silent", "hang")
+OUTCOMES = ("clear error", "clear warning", "unclear", "traceback", "silent", "hang")
 
 
-def command_line_case(argv: list[str], named: str, timeout: float) -> tuple[str, float, str]:
-    """(outcome, seconds, the message's last line) of ``symgrasp ARGV`` in its own process."""
+def command_line_case(
+    argv: list[str], named: str, timeout: float, warned: bool = False
+) -> tuple[str, float, str]:
+    """(outcome, seconds, the message's last line) of ``symgrasp ARGV`` in its own process;
+    ``warned``: a case that should exit 0 with one ``warning:`` line naming ``named``."""
     program = "import sys; from symgrasp.cli import main; main(sys.argv[1:])"
     start = time.perf_counter()
     try:
@@ -46,6 +53,9 @@ def command_line_case(argv: list[str], named: str, timeout: float) -> tuple[str,
     message = lines[-1] if lines else ""
     if "Traceback" in done.stderr:
         outcome = "traceback"
+    elif warned and done.returncode == 0 and lines:
+        clear = len(lines) == 1 and message.startswith("warning:") and named in message
+        outcome = "clear warning" if clear else "unclear"
     elif done.returncode == 0:
         outcome = "silent"
     elif len(lines) == 1 and named in message and "error" in message:
@@ -55,11 +65,20 @@ def command_line_case(argv: list[str], named: str, timeout: float) -> tuple[str,
     return outcome, seconds, message
 
 
-def api_case(call, named: str, detector) -> tuple[str, float, str]:
-    """(outcome, seconds, message) of one bad API call."""
+def api_case(call, named: str, detector, warned: bool = False) -> tuple[str, float, str]:
+    """(outcome, seconds, message) of one bad API call; ``warned``: a call that should return
+    no grasp with one `NoGraspWarning` naming ``named``."""
+    from symgrasp.detect import NoGraspWarning
+
     start = time.perf_counter()
     try:
-        call(detector)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = call(detector)
+        said = [str(w.message) for w in caught if issubclass(w.category, NoGraspWarning)]
+        if warned and said:
+            clear = result == [] and len(said) == 1 and named in said[0]
+            return "clear warning" if clear else "unclear", time.perf_counter() - start, said[0]
     except (ValueError, TypeError) as error:
         outcome = "clear error" if named in str(error) else "unclear"
         return outcome, time.perf_counter() - start, str(error).splitlines()[0]
@@ -86,20 +105,25 @@ def main() -> None:
     cells = []
     with tempfile.TemporaryDirectory() as folder:
         files = make_files(Path(folder), WIDE_JAW)
-        for case, (argv, named) in list(CLI.items())[:limit]:
-            outcome, seconds, message = command_line_case(argv(files), named, args.timeout)
-            cells.append({"kind": "command line", "case": case, "outcome": outcome,
-                          "seconds": round(seconds, 2), "message": message})  # fmt: skip
-            print(f"{outcome:12s} {seconds:6.2f} s  symgrasp {case}", flush=True)
-        for case, (call, named) in list(API.items())[:limit]:
-            outcome, seconds, message = api_case(call, named, detector)
-            cells.append({"kind": "API", "case": case, "outcome": outcome,
-                          "seconds": round(seconds, 3), "message": message})  # fmt: skip
-            print(f"{outcome:12s} {seconds:6.3f} s  {case}", flush=True)
+        for kind, table, warned in (("command line", CLI, False),
+                                     ("command line, no grasp", WARNED_CLI, True)):  # fmt: skip
+            for case, (argv, named) in list(table.items())[:limit]:
+                outcome, seconds, message = command_line_case(
+                    argv(files), named, args.timeout, warned
+                )
+                cells.append({"kind": kind, "case": case, "outcome": outcome,
+                              "seconds": round(seconds, 2), "message": message})  # fmt: skip
+                print(f"{outcome:13s} {seconds:6.2f} s  symgrasp {case}", flush=True)
+        for kind, table, warned in (("API", API, False), ("API, no grasp", WARNED_API, True)):
+            for case, (call, named) in list(table.items())[:limit]:
+                outcome, seconds, message = api_case(call, named, detector, warned)
+                cells.append({"kind": kind, "case": case, "outcome": outcome,
+                              "seconds": round(seconds, 3), "message": message})  # fmt: skip
+                print(f"{outcome:13s} {seconds:6.3f} s  {case}", flush=True)
 
     counts = {
         kind: {o: sum(c["kind"] == kind and c["outcome"] == o for c in cells) for o in OUTCOMES}
-        for kind in ("command line", "API")
+        for kind in dict.fromkeys(c["kind"] for c in cells)
     }
     slowest = {kind: max(c["seconds"] for c in cells if c["kind"] == kind) for kind in counts}
     rows = [

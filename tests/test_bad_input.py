@@ -1,19 +1,31 @@
 """Bad input, table-driven (the tables: `symgrasp.bad_input`): every case ends with a non-zero
 exit and one line that names the argument or file (command line), or a ValueError/TypeError
 with a message (API); never a traceback, a hang or a silently wrong run. Arguments are checked
-before any work starts, so each case takes well under a second."""
+before any work starts, so each case takes well under a second. Inputs that give no grasp for
+a cause they show end with no grasp and one warning naming it."""
 
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import sys
+import warnings
 
 import numpy as np
 import pytest
 
-from symgrasp.bad_input import API, CLI, MODEL, detect_argv, make_files
+from symgrasp.bad_input import (
+    API,
+    CLI,
+    MODEL,
+    WARNED_API,
+    WARNED_CLI,
+    detect_argv,
+    make_files,
+)
 from symgrasp.cli import main
+from symgrasp.detect import NoGraspWarning
 
 
 @pytest.fixture
@@ -67,11 +79,23 @@ def _refused(case, files, capsys):
 
 
 def test_detect_with_no_grasp_is_an_answer(files, capsys):
-    """An empty table (a flat depth image) is a valid scene: exit 0, zero grasps, pictures."""
-    main(detect_argv(files, "--validity", "1.0"))
-    assert "no grasp found" in capsys.readouterr().out
+    """An empty table is a valid scene: exit 0, zero grasps, pictures, no warning."""
+    main(detect_argv(files))
+    captured = capsys.readouterr()
+    assert "no grasp found" in captured.out and captured.err == ""
     assert json.loads((files / "out" / "grasps.json").read_text())["grasps"] == []
     assert (files / "out" / "grasps.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("case", WARNED_CLI)
+def test_command_line_without_grasp_says_why(case, files, capsys):
+    argv, named = WARNED_CLI[case]
+    main(argv(files))  # exit 0: no grasp is an answer
+    captured = capsys.readouterr()
+    assert "no grasp found" in captured.out
+    assert len(captured.err.splitlines()) == 1, captured.err
+    assert captured.err.startswith("warning: no grasp found: ") and named in captured.err
+    assert json.loads((files / "out" / "grasps.json").read_text())["grasps"] == []
 
 
 def test_data_show_writes_the_path_it_prints(tmp_path, capsys):
@@ -99,8 +123,18 @@ def detector():
 @pytest.mark.parametrize("case", API)
 def test_api(case, detector):
     call, named = API[case]
-    with pytest.raises((ValueError, TypeError), match=named):
+    with pytest.raises((ValueError, TypeError), match=re.escape(named)):
         call(detector)
+
+
+@pytest.mark.parametrize("case", WARNED_API)
+def test_api_without_grasp_says_why(case, detector):
+    call, named = WARNED_API[case]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert call(detector) == []
+    assert [w.category for w in caught] == [NoGraspWarning]
+    assert named in str(caught[0].message)
 
 
 def test_a_depth_image_with_a_channel_axis_is_one_image(detector):

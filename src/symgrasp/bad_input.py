@@ -1,6 +1,8 @@
 """The bad input symgrasp refuses, as tables of cases: every command-line case ends with a
 non-zero exit and one line that names the argument or file, every API case with a ValueError or
-TypeError naming the argument; never a traceback, a hang or a silently wrong run.
+TypeError naming the argument; never a traceback, a hang or a silently wrong run. The inputs that
+are valid but give no grasp for a cause they show (`WARNED_CLI`, `WARNED_API`) end with no grasp
+and one warning that names the cause (a ``warning:`` line, a `NoGraspWarning`).
 
 Two players read these tables: tests/test_bad_input.py runs each case in-process on every
 ``make test``, and experiments/bad_input.py runs each command-line case as a real ``symgrasp``
@@ -17,13 +19,34 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from PIL import Image
 
 from symgrasp import bingham
 from symgrasp.config import BenchmarkConfig
 from symgrasp.detect.pretrained import shipped_path
+from symgrasp.perception import CameraIntrinsic, default_extrinsic
+from symgrasp.workspace import TABLE_HEIGHT
 
 MODEL = "bingham2d-robotiq-2f85"
-"""The shipped model the cases play (and break: a truncated copy of its file)."""
+"""The shipped model the cases play (and break: a truncated, a corrupted and a NaN copy of its
+file)."""
+
+INTRINSIC = CameraIntrinsic(64, 48, 50.0, 50.0, 32.0, 24.0)
+"""The small camera of the cases' depth images (``intrinsic.json``)."""
+
+CAMERA = default_extrinsic()
+"""``T_world_camera`` of the cases' depth images (``extrinsic.json``): the default view."""
+
+FOOT = 0.3048
+"""[m]"""
+
+
+def table_depth() -> np.ndarray:
+    """The depth image (48, 64) [m] `INTRINSIC` takes of the empty table (the plane
+    ``z = TABLE_HEIGHT``) from `CAMERA`; 0 where a ray misses it."""
+    rays = INTRINSIC.pixel_rays() @ CAMERA[:3, :3].T  # world directions, camera z = 1
+    depth = (TABLE_HEIGHT - CAMERA[2, 3]) / rays[..., 2]
+    return np.where(depth > 0, depth, 0.0).astype(np.float32)
 
 
 def make_files(folder: Path, wide_jaw: Path) -> Path:
@@ -34,15 +57,33 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     for name, old, new in BAD_SPECS:
         assert old in spec
         (folder / name).write_text(spec.replace(old, new))
-    depth = np.full((48, 64), 0.6, dtype=np.float32)
+    depth = table_depth()
     np.save(folder / "depth.npy", depth)
     np.save(folder / "depth_mm.npy", depth * 1000)
-    (folder / "intrinsic.json").write_text(json.dumps({"fx": 50, "fy": 50, "cx": 32, "cy": 24}))
-    (folder / "no_fx.json").write_text(json.dumps({"fy": 50, "cx": 32, "cy": 24}))
-    (folder / "extrinsic.json").write_text(json.dumps(np.eye(4).tolist()))
+    np.save(folder / "depth_feet.npy", depth / FOOT)
+    np.save(folder / "depth_bool.npy", depth > 0)
+    np.save(folder / "depth_complex.npy", depth.astype(np.complex64))
+    for name, unit in (("depth_cm.png", 0.01), ("depth_tenth_mm.png", 1e-4)):
+        Image.fromarray(np.round(depth / unit).astype(np.uint16)).save(folder / name)
+    picture = np.round(255 * depth / depth.max()).astype(np.uint8)  # a visualisation
+    Image.fromarray(picture).save(folder / "depth_8bit.png")
+    K = INTRINSIC
+    (folder / "intrinsic.json").write_text(
+        json.dumps({"fx": K.fx, "fy": K.fy, "cx": K.cx, "cy": K.cy})
+    )
+    (folder / "no_fx.json").write_text(json.dumps({"fy": K.fy, "cx": K.cx, "cy": K.cy}))
+    (folder / "extrinsic.json").write_text(json.dumps(CAMERA.tolist()))
+    (folder / "inverted.json").write_text(json.dumps(np.linalg.inv(CAMERA).tolist()))
     (folder / "garbage.pt").write_bytes(b"not a checkpoint at all")
     whole = shipped_path(MODEL).read_bytes()
     (folder / "truncated.pt").write_bytes(whole[: len(whole) // 2])
+    flipped = bytearray(whole)
+    flipped[len(whole) // 2] ^= 0x01  # one bit of one weight: still a finite number
+    (folder / "corrupted.pt").write_bytes(bytes(flipped))
+    state = torch.load(shipped_path(MODEL), weights_only=True)
+    first = next(tensor for tensor in state["model"].values() if tensor.is_floating_point())
+    first.view(-1)[0] = torch.nan  # one weight of a diverged run
+    torch.save(state, folder / "nan.pt")
     (folder / "garbage.npy").write_bytes(b"\x93NUMPY garbage")
     (folder / "a_file").write_text("x")
     (folder / "unrelated").mkdir()
@@ -77,10 +118,17 @@ def _urdf_object(folder, mesh):
     )
 
 
-def detect_argv(d, *extra, depth="depth.npy", intrinsic="intrinsic.json", model=MODEL):
+def detect_argv(
+    d,
+    *extra,
+    depth="depth.npy",
+    intrinsic="intrinsic.json",
+    extrinsic="extrinsic.json",
+    model=MODEL,
+):
     """``symgrasp detect``'s argv on the files of `make_files` in ``d``, with ``extra``."""
     return ["detect", "--depth", str(d / depth), "--intrinsic", str(d / intrinsic),
-            "--extrinsic", str(d / "extrinsic.json"), "--model", str(model),
+            "--extrinsic", str(d / extrinsic), "--model", str(model),
             "--out", str(d / "out"), *extra]  # fmt: skip
 
 
@@ -140,6 +188,11 @@ CLI = {  # case: (argv of the `make_files` folder, text the one-line message nam
     "detect missing depth": (lambda d: detect_argv(d, depth="nothing.npy"), "nothing.npy"),
     "detect garbage depth": (lambda d: detect_argv(d, depth="garbage.npy"), "garbage.npy"),
     "detect depth in millimetres": (lambda d: detect_argv(d, depth="depth_mm.npy"), "metres"),
+    "detect bool depth": (lambda d: detect_argv(d, depth="depth_bool.npy"), "depth_bool.npy holds bool"),
+    "detect complex depth": (lambda d: detect_argv(d, depth="depth_complex.npy"), "depth_complex.npy holds complex64"),
+    "detect an 8-bit PNG (a picture of depth)": (lambda d: detect_argv(d, depth="depth_8bit.png"), "depth_8bit.png is a PNG of mode L"),
+    "detect a checkpoint with NaN weights": (lambda d: detect_argv(d, model=d / "nan.pt"), "nan.pt holds non-finite weights"),
+    "detect a checkpoint with a flipped bit": (lambda d: detect_argv(d, model=d / "corrupted.pt"), "corrupted.pt is not a readable symgrasp checkpoint"),
     "detect garbage checkpoint": (lambda d: detect_argv(d, model=d / "garbage.pt"), "garbage.pt"),
     "detect truncated checkpoint": (lambda d: detect_argv(d, model=d / "truncated.pt"), "truncated.pt"),
     "detect unknown model": (lambda d: detect_argv(d, model="bingham9d-hand"), "bingham9d-hand"),
@@ -185,6 +238,12 @@ API = {
     "raw uint16 depth": (lambda d: d.detect(np.full((48, 64), 600, np.uint16), np.diag([50.0, 50, 1]), np.eye(4)), "uint16"),
     "NaN intrinsics": (lambda d: d.detect(np.full((48, 64), 0.6), np.diag([np.nan, 50, 1]), np.eye(4)), "fx"),
     "depth (H, W, 2)": (lambda d: d.detect(np.full((48, 64, 2), 0.6), np.diag([50.0, 50, 1]), np.eye(4)), "depth"),
+    "bool depth": (lambda d: d.detect(table_depth() > 0, INTRINSIC, CAMERA), "bool"),
+    "complex depth": (lambda d: d.detect(table_depth().astype(np.complex64), INTRINSIC, CAMERA), "complex64"),
+    "tsdf NaN": (lambda d: d.detect_tsdf(np.full((40, 40, 40), np.nan)), "tsdf must be finite"),
+    "tsdf 1e30": (lambda d: d.detect_tsdf(np.full((40, 40, 40), 1e30)), "within [-1, 1]"),
+    "bounds NaN": (lambda d: _construct(bounds=(np.full(3, np.nan), np.ones(3))), "bounds"),
+    "bounds outside the workspace": (lambda d: _construct(bounds=(np.full(3, 5.0), np.full(3, 6.0))), "bounds"),
     "extrinsic not rigid": (lambda d: d.detect(np.full((48, 64), 0.6), np.diag([50.0, 50, 1]), 2 * np.eye(4)), "extrinsic"),
     "unknown object set": (lambda d: __import__("symgrasp.sim", fromlist=["x"]).object_set("kitchen", 3), "household-train"),
     "unknown gripper": (lambda d: __import__("symgrasp.sim", fromlist=["x"]).get_gripper("shadow"), "robotiq-2f85"),
@@ -197,3 +256,37 @@ API = {
 """Bad calls of the API, each ``case: (call of a detector of `MODEL`, text its message names)``:
 each raises ValueError or TypeError naming the argument. The Bingham rows cover its entry
 points; tests/bingham/ holds the rest of its cases."""
+
+WARNED_CLI = {  # case: (argv of the `make_files` folder, text the warning line names)
+    "detect depth in feet": (lambda d: detect_argv(d, depth="depth_feet.npy"), "none of the 3072 depth points lies inside the workspace"),
+    "detect the extrinsic inverted (T_camera_world)": (lambda d: detect_argv(d, extrinsic="inverted.json"), "lies inside the workspace"),
+    "detect --workspace-origin 100 m away": (lambda d: detect_argv(d, "--workspace-origin", "100", "0", "0"), "cube from (100, 0, 0)"),
+    "detect a 16-bit PNG in centimetres": (lambda d: detect_argv(d, depth="depth_cm.png"), "implausibly near"),
+    "detect a 16-bit PNG in tenths of a millimetre": (lambda d: detect_argv(d, depth="depth_tenth_mm.png"), "lies inside the workspace"),
+}  # fmt: skip
+"""Valid command lines that give no grasp for a cause their input shows: each exits 0 with an
+empty grasp list and one ``warning:`` line on stderr that names the cause."""
+
+
+def _nan_network():
+    from symgrasp.detect import GraspDetector
+    from symgrasp.model.network import GraspNet, NetworkConfig
+    from symgrasp.sim import ROBOTIQ_2F85
+
+    net = GraspNet(NetworkConfig())
+    with torch.no_grad():
+        next(net.parameters()).fill_(torch.nan)
+    return GraspDetector(net, ROBOTIQ_2F85, device="cpu")
+
+
+WARNED_API = {
+    "depth in feet": (lambda d: d.detect(table_depth() / FOOT, INTRINSIC, CAMERA), "lies inside the workspace"),
+    "the extrinsic inverted (T_camera_world)": (lambda d: d.detect(table_depth(), INTRINSIC, np.linalg.inv(CAMERA)), "lies inside the workspace"),
+    "workspace_origin 100 m away": (lambda d: _construct(workspace_origin=(100, 0, 0)).detect(table_depth(), INTRINSIC, CAMERA), "cube from (100, 0, 0)"),
+    "depth in centimetres as metres": (lambda d: d.detect(table_depth() * 0.1, INTRINSIC, CAMERA), "implausibly near"),
+    "no valid depth pixel": (lambda d: d.detect(np.full((48, 64), np.nan), INTRINSIC, CAMERA), "no valid pixel"),
+    "a network with NaN weights": (lambda d: _nan_network().detect(table_depth(), INTRINSIC, CAMERA), "network's output is NaN"),
+    "a TSDF that shows nothing": (lambda d: d.detect_tsdf(np.ones((40, 40, 40))), "TSDF shows nothing"),
+}  # fmt: skip
+"""Valid calls that give no grasp for a cause their input shows, each ``case: (call of a detector
+of `MODEL`, text the warning names)``: each returns [] with one `NoGraspWarning` naming it."""

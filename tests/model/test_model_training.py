@@ -125,6 +125,35 @@ def test_checkpoint_round_trip_and_wrong_representation(tmp_path):
         load_checkpoint(tmp_path / "missing.pt")
 
 
+def test_checkpoint_with_non_finite_or_corrupted_weights_is_refused_naming_the_file(tmp_path):
+    """Weights are checked when loaded: every floating tensor finite (``model`` and, to resume,
+    ``model_raw``), every byte as written (the zip archive's CRC-32s, which torch.load skips)."""
+    weights = GraspNet(TINY).state_dict()
+    state = {"representation": "bingham2d", "network": {"widths": SMALL, "features": 4}}
+    for entry in ("model", "model_raw"):
+        broken = {**weights, "enc0.weight": weights["enc0.weight"].clone()}
+        broken["enc0.weight"][0, 0, 0, 0, 1] = torch.inf
+        save_checkpoint(tmp_path / "diverged.pt", {**state, "model": weights, entry: broken})
+        with pytest.raises(
+            ValueError,
+            match=rf"diverged.pt holds non-finite weights: {entry}\['enc0.weight'\] has 1 NaN",
+        ):
+            load_model(tmp_path / "diverged.pt")
+    save_checkpoint(tmp_path / "good.pt", {**state, "model": weights})
+    whole = bytearray((tmp_path / "good.pt").read_bytes())
+    whole[whole.index(weights["rotation_head.bias"].numpy().tobytes())] ^= 0x01
+    (tmp_path / "flipped.pt").write_bytes(bytes(whole))
+    torch.load(tmp_path / "flipped.pt", weights_only=True)  # one weight one bit off: loads
+    corrupted = r"flipped.pt is not a readable symgrasp checkpoint: its bytes are corrupted"
+    with pytest.raises(ValueError, match=corrupted + r" \(the entry .*/data/\d+ fails its CRC-32"):
+        load_model(tmp_path / "flipped.pt")
+    (tmp_path / "cut.pt").write_bytes(bytes(whole[:300]))
+    with pytest.raises(
+        ValueError, match=r"cut.pt is not a readable symgrasp checkpoint \(truncated or corrupted"
+    ):
+        load_checkpoint(tmp_path / "cut.pt")
+
+
 def test_resume_gives_the_same_weights_as_an_uninterrupted_run(tmp_path):
     train(_config(tmp_path, "straight", epochs=2), _data())
     train(_config(tmp_path, "resumed", epochs=1, resume=True), _data())  # nothing yet: a start

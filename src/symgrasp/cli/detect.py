@@ -4,6 +4,8 @@ shippable): the detector's commands (`symgrasp.detect`)."""
 from __future__ import annotations
 
 import argparse
+import sys
+import warnings
 
 from symgrasp.arguments import integer, number
 from symgrasp.cli.options import (
@@ -28,12 +30,15 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
         "grasps.json (T_world_tcp, scores, confidences; best first), grasps.png (points and the "
         "top grasps coloured by score) and grasps.html (interactive 3-D view) into --out. The "
         "workspace is the 30 cm cube from --workspace-origin, with the table 5 cm above its "
-        "floor, as in training.",
+        "floor, as in training. No grasp is an answer (exit 0, an empty grasp list); when the "
+        "input shows why (no depth point inside the workspace, an implausible depth, a "
+        "network output that is not finite), a 'warning:' line on stderr says which.",
     )
     parser.add_argument(
         "--depth",
         required=True,
-        help="depth image: .npy in metres, or a 16-bit .png in units of --png-scale",
+        help="depth image: .npy of floating-point metres, or a 16-bit .png in units of "
+        "--png-scale (millimetres by default); an 8-bit .png is refused",
     )
     parser.add_argument(
         "--intrinsic",
@@ -54,7 +59,7 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
         "--png-scale",
         type=number(1e-9, 1e3),
         default=0.001,
-        help="metres per PNG unit (default: 0.001)",
+        help="metres per unit of a 16-bit --depth .png (default: 0.001, millimetres)",
     )
     parser.add_argument(
         "--workspace-origin",
@@ -103,9 +108,13 @@ def _run_detect(args: argparse.Namespace) -> None:
         samples_per_voxel=args.samples_per_voxel,
         workspace_origin=tuple(args.workspace_origin),
     )
-    volume = detector.fuse(depth, intrinsic, extrinsic)
-    grasps = detector.detect_tsdf(volume.grid())
-    points = depth_to_points(depth, intrinsic, extrinsic)
+    with warnings.catch_warnings(record=True) as caught:  # one line each, as errors are
+        warnings.simplefilter("always")
+        grasps = detector.detect(depth, intrinsic, extrinsic)
+    for warning in caught:
+        print(f"warning: {warning.message}", file=sys.stderr)
+    volume = detector.fuse(depth, intrinsic, extrinsic)  # again, for the pictures
+    points = depth_to_points(depth, intrinsic, extrinsic, origin=detector.origin)
     paths = write_detection(args.out, detector, volume, grasps, points)
     found = f"{len(grasps)} grasps" if grasps else "no grasp found (the scene is drawn)"
     print(f"{found}; " + ", ".join(str(p) for p in paths.values()))

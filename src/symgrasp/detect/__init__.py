@@ -6,8 +6,8 @@ grasps = detector.detect(depth, intrinsic, T_world_camera)   # best first
 waypoints = grasps[0].approach_trajectory()                   # pre-grasp, grasp, lift
 """
 
-from symgrasp.detect.detector import GraspDetector
+from symgrasp.detect.detector import GraspDetector, NoGraspWarning
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.pretrained import PRETRAINED, export_model
 
-__all__ = ["PRETRAINED", "Grasp", "GraspDetector", "export_model"]
+__all__ = ["PRETRAINED", "Grasp", "GraspDetector", "NoGraspWarning", "export_model"]

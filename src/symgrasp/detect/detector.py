@@ -9,6 +9,10 @@ gravity-rejection score. With ``samples_per_voxel`` the closing axis is instead 
 B(A) several times per voxel (the paper's third decoding mode, Sec. 3.3).
 The steps after the network are `symgrasp.model.ranking.rank_voxels`, which the validation's
 top-k metrics share.
+
+No grasp is a valid answer (an empty table); when the input or the network's output shows why
+there is none (no depth point inside the workspace, an implausible depth range, a TSDF with no
+surface, a non-finite output), the detector says which with a `NoGraspWarning`.
 """
 
 from __future__ import annotations
@@ -29,9 +33,9 @@ from symgrasp.device import resolve_device
 from symgrasp.model.checkpoint import load_model, trained_gripper
 from symgrasp.model.network import GraspNet
 from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, rank_voxels
-from symgrasp.perception import CameraIntrinsic, TSDFVolume
+from symgrasp.perception import CameraIntrinsic, TSDFVolume, depth_to_points
 from symgrasp.sim.grippers import GripperSpec, same_name_note
-from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
+from symgrasp.workspace import RESOLUTION, VOXEL_SIZE, WORKSPACE_SIZE
 
 Tensor = torch.Tensor
 
@@ -41,6 +45,21 @@ MAX_SAMPLES_PER_VOXEL = 1000
 
 MAX_MEDIAN_DEPTH = 10.0
 """[m] a depth image whose median is farther than this is taken for one in other units."""
+
+MIN_MEDIAN_DEPTH = 0.1
+"""[m] a depth image whose median is nearer than this is implausible for a depth camera that
+sees the 30 cm workspace (the nearest-measuring ones start at about 7 cm; training's cameras
+stand `SceneConfig.camera_distance` from its centre, about half a metre): when it gives no
+grasp, the warning asks for its units."""
+
+TSDF_TOLERANCE = 1e-4
+"""How far a TSDF value may stray outside [-1, 1] (float rounding of the fused average)."""
+
+
+class NoGraspWarning(UserWarning):
+    """A detection found no grasp and its input or the network's output shows why (the message
+    names the cause and what to check). ``warnings.simplefilter("ignore", NoGraspWarning)``
+    silences it; ``"error"`` turns it into an exception."""
 
 
 class GraspDetector:
@@ -59,7 +78,8 @@ class GraspDetector:
         nms_radius: a kept voxel must have the highest score within this many voxels
             (a (2r+1)³ neighbourhood); 0 turns non-maximum suppression off.
         top_k: return at most this many grasps (None: all).
-        bounds: world-frame box ``(lo (3,), hi (3,))`` [m] the TCP must lie in (None: all).
+        bounds: world-frame box ``(lo (3,), hi (3,))`` [m] the TCP must lie in (None: all;
+            ±inf leaves an axis open); it must hold a voxel centre of the workspace.
         samples_per_voxel: 0 decodes the mode; n ≥ 1 draws n closing axes per voxel from the
             predicted distribution (Bingham representations only).
         workspace_origin: world position [m] of the workspace cube's corner; the table top is
@@ -128,6 +148,12 @@ class GraspDetector:
         self.samples_per_voxel = int(samples_per_voxel)
         self.origin = origin
         self.voxel_size = VOXEL_SIZE
+        if self.bounds is not None and not self._inside_bounds().any():
+            raise ValueError(
+                f"bounds {_xyz(self.bounds[0])}–{_xyz(self.bounds[1])} m hold no voxel centre of "
+                f"the workspace, the {WORKSPACE_SIZE * 100:g} cm cube from {_xyz(origin)} m: "
+                "no grasp could ever be kept"
+            )
         self.seed = seed
         self.info = info or {}
         self.timing: dict[str, float] = {}
@@ -177,10 +203,9 @@ class GraspDetector:
         cameras ``intrinsic`` (a `CameraIntrinsic` or a 3×3 matrix) at ``extrinsic``
         ``T_world_camera`` (4, 4) or (V, 4, 4). NaN, inf and non-positive pixels count as
         missing."""
-        depth = _depth_in_metres(depth)
-        views = depth.reshape(-1, *depth.shape[-2:])
-        intrinsic = _as_intrinsic(intrinsic, views.shape[1:])
-        T = _check_extrinsic(extrinsic, len(views))
+        return self._fuse(*_views(depth, intrinsic, extrinsic))
+
+    def _fuse(self, views: np.ndarray, intrinsic: CameraIntrinsic, T: np.ndarray) -> TSDFVolume:
         volume = TSDFVolume(resolution=RESOLUTION, origin=tuple(self.origin), device=self.device)
         volume.integrate(views, intrinsic, T)
         return volume
@@ -194,41 +219,82 @@ class GraspDetector:
         extrinsic: np.ndarray | Tensor,
     ) -> list[Grasp]:
         """Ranked grasps (best gravity-rejection score first) from one or several depth
-        images; arguments as in `fuse`. An empty scene gives an empty list."""
+        images; arguments as in `fuse`. An empty scene gives an empty list; an empty list with
+        a visible cause (no depth point inside the workspace, a median depth under
+        `MIN_MEDIAN_DEPTH`, a non-finite network output) comes with a `NoGraspWarning`."""
         start = time.perf_counter()
-        volume = self.fuse(depth, intrinsic, extrinsic)
+        views = _views(depth, intrinsic, extrinsic)
+        volume = self._fuse(*views)
         tsdf_ms = _ms_since(start, self.device)
-        grasps = self.detect_tsdf(volume.grid())
+        grasps, out = self._detect(volume.grid())
         self.timing = {"tsdf": tsdf_ms, **self.timing}
+        if not grasps:
+            _warn_no_grasp(_output_cause(out), self._depth_cause(*views))
         return grasps
 
     @torch.no_grad()
     def predict(self, tsdf: np.ndarray | Tensor) -> dict[str, Tensor]:
-        """The network's per-voxel outputs for a TSDF (40, 40, 40): ``score``, ``validity``
-        (probability) ``[40, 40, 40]`` and ``rotation`` channels ``[40, 40, 40, C]``."""
-        grid = torch.as_tensor(tsdf, dtype=torch.float32, device=self.device)
-        if grid.shape != (RESOLUTION,) * 3:
-            raise ValueError(
-                f"tsdf must be ({RESOLUTION}, {RESOLUTION}, {RESOLUTION}), "
-                f"got shape {tuple(grid.shape)}"
-            )
-        out = self.model(grid[None, None])
+        """The network's per-voxel outputs for a TSDF (40, 40, 40) in [-1, 1]: ``score``,
+        ``validity`` (probability) ``[40, 40, 40]`` and ``rotation`` channels
+        ``[40, 40, 40, C]``."""
+        out = self.model(_check_tsdf(tsdf, self.device)[None, None])
         return {
             "score": out.score[0],
             "validity": torch.sigmoid(out.validity[0]),
             "rotation": out.rotation[0].movedim(0, -1),
         }
 
-    @torch.no_grad()
     def detect_tsdf(self, tsdf: np.ndarray | Tensor) -> list[Grasp]:
-        """Ranked grasps from a workspace TSDF (40, 40, 40) in [-1, 1]."""
+        """Ranked grasps from a workspace TSDF (40, 40, 40) in [-1, 1] (ValueError outside it
+        or non-finite: a TSDF's range is its definition). An empty list whose cause is visible
+        (no voxel below 0: nothing seen inside the workspace; a non-finite network output)
+        comes with a `NoGraspWarning`."""
+        grasps, out = self._detect(tsdf)
+        if not grasps:
+            _warn_no_grasp(_output_cause(out), _tsdf_cause(tsdf))
+        return grasps
+
+    @torch.no_grad()
+    def _detect(self, tsdf: np.ndarray | Tensor) -> tuple[list[Grasp], dict[str, Tensor]]:
+        """The grasps of ``tsdf`` and the network's outputs they were decoded from; sets
+        `timing`."""
         start = time.perf_counter()
         out = self.predict(tsdf)
         network_ms = _ms_since(start, self.device)
         start = time.perf_counter()
         grasps = self._decode(out)
         self.timing = {"network": network_ms, "decode": _ms_since(start, self.device)}
-        return grasps
+        return grasps, out
+
+    def _depth_cause(
+        self, views: np.ndarray, intrinsic: CameraIntrinsic, T: np.ndarray
+    ) -> str | None:
+        """Why depth images ``views`` (V, H, W) [m, 0 = missing] plainly hold nothing to
+        grasp, or None: no pixel seen, a median depth under `MIN_MEDIAN_DEPTH`, no point inside
+        the workspace cube (the message says where the points are instead)."""
+        seen = views[views > 0]
+        if not seen.size:
+            return "the depth image has no valid pixel (each is NaN, infinite or ≤ 0)"
+        median = float(np.median(seen))
+        near = (
+            f", implausibly near for a depth camera (expected {MIN_MEDIAN_DEPTH:g}–"
+            f"{MAX_MEDIAN_DEPTH:g} m): is the depth in metres?"
+            if median < MIN_MEDIAN_DEPTH
+            else ""
+        )
+        pairs = list(zip(views, T, strict=True))
+        if any(len(depth_to_points(d, intrinsic, t, origin=self.origin)) for d, t in pairs):
+            return f"the median depth is {median:.3g} m{near}" if near else None
+        points = np.concatenate([depth_to_points(d, intrinsic, t, crop=False) for d, t in pairs])
+        return (
+            f"none of the {len(points)} depth points lies inside the workspace, the "
+            f"{WORKSPACE_SIZE * 100:g} cm cube from {_xyz(self.origin)} to "
+            f"{_xyz(self.origin + WORKSPACE_SIZE)} m; they lie around "
+            f"{_xyz(np.median(points, axis=0))} m at a median depth of {median:.3g} m{near or '.'} "
+            "Check that the depth is in metres (for a PNG: its scale), that the extrinsic is "
+            "T_world_camera (the camera's pose in the world, not its inverse) and the workspace "
+            "origin"
+        )
 
     def _decode(self, out: dict[str, Tensor]) -> list[Grasp]:
         ranked = rank_voxels(
@@ -275,6 +341,79 @@ class GraspDetector:
         return grasps
 
 
+def _warn_no_grasp(*causes: str | None) -> None:
+    """Warn that no grasp was found, naming the visible ``causes`` (None: not seen)."""
+    seen = [cause for cause in causes if cause]
+    if seen:
+        # stacklevel 3: the line that called detect or detect_tsdf
+        warnings.warn("no grasp found: " + "; ".join(seen), NoGraspWarning, stacklevel=3)
+
+
+def _output_cause(out: dict[str, Tensor]) -> str | None:
+    """The network's outputs ``out`` (`GraspDetector.predict`) being non-finite, or None."""
+    bad = ~(
+        torch.isfinite(out["score"])
+        & torch.isfinite(out["validity"])
+        & torch.isfinite(out["rotation"]).all(-1)
+    )
+    if not bad.any():
+        return None
+    return (
+        f"the network's output is NaN or infinite in {int(bad.sum())} of {bad.numel()} voxels "
+        "(weights that are not finite, or ones that overflow): check the model"
+    )
+
+
+def _tsdf_cause(tsdf: np.ndarray | Tensor) -> str | None:
+    """The TSDF (checked by `_check_tsdf`) showing no surface inside the workspace, or None."""
+    if bool((torch.as_tensor(tsdf) < 0).any()):
+        return None
+    return (
+        "the TSDF shows nothing inside the workspace (no voxel below 0, behind a seen surface): "
+        "check the depth images and camera poses it was fused from"
+    )
+
+
+def _xyz(point: np.ndarray) -> str:
+    return "(" + ", ".join(f"{x:.3g}" for x in point) + ")"
+
+
+def _check_tsdf(tsdf: np.ndarray | Tensor, device: torch.device) -> Tensor:
+    """``tsdf`` as a float32 (40, 40, 40) tensor on ``device``; ValueError unless it is one
+    in [-1, 1] (a signed distance divided by the truncation and clipped)."""
+    grid = torch.as_tensor(tsdf, dtype=torch.float32, device=device)
+    if grid.shape != (RESOLUTION,) * 3:
+        raise ValueError(
+            f"tsdf must be ({RESOLUTION}, {RESOLUTION}, {RESOLUTION}), "
+            f"got shape {tuple(grid.shape)}"
+        )
+    lo, hi = torch.aminmax(grid)  # NaN propagates: one reduction checks both
+    if not (lo >= -1 - TSDF_TOLERANCE and hi <= 1 + TSDF_TOLERANCE):
+        finite = torch.isfinite(grid)
+        found = (
+            f"{int((~finite).sum())} NaN or infinite values"
+            if not finite.all()
+            else f"values from {grid.min():.3g} to {grid.max():.3g}"
+        )
+        raise ValueError(
+            "tsdf must be finite and within [-1, 1] (a signed distance divided by the "
+            f"truncation distance), got {found}"
+        )
+    return grid
+
+
+def _views(
+    depth: np.ndarray | Tensor,
+    intrinsic: CameraIntrinsic | np.ndarray,
+    extrinsic: np.ndarray | Tensor,
+) -> tuple[np.ndarray, CameraIntrinsic, np.ndarray]:
+    """The inputs of `GraspDetector.fuse` checked: depth (V, H, W) [m, 0 = missing], the
+    `CameraIntrinsic` and ``T_world_camera`` (V, 4, 4)."""
+    depth = _depth_in_metres(depth)
+    views = depth.reshape(-1, *depth.shape[-2:])
+    return views, _as_intrinsic(intrinsic, views.shape[1:]), _check_extrinsic(extrinsic, len(views))
+
+
 def _depth_in_metres(depth: np.ndarray | Tensor) -> np.ndarray:
     """``depth`` as float32 (H, W) or (V, H, W) [m] with 0 where nothing was seen; refuses
     what is likely not metres (an integer image, a median over 10 m: millimetres or raw
@@ -285,10 +424,12 @@ def _depth_in_metres(depth: np.ndarray | Tensor) -> np.ndarray:
     if raw.ndim not in (2, 3) or min(raw.shape) == 0:
         raise ValueError(f"depth must be (H, W), (H, W, 1) or (V, H, W), got shape {raw.shape}")
     if not np.issubdtype(raw.dtype, np.floating):
-        raise ValueError(
-            f"depth must be floating point metres, got {raw.dtype} (a raw sensor image? "
-            "multiply it by its scale, e.g. 0.001 for millimetres)"
+        hint = (
+            " (a raw sensor image? multiply it by its scale, e.g. 0.001 for millimetres)"
+            if np.issubdtype(raw.dtype, np.integer)
+            else ""
         )
+        raise ValueError(f"depth must be floating point metres, got {raw.dtype}{hint}")
     depth = raw.astype(np.float32)
     seen = np.isfinite(depth) & (depth > 0)
     if seen.any() and np.median(depth[seen]) > MAX_MEDIAN_DEPTH:
@@ -360,6 +501,8 @@ def _check_gripper(gripper: Any) -> GripperSpec:
 
 def _check_bounds(bounds: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = (np.asarray(b, dtype=float) for b in bounds)
-    if lo.shape != (3,) or hi.shape != (3,) or np.any(lo > hi):
-        raise ValueError(f"bounds must be (lo (3,), hi (3,)) with lo ≤ hi, got {bounds}")
+    if lo.shape != (3,) or hi.shape != (3,) or not np.all(lo <= hi):  # NaN compares False
+        raise ValueError(
+            f"bounds must be (lo (3,), hi (3,)) [m] with lo ≤ hi and no NaN, got {bounds}"
+        )
     return lo, hi

@@ -1,7 +1,7 @@
 """Detection inputs and outputs as files: what ``symgrasp detect`` reads and writes.
 
-Inputs: a depth image (``.npy`` float metres, or ``.png`` 16-bit integers times a scale,
-millimetres by default), the intrinsic as JSON (``{"width", "height", "fx", "fy", "cx",
+Inputs: a depth image (``.npy`` floating-point metres, or ``.png`` 16-bit integers times a
+scale, millimetres by default), the intrinsic as JSON (``{"width", "height", "fx", "fy", "cx",
 "cy"}`` or a 3×3 matrix, bare or under ``"K"``), the extrinsic ``T_world_camera`` as JSON
 (a 4×4 matrix, bare or under ``"T_world_camera"``). Outputs: ``grasps.json``,
 ``grasps.png`` and the interactive ``grasps.html`` (`symgrasp.detect.show`).
@@ -33,7 +33,10 @@ SAMPLES = 30
 
 
 def load_depth(path: str | Path, png_scale: float = 0.001) -> np.ndarray:
-    """A depth image (H, W) [m] from ``.npy`` (metres) or ``.png`` (integers · ``png_scale``)."""
+    """A depth image (H, W) [m] from ``.npy`` (floating-point metres) or ``.png`` (one 16-bit
+    integer per pixel, times ``png_scale``: millimetres by default). ValueError naming the file
+    for any other content: integer, bool or complex arrays, an 8-bit or colour PNG (a picture
+    of depth, not depth)."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"depth: no file at {path}")
@@ -41,18 +44,39 @@ def load_depth(path: str | Path, png_scale: float = 0.001) -> np.ndarray:
         raise ValueError(f"depth must be a .npy or .png file, got {path}")
     try:
         if path.suffix == ".npy":
-            depth = np.asarray(np.load(path), dtype=np.float64)
+            raw = np.load(path)
         else:
-            depth = np.asarray(Image.open(path)).astype(np.float64) * png_scale
+            image = Image.open(path)
+            raw = np.asarray(image)
     except (OSError, ValueError, EOFError, TypeError) as err:
         raise ValueError(f"depth: cannot read an image from {path} ({err})") from None
-    if depth.ndim == 3 and depth.shape[-1] == 1:
-        depth = depth[..., 0]
-    if depth.ndim != 2:
-        raise ValueError(
-            f"depth must be one (H, W) or (H, W, 1) image, got shape {depth.shape} from {path}"
+    if path.suffix == ".npy" and not np.issubdtype(raw.dtype, np.floating):
+        hint = (
+            " (raw sensor units? convert them to metres, or save them as a 16-bit .png and give "
+            "its scale)"
+            if np.issubdtype(raw.dtype, np.integer)
+            else ""
         )
-    return depth.astype(np.float32)
+        raise ValueError(
+            f"depth {path} holds {raw.dtype} values; a .npy depth image holds floating-point "
+            f"metres{hint}"
+        )
+    if path.suffix == ".png" and not (
+        raw.ndim == 2 and np.issubdtype(raw.dtype, np.integer) and raw.dtype.itemsize >= 2
+    ):
+        raise ValueError(
+            f"depth {path} is a PNG of mode {image.mode} ({raw.dtype}, shape {raw.shape}); a "
+            "depth PNG holds one 16-bit integer per pixel: an 8-bit or colour PNG is a picture "
+            "of depth, not depth"
+        )
+    if raw.ndim == 3 and raw.shape[-1] == 1:
+        raw = raw[..., 0]
+    if raw.ndim != 2:
+        raise ValueError(
+            f"depth must be one (H, W) or (H, W, 1) image, got shape {raw.shape} from {path}"
+        )
+    scale = 1.0 if path.suffix == ".npy" else png_scale
+    return (raw.astype(np.float64) * scale).astype(np.float32)
 
 
 def _load_json(path: str | Path, what: str) -> Any:

@@ -8,18 +8,20 @@ checkpoints), ``object_set``, ``dataset_hash``, ``network`` (the
 ``history`` (one metrics dict per epoch), ``best_val_loss``, ``model`` and ``optimizer`` state.
 A run trained with ``ema`` holds the weight average in ``model`` (what `load_model` loads) and the
 trained weights in ``model_raw`` (only to resume). It loads with ``weights_only=True``: plain data
-and tensors only.
+and tensors only, after the CRC-32 of every entry of its zip archive is checked (``torch.load``
+does not: a flipped byte among the weights would load as another, often finite, number), and
+its weights must be finite.
 """
 
 from __future__ import annotations
 
 import hashlib
-import pickle
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
 from symgrasp.atomic import write_atomic
@@ -28,6 +30,13 @@ from symgrasp.model.network import GraspNet
 from symgrasp.sim.grippers import GripperSpec, get_gripper
 
 CHECKPOINT_FORMAT = 1
+
+WEIGHTS = ("model", "model_raw")
+"""The entries of a checkpoint that hold a network's state dict (`load_checkpoint` checks that
+their floating tensors are finite)."""
+
+NUMPY_FLOATS = (torch.float16, torch.float32, torch.float64)
+"""The floating dtypes numpy has (not bfloat16)."""
 
 
 def save_checkpoint(path: str | Path, state: dict[str, Any]) -> None:
@@ -49,12 +58,22 @@ def load_checkpoint(
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"checkpoint: no file at {path}")
+    unreadable = f"checkpoint: {path} is not a readable symgrasp checkpoint"
     try:
-        state = torch.load(path, map_location=map_location, weights_only=True)
-    except (RuntimeError, EOFError, OSError, pickle.UnpicklingError, zipfile.BadZipFile) as err:
+        corrupted = _failing_entry(path)
+        state = (
+            None if corrupted else torch.load(path, map_location=map_location, weights_only=True)
+        )
+    except Exception as err:  # damaged bytes raise many types (UnpicklingError, RuntimeError,
+        # BadZipFile, UnicodeDecodeError, ...): to the user each means the same
+        reason = (str(err).strip().splitlines() or [""])[0][:200]
         raise ValueError(
-            f"checkpoint: {path} is truncated or not a checkpoint ({type(err).__name__})"
+            f"{unreadable} (truncated or corrupted; {type(err).__name__}: {reason})"
         ) from None
+    if corrupted:
+        raise ValueError(
+            f"{unreadable}: its bytes are corrupted (the entry {corrupted} fails its CRC-32 check)"
+        )
     if not isinstance(state, dict) or state.get("format") != CHECKPOINT_FORMAT:
         raise ValueError(
             f"checkpoint: {path} is not a symgrasp checkpoint of format {CHECKPOINT_FORMAT}"
@@ -64,7 +83,34 @@ def load_checkpoint(
             f"checkpoint: {path} holds a {state['representation']!r} model, "
             f"but the representation {representation!r} was asked for"
         )
+    for weights in WEIGHTS:
+        for name, tensor in state.get(weights, {}).items():
+            if tensor.is_floating_point() and not _finite(tensor):
+                bad = int((~torch.isfinite(tensor)).sum())
+                raise ValueError(
+                    f"checkpoint: {path} holds non-finite weights: {weights}[{name!r}] has {bad} "
+                    f"NaN or infinite values of {tensor.numel()} (a diverged run? take an "
+                    "earlier checkpoint)"
+                )
     return state
+
+
+def _finite(tensor: torch.Tensor) -> bool:
+    """Whether every entry of a floating tensor is finite: by numpy where it can, since on a
+    model's few dozen small tensors torch's reductions cost 4× more and, on a busy CPU, now and
+    then tens of milliseconds waiting for their worker threads."""
+    if tensor.device.type == "cpu" and tensor.dtype in NUMPY_FLOATS:
+        return bool(np.isfinite(tensor.numpy()).all())
+    return bool(torch.isfinite(tensor).all())
+
+
+def _failing_entry(path: Path) -> str | None:
+    """The first entry of the checkpoint's zip archive whose bytes fail its CRC-32, if any
+    (None for a file that is no zip archive: ``torch.load`` judges it)."""
+    if not zipfile.is_zipfile(path):
+        return None
+    with zipfile.ZipFile(path) as archive:
+        return archive.testzip()
 
 
 def load_model(

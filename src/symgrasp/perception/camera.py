@@ -92,10 +92,12 @@ def depth_to_points(
     intrinsic: CameraIntrinsic,
     T_world_camera: np.ndarray,
     crop: bool = True,
+    origin: np.ndarray = (0.0, 0.0, 0.0),
 ) -> np.ndarray:
     """The world points (N, 3) [m] seen by the pixels of ``depth`` (H, W) [m] that saw
     something (depth > 0); with ``crop``, only those inside the workspace cube
-    [0, WORKSPACE_SIZE]³. Denser than a TSDF's surface points: the pictures draw these."""
+    ``origin + [0, WORKSPACE_SIZE]³``. Denser than a TSDF's surface points: the pictures draw
+    these."""
     depth = np.asarray(depth, dtype=float)
     if depth.shape != (intrinsic.height, intrinsic.width):
         raise ValueError(
@@ -109,5 +111,6 @@ def depth_to_points(
     points_camera = depth[seen][:, None] * intrinsic.pixel_rays()[seen]
     points = points_camera @ T_world_camera[:3, :3].T + T_world_camera[:3, 3]
     if crop:
-        points = points[np.all((points >= 0.0) & (points <= WORKSPACE_SIZE), axis=1)]
+        offset = points - np.asarray(origin, dtype=float)
+        points = points[np.all((offset >= 0.0) & (offset <= WORKSPACE_SIZE), axis=1)]
     return points
