@@ -78,6 +78,7 @@ ROOT_MODULES = {
     "config",
     "device",
     "fields",
+    "folders",
     "gl_backend",
     "names",
     "workspace",
