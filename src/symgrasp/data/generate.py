@@ -154,7 +154,7 @@ MAX_SCENES = 10_000_000
 
 DATASET = Outputs(
     "a symgrasp dataset",
-    kinds=("manifest.json", "db", "scenes", "card.json", "card.png", "scene_*.png"),
+    kinds=("db", "scenes", "card.json", "card.png", "scene_*.png"),
     record=("manifest.json",),
 )
 """A dataset folder: what generate, the card and `symgrasp data show` write there; a folder
