@@ -80,6 +80,7 @@ ROOT_MODULES = {
     "config",
     "device",
     "fields",
+    "folders",
     "gl_backend",
     "names",
     "workspace",

@@ -48,16 +48,3 @@ def move_into_place(source: str | Path, path: str | Path) -> Path:
     folder ``path`` must not exist; a file replaces any file there."""
     os.replace(source, path)
     return Path(path)
-
-
-def check_folder(path: str | Path, name: str = "out") -> Path:
-    """``path`` as a folder that can be made or written into, checked before any work: a
-    ValueError naming ``name`` when it is empty or when it, or a folder above it, is a file."""
-    if not str(path).strip():
-        raise ValueError(f"{name} must name a folder, got an empty path")
-    path = Path(path)
-    for above in (path, *path.parents):
-        if above.exists() and not above.is_dir():
-            where = "is" if above == path else f"would be under {above}, which is"
-            raise ValueError(f"{name} {path} {where} a file, not a folder")
-    return path

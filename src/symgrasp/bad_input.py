@@ -96,15 +96,19 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     (unfinished / "scenes" / "scene_000000.npz").write_bytes(b"")
     _urdf_object(folder / "no_mesh", mesh=None)
     _urdf_object(folder / "too_big", mesh=0.4)
+    _urdf_object(folder / "escaping", mesh=0.05, name="../../../x")
+    (folder / "mine").mkdir()  # a user's own files, named as a benchmark's are
+    (folder / "mine" / "results.md").write_text("my notes")
+    (folder / "mine" / "model.sha256").write_text("my hash")
     (folder / "bench").mkdir()  # a benchmark folder of the default configuration
     config = json.loads(json.dumps(dataclasses.asdict(BenchmarkConfig())))
     (folder / "bench" / "config.json").write_text(json.dumps(config))
     return folder
 
 
-def _urdf_object(folder, mesh):
-    """A folder holding ``thing.urdf`` whose collision mesh is a cube of side ``mesh`` [m], or
-    names a file that is not there (``mesh=None``)."""
+def _urdf_object(folder, mesh, name="thing"):
+    """A folder holding ``thing.urdf``, the robot ``name``, whose collision mesh is a cube of
+    side ``mesh`` [m], or names a file that is not there (``mesh=None``)."""
     folder.mkdir()
     if mesh is not None:
         corners = np.array(np.meshgrid([0, mesh], [0, mesh], [0, mesh])).reshape(3, -1).T
@@ -113,7 +117,7 @@ def _urdf_object(folder, mesh):
             "".join(f"v {x} {y} {z}\n" for x, y, z in corners) + faces
         )
     (folder / "thing.urdf").write_text(
-        '<robot name="thing"><link name="l"><inertial><mass value="0.2"/></inertial>'
+        f'<robot name="{name}"><link name="l"><inertial><mass value="0.2"/></inertial>'
         '<collision><geometry><mesh filename="thing.obj"/></geometry></collision></link></robot>'
     )
 
@@ -171,15 +175,24 @@ CLI = {  # case: (argv of the `make_files` folder, text the one-line message nam
     "detect --samples-per-voxel 10**6": (lambda d: detect_argv(d, "--samples-per-voxel", str(10**6)), "--samples-per-voxel"),
     "detect --top-k 0": (lambda d: detect_argv(d, "--top-k", "0"), "--top-k"),
     "detect --workspace-origin nan": (lambda d: detect_argv(d, "--workspace-origin", "nan", "0", "0"), "--workspace-origin"),
-    "figures percentiles --samples 10**12": (lambda d: ["figures", "percentiles", "--samples", str(10**12), "--out", str(d)], "--samples"),
-    "figures distribution --height nan": (lambda d: ["figures", "distribution", "--model", MODEL, "--height", "nan", "--out", str(d)], "--height"),
-    "sim show --n 1000": (lambda d: ["sim", "show", "--n", "1000", "--out", str(d)], "--n"),
-    "demo --num-objects 1000": (lambda d: ["demo", "--num-objects", "1000", "--out", str(d)], "--num-objects"),
+    "figures percentiles --samples 10**12": (lambda d: ["figures", "percentiles", "--samples", str(10**12), "--out", str(d / "pictures")], "--samples"),
+    "figures distribution --height nan": (lambda d: ["figures", "distribution", "--model", MODEL, "--height", "nan", "--out", str(d / "pictures")], "--height"),
+    "sim show --n 1000": (lambda d: ["sim", "show", "--n", "1000", "--out", str(d / "pictures")], "--n"),
+    "demo --num-objects 1000": (lambda d: ["demo", "--num-objects", "1000", "--out", str(d / "pictures")], "--num-objects"),
     "an unknown command": (lambda d: ["declutter"], "declutter"),
     # files: named in the message
     "bench into an existing benchmark": (lambda d: ["bench", "declutter", "--out", str(d / "bench")], "--resume"),
     "bench --resume of another configuration": (lambda d: ["bench", "declutter", "--out", str(d / "bench"), "--resume", "--rounds", "3"], "rounds differ"),
-    "data generate --out ''": (lambda d: ["data", "generate", "--out", ""], "out"),
+    "data generate --out ''": (lambda d: ["data", "generate", "--out", ""], "--out"),
+    "data generate --out ' '": (lambda d: ["data", "generate", "--out", " "], "--out"),
+    "bench --out ''": (lambda d: ["bench", "declutter", "--out", ""], "--out"),
+    "demo --out ''": (lambda d: ["demo", "--out", ""], "--out"),
+    "sim show --out ''": (lambda d: ["sim", "show", "--out", ""], "--out"),
+    "train --out ' '": (lambda d: ["train", "--data", str(d), "--out", " "], "--out"),
+    "bench --out a folder of the user's results.md": (lambda d: ["bench", "declutter", "--out", str(d / "mine")], "holds files that are not a benchmark (model.sha256, results.md)"),
+    "train --out unrelated files": (lambda d: ["train", "--data", str(d), "--out", str(d / "unrelated")], "not a training run (notes.txt)"),
+    "demo --out unrelated files": (lambda d: ["demo", "--out", str(d / "unrelated")], "not pictures"),
+    "data generate --objects a URDF whose name leaves the folder": (lambda d: ["data", "generate", "--objects", str(d / "escaping"), "--out", str(d / "g")], "thing.urdf: the robot's name must be one file name"),
     "data generate --out a file": (lambda d: ["data", "generate", "--out", str(d / "a_file")], "a_file"),
     "data generate --out unrelated files": (lambda d: ["data", "generate", "--out", str(d / "unrelated")], "not a symgrasp dataset"),
     "data inspect unfinished": (lambda d: ["data", "inspect", str(d / "unfinished")], "unfinished"),
@@ -212,7 +225,7 @@ CLI = {  # case: (argv of the `make_files` folder, text the one-line message nam
     "gripper show an unknown key": (lambda d: ["gripper", "show", str(d / "colour.toml")], "colour.toml: unknown key colour"),
     "data generate --gripper a bad spec": (lambda d: ["data", "generate", "--out", str(d / "g"), "--gripper", str(d / "negative.toml")], "pad_width"),
     "train --gripper a missing spec file": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--gripper", str(d / "nothing.toml")], "--gripper"),
-    "demo --gripper a spec file without --model": (lambda d: ["demo", "--gripper", str(d / "negative.toml"), "--out", str(d)], "--model"),
+    "demo --gripper a spec file without --model": (lambda d: ["demo", "--gripper", str(d / "negative.toml"), "--out", str(d / "pictures")], "--model"),
     "bench --gripper another than the model's": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--gripper", "franka"], "--gripper franka, but --model bingham2d-robotiq-2f85 is robotiq-2f85"),
     "objects inspect a procedural set": (lambda d: ["objects", "inspect", "blocks"], "built in code"),
     "export a garbage checkpoint": (lambda d: ["export", str(d / "garbage.pt"), str(d / "x.pt")], "garbage.pt"),

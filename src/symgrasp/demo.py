@@ -20,11 +20,13 @@ import numpy as np
 
 from symgrasp.benchmark.declutter import Attempt, Round, run_round, save_attempt_png
 from symgrasp.detect import Grasp, GraspDetector
+from symgrasp.folders import PICTURES, writes_folder
 from symgrasp.objects.sets import resolve
 from symgrasp.sim import World
 from symgrasp.sim.grippers import get_gripper, is_spec_file
 
 
+@writes_folder(PICTURES)
 def run_demo(
     out: str | Path = "out/demo",
     seed: int = 0,
@@ -36,10 +38,10 @@ def run_demo(
 ) -> Round:
     """Play one declutter round and write its pictures, ``demo.html`` and ``summary.json``
     (bare meshes of ``objects`` read in ``mesh_unit``). ``gripper``: a built-in's name, whose
-    shipped model plays unless ``model`` is given, or a spec file (then ``model`` is needed)."""
+    shipped model plays unless ``model`` is given, or a spec file (then ``model`` is needed).
+    ``out`` holds pictures only, and is held for the call (`symgrasp.folders`)."""
     start = time.perf_counter()
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     if model is None and is_spec_file(gripper):
         raise ValueError(
             f"gripper {gripper} is a spec file: no model is shipped for it; pass a model "

@@ -178,7 +178,7 @@ def test_bad_meshes_are_refused_naming_the_file(tmp_path, setup, match, capsys):
     with pytest.raises(ValueError, match=match):
         resolve(tmp_path).load(0)
     with pytest.raises(SystemExit, match=f"^error: .*{match}"):  # one line, no traceback
-        main(["sim", "show", "--objects", str(tmp_path), "--n", "1", "--out", str(tmp_path)])
+        main(["sim", "show", "--objects", str(tmp_path), "--n", "1", "--out", str(tmp_path / "s")])
 
 
 def test_small_holes_are_filled_and_large_ones_refused(tmp_path, decomposer):

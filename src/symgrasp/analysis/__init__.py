@@ -9,7 +9,8 @@
   cylinder (Sec. "Analysis of Rotation Distribution", Fig. 4).
 
 Each writes a PNG and a JSON with the numbers and the command that made them, atomically
-(`files`). One module per figure; `scenes` holds the analysis scenes and the voxel-layer
+(`files`), into a folder of pictures that it holds for the call (`symgrasp.folders.PICTURES`:
+docs/figures is one; a folder of other files, or one another process writes, is refused). One module per figure; `scenes` holds the analysis scenes and the voxel-layer
 helpers that the continuity and distribution figures share.
 """
 

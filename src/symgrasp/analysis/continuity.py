@@ -35,6 +35,7 @@ from symgrasp.analysis.scenes import (
 )
 from symgrasp.config import DEFAULT_VALIDITY
 from symgrasp.detect import GraspDetector
+from symgrasp.folders import PICTURES, writes_folder
 from symgrasp.workspace import VOXEL_SIZE
 
 
@@ -112,6 +113,7 @@ def plot_continuity(
     return figure
 
 
+@writes_folder(PICTURES)
 def continuity_figure(
     models: Mapping[str, str | Path],
     out: str | Path,

@@ -37,6 +37,7 @@ from symgrasp.analysis.scenes import (
 )
 from symgrasp.config import DEFAULT_VALIDITY
 from symgrasp.detect import GraspDetector
+from symgrasp.folders import PICTURES, writes_folder
 from symgrasp.workspace import VOXEL_SIZE
 
 
@@ -118,6 +119,7 @@ def plot_distribution(
     return figure
 
 
+@writes_folder(PICTURES)
 def distribution_figure(
     model: str | Path,
     out: str | Path,

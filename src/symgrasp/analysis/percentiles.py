@@ -25,6 +25,7 @@ from tqdm import tqdm
 
 from symgrasp.analysis.files import save_figure, write_json, write_text
 from symgrasp.bingham import Bingham
+from symgrasp.folders import PICTURES, writes_folder
 
 PERCENTILE = 0.99
 """p of θᵢ^(p) in every table and plot (the paper's 99 %)."""
@@ -187,6 +188,7 @@ def _draw_projection(ax: Axes, c: np.ndarray, row: PercentileRow, colour: str) -
     ax.legend(fontsize=7, loc="center")  # the samples crowd the poles ±d₃
 
 
+@writes_folder(PICTURES)
 def percentile_figure(
     out: str | Path,
     samples: int = 1_000_000,

@@ -19,7 +19,8 @@ Layout of a benchmark folder (`run_benchmark`)::
     results.md      the summary as a Markdown table row
 
 A killed run loses only the rounds in flight; ``resume=True`` (``--resume``) plays the rounds
-missing from ``rounds.jsonl`` and refuses a folder of another configuration.
+missing from ``rounds.jsonl`` and refuses a folder of another configuration. A folder holding
+anything else, or held by another run, is refused (`BENCHMARK`, `symgrasp.folders`).
 """
 
 from __future__ import annotations
@@ -39,12 +40,17 @@ from symgrasp.benchmark.declutter import Round, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES
 from symgrasp.config import BenchmarkConfig, ParallelConfig
 from symgrasp.detect.pretrained import resolve_model
+from symgrasp.folders import Outputs, check_folder, check_owned, writes_folder
 from symgrasp.model.checkpoint import file_sha256
 from symgrasp.objects.sets import resolve
 from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor
 
 MODEL_SHA = "model.sha256"
 """The file of a benchmark folder that records the SHA-256 of the model file it plays."""
+
+BENCHMARK = Outputs("a benchmark", record=("config.json", "rounds.jsonl", "results.json"))
+"""A benchmark folder (`symgrasp.folders`): its record is written before any round, so a
+folder without one must be empty (a user's ``results.md`` is not taken for a benchmark's)."""
 
 BOOTSTRAP = 2000
 """Bootstrap resamples for the confidence intervals (of the rounds, and of whatever else a study
@@ -252,11 +258,12 @@ def recorded_config(out: str | Path) -> dict[str, Any] | None:
 
 
 def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) -> None:
-    """Raise ValueError unless ``out`` may take ``config``'s rounds: it holds no benchmark, or
-    ``resume`` is set and it holds one of ``config`` played by the same model file. Reads a
-    small file and hashes the model file, so the CLI calls it before it loads a model or starts
-    workers."""
-    out = Path(out)
+    """Raise ValueError unless ``out`` may take ``config``'s rounds: a folder path holding
+    nothing (`BENCHMARK`), or, with ``resume``, a benchmark of ``config`` played by the same
+    model file. Reads a small file and hashes the model file, so the CLI calls it before it
+    loads a model or starts workers."""
+    out = check_folder(out)
+    check_owned(out, BENCHMARK)
     if not any((out / name).exists() for name in ("config.json", "rounds.jsonl", "results.json")):
         return
     if not resume:
@@ -330,6 +337,7 @@ def _append_round(lines: TextIO, record: dict[str, Any]) -> None:
     os.fsync(lines.fileno())
 
 
+@writes_folder(BENCHMARK)
 def run_benchmark(
     config: BenchmarkConfig,
     out: str | Path,
@@ -342,10 +350,11 @@ def run_benchmark(
     ``config.json`` records the configuration before any round runs; each round is appended
     to ``rounds.jsonl`` as it finishes (in any order with several workers). At the end
     ``rounds.jsonl`` is rewritten in seed order, and ``results.json`` and ``results.md`` are
-    derived from it. With ``resume``, only the rounds missing from ``out`` are played.
-    Raises ValueError as `check_out` and `open_executor` do, and
-    `symgrasp.objects.folder.MissingData` when the object set is not in the data folder, before
-    anything is played or written; `TasksFailed` after writing them when every round failed."""
+    derived from it. With ``resume``, only the rounds missing from ``out`` are played. ``out``
+    is held for the call (`symgrasp.folders.output_folder`): one writer at a time.
+    Raises ValueError as `check_out` and `open_executor` do, or when another process holds
+    ``out``, and `symgrasp.objects.folder.MissingData` when the object set is not in the data
+    folder, before anything is played or written; `TasksFailed` after writing them when every round failed."""
     out = Path(out)
     check_out(config, out, resume)
     path = out / "rounds.jsonl"

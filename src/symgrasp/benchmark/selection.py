@@ -48,6 +48,7 @@ from symgrasp.config import (
 )
 from symgrasp.data.dataset import GraspDataset, collate_scenes
 from symgrasp.device import resolve_device
+from symgrasp.folders import writes_folder
 from symgrasp.model.checkpoint import (
     file_sha256,
     load_checkpoint,
@@ -379,6 +380,7 @@ def checkpoint_id(path: str | Path) -> str:
     return f"{Path(path).stem}-{file_sha256(path)[:12]}"
 
 
+@writes_folder(None, "run_dir")
 def select_checkpoint(
     run_dir: str | Path,
     by: str,
@@ -400,7 +402,9 @@ def select_checkpoint(
     way. ``revalidate`` recomputes each checkpoint's validation metrics (`validation_metrics`)
     instead of reading metrics.csv, for metrics added after the run trained.
 
-    Raises ValueError naming the argument (RUN_DIR, --by) before any evaluation starts.
+    Raises ValueError naming the argument (RUN_DIR, --by) before any evaluation starts, and when
+    another process holds ``run_dir`` (training it, or selecting in it: one writer at a time,
+    `symgrasp.folders.output_folder`).
     """
     measure = ALIASES.get(by, by)
     sign = direction(measure)

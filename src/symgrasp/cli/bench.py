@@ -12,6 +12,7 @@ from symgrasp.cli.options import (
     add_confidence_options,
     add_shared,
     confidence_threshold,
+    output_path,
 )
 from symgrasp.config import DEFAULT_VALIDITY, BenchmarkConfig
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
@@ -41,7 +42,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "otherwise it is named by how it ended (collision, wrong approach = closed on nothing, "
         "slip).",
     )
-    declutter.add_argument("--out", required=True, help="output folder")
+    declutter.add_argument("--out", type=output_path, required=True, help="output folder")
     declutter.add_argument(
         "--resume",
         action="store_true",

@@ -7,7 +7,7 @@ import argparse
 
 from symgrasp.arguments import integer
 from symgrasp.cli.fields import add_config_options, config_from_args
-from symgrasp.cli.options import SEED
+from symgrasp.cli.options import SEED, output_path
 from symgrasp.config import SceneConfig
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
@@ -30,7 +30,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "interrupted run. Every field of the dataset's configuration (symgrasp.config."
         "SceneConfig, and its DatabaseConfig) is an option.",
     )
-    gen.add_argument("--out", required=True, help="dataset folder")
+    gen.add_argument("--out", type=output_path, required=True, help="dataset folder")
     gen.add_argument(
         "--scenes", type=integer(1, 10**7), default=2000, help="number of scenes (default: 2000)"
     )
@@ -48,7 +48,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         description="Print counts, class balance and score histograms of a dataset and write "
         "card.json and card.png into it.",
     )
-    inspect.add_argument("root", help="dataset folder")
+    inspect.add_argument("root", type=output_path, help="dataset folder")
     inspect.add_argument(
         "--validate",
         type=integer(0, 100_000),
@@ -65,7 +65,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     )
     show.add_argument("root", help="dataset folder")
     show.add_argument("--scene", type=integer(0, 10**7), default=0, help="scene id (default: 0)")
-    show.add_argument("--out", default=None, help="picture path (default: ROOT/scene_<id>.png)")
+    show.add_argument("--out", type=output_path, help="picture path (default: ROOT/scene_<id>.png)")
     show.set_defaults(run=_run_data_show)
 
 

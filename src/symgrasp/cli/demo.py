@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from symgrasp.arguments import integer
-from symgrasp.cli.options import MODEL_METAVAR, SEED, add_mesh_unit, add_shared
+from symgrasp.cli.options import MODEL_METAVAR, SEED, add_mesh_unit, add_shared, output_path
 from symgrasp.config import MAX_OBJECTS
 
 
@@ -19,7 +19,9 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "every attempt and the round's success and clear ratios; writes a picture per attempt, "
         "demo.html and summary.json into --out.",
     )
-    parser.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
+    parser.add_argument(
+        "--out", type=output_path, default="out/demo", help="output folder (default: out/demo)"
+    )
     parser.add_argument(
         "--seed", type=SEED, default=0, help="seed of the objects and the pile (default: 0)"
     )

@@ -13,6 +13,7 @@ from symgrasp.cli.options import (
     PROBABILITY,
     add_confidence_options,
     confidence_threshold,
+    output_path,
 )
 from symgrasp.config import DEFAULT_VALIDITY
 
@@ -54,7 +55,7 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
         metavar=MODEL_METAVAR,
         help="shipped model name or checkpoint path (default: bingham2d-robotiq-2f85)",
     )
-    parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument("--out", type=output_path, required=True, help="output folder")
     parser.add_argument(
         "--png-scale",
         type=number(1e-9, 1e3),
@@ -90,12 +91,17 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run_detect(args: argparse.Namespace) -> None:
-    from symgrasp.atomic import check_folder
+    from symgrasp.folders import PICTURES, output_folder
+
+    with output_folder(args.out, PICTURES, "--out"):  # checked before the model loads
+        _detect(args)
+
+
+def _detect(args: argparse.Namespace) -> None:
     from symgrasp.detect import GraspDetector
     from symgrasp.detect.files import load_depth, load_extrinsic, load_intrinsic, write_detection
     from symgrasp.perception import depth_to_points
 
-    check_folder(args.out, "--out")
     depth = load_depth(args.depth, args.png_scale)
     intrinsic = load_intrinsic(args.intrinsic, depth.shape)
     extrinsic = load_extrinsic(args.extrinsic)
@@ -129,7 +135,7 @@ def _add_export(subparsers: argparse._SubParsersAction) -> None:
         "ships in symgrasp/detect/models/).",
     )
     parser.add_argument("checkpoint", help="checkpoint path, e.g. runs/NAME/best.pt")
-    parser.add_argument("out", help="output .pt path")
+    parser.add_argument("out", type=output_path, help="output .pt path")
     parser.set_defaults(run=_run_export)
 
 

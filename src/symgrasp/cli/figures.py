@@ -7,7 +7,7 @@ import argparse
 import shlex
 
 from symgrasp.arguments import integer, number
-from symgrasp.cli.options import MODEL_METAVAR, PROBABILITY, SEED
+from symgrasp.cli.options import MODEL_METAVAR, PROBABILITY, SEED, output_path
 from symgrasp.config import DEFAULT_VALIDITY
 from symgrasp.workspace import WORKSPACE_SIZE
 
@@ -58,7 +58,10 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         help="seed of the first estimate; +r for the r-th (default: 0)",
     )
     percentiles.add_argument(
-        "--out", default="docs/figures", help="output folder (default: docs/figures)"
+        "--out",
+        type=output_path,
+        default="docs/figures",
+        help="output folder (default: docs/figures)",
     )
     percentiles.set_defaults(run=_run_percentiles)
 
@@ -132,7 +135,10 @@ def _add_slice_options(parser: argparse.ArgumentParser) -> None:
         f"(default: {DEFAULT_VALIDITY}, the detector's)",
     )
     parser.add_argument(
-        "--out", default="docs/figures", help="output folder (default: docs/figures)"
+        "--out",
+        type=output_path,
+        default="docs/figures",
+        help="output folder (default: docs/figures)",
     )
 
 

@@ -7,7 +7,7 @@ import argparse
 
 from symgrasp.arguments import integer
 from symgrasp.cli.fields import add_config_options, config_from_args
-from symgrasp.cli.options import SEED, add_mesh_unit, add_shared
+from symgrasp.cli.options import SEED, add_mesh_unit, add_shared, output_path
 from symgrasp.config import (
     MAX_OBJECTS,
     TEST_SEED_LIMIT,
@@ -83,7 +83,10 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
         "benchmarks') are refused (docs/model.md, 'Model selection').",
     )
     parser.add_argument(
-        "run_dir", metavar="RUN_DIR", help="run folder of symgrasp train (its --out)"
+        "run_dir",
+        type=output_path,
+        metavar="RUN_DIR",
+        help="run folder of symgrasp train (its --out)",
     )
     parser.add_argument(
         "--by", required=True, metavar="MEASURE",

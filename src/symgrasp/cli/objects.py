@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from symgrasp.arguments import integer
-from symgrasp.cli.options import add_mesh_unit, parse_object_set
+from symgrasp.cli.options import add_mesh_unit, output_path, parse_object_set
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 
@@ -33,7 +33,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     )
     fetch.add_argument("what", choices=("vgn",), help="what to download (vgn: VGN's four sets)")
     fetch.add_argument(
-        "--data", default=None,
+        "--data", type=output_path, default=None,
         help="data folder to download into (default: $SYMGRASP_DATA, else ~/.cache/symgrasp)",
     )  # fmt: skip
     fetch.add_argument(
@@ -55,7 +55,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
                          help="a mesh set's name (vgn-pile-test, …), a folder of URDF files or "
                          "bare OBJ/STL/PLY meshes, or several joined by commas")  # fmt: skip
     inspect.add_argument(
-        "--out", default=None, help="picture to write (default: out/objects/<set>.png)"
+        "--out", type=output_path, help="picture to write (default: out/objects/<set>.png)"
     )
     inspect.add_argument(
         "--limit", type=integer(1, 500), default=48, help="objects drawn (default: 48)"

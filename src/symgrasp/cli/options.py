@@ -1,6 +1,6 @@
 """The options several ``symgrasp`` commands share, defined once: ``--objects``, ``--gripper``,
 ``--model``, ``--rep`` and the other names of `SHARED` (their choices from `symgrasp.names`),
-``--mesh-unit``, the confidence pair, and the seed and probability types."""
+``--mesh-unit``, the confidence pair, and the seed, probability and output path types."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ from typing import Any
 from symgrasp.arguments import integer, number, sentence
 from symgrasp.config import SEED_MAX, SceneConfig
 from symgrasp.fields import field_docs
+from symgrasp.folders import check_path
 from symgrasp.names import (
     GRIPPER_SPEC_SUFFIX,
     GRIPPERS,
@@ -41,6 +42,16 @@ def parse_object_set(value: str) -> str:
     )
 
 
+def output_path(value: str) -> str:
+    """An argparse type: the path of a folder or file a command writes, not empty or blank
+    (`symgrasp.folders.check_path`: ``''`` would write into the current folder)."""
+    try:
+        check_path(value, None)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return value
+
+
 def parse_gripper(value: str) -> str:
     """A built-in gripper's name or an existing .toml spec file (read and checked when the
     command runs)."""
@@ -69,6 +80,7 @@ SHARED = {
     "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),
     "schedule": ("--schedule", {"choices": SCHEDULES}),
     "validity.kind": ("--validity-loss", {"choices": VALIDITY_LOSSES}),
+    "out": ("--out", {"type": output_path}),
 }
 """How a field of these names (a nested one also by its path) appears on any command line: its
 flag and its choices."""

@@ -12,6 +12,7 @@ from symgrasp.cli.options import (
     SEED,
     add_mesh_unit,
     add_shared,
+    output_path,
     parse_gripper,
 )
 from symgrasp.config import MAX_OBJECTS
@@ -47,20 +48,24 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
         "--n", type=integer(1, MAX_OBJECTS), default=5, help="number of objects (default: 5)"
     )
     show.add_argument("--seed", type=SEED, default=0, help="random seed (default: 0)")
-    show.add_argument("--out", default="out/sim", help="output folder (default: out/sim)")
+    show.add_argument(
+        "--out", type=output_path, default="out/sim", help="output folder (default: out/sim)"
+    )
     add_mesh_unit(show)
     show.set_defaults(run=_run_sim_show)
 
 
 def _run_sim_show(args: argparse.Namespace) -> None:
+    from symgrasp.folders import PICTURES, output_folder
     from symgrasp.objects.sets import resolve
     from symgrasp.sim import make_scene
     from symgrasp.sim.show import save_scene_pictures
 
-    source = resolve(args.objects, args.mesh_unit)
-    world = make_scene(args.scene, source, n=args.n, seed=args.seed)
-    stem = f"{args.scene}_{Path(args.objects).name}_seed{args.seed}"
-    paths, renderer = save_scene_pictures(world, args.out, stem)
+    with output_folder(args.out, PICTURES, "--out"):  # checked before the objects load
+        source = resolve(args.objects, args.mesh_unit)
+        world = make_scene(args.scene, source, n=args.n, seed=args.seed)
+        stem = f"{args.scene}_{Path(args.objects).name}_seed{args.seed}"
+        paths, renderer = save_scene_pictures(world, args.out, stem)
     print(f"{len(world.objects)} objects settled: {', '.join(o.name for o in world.objects)}")
     print(f"depth renderer: {renderer}")
     for kind, path in paths.items():
@@ -87,7 +92,9 @@ def _add_gripper(subparsers: argparse._SubParsersAction) -> None:
     show.add_argument(
         "spec", type=parse_gripper, metavar=GRIPPER_METAVAR, help="a built-in's name or a spec file"
     )
-    show.add_argument("--out", default=None, help="picture path (default: out/gripper/<name>.png)")
+    show.add_argument(
+        "--out", type=output_path, help="picture path (default: out/gripper/<name>.png)"
+    )
     show.set_defaults(run=_run_gripper_show)
 
 

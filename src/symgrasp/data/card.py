@@ -15,18 +15,21 @@ import numpy as np
 
 from symgrasp.atomic import write_atomic
 from symgrasp.data.dataset import GraspDataset, load_scene, scene_path
-from symgrasp.data.generate import config_from_dict
+from symgrasp.data.generate import DATASET, config_from_dict
 from symgrasp.data.scenes import DEPTH_UNIT
 from symgrasp.data.validate import validate_labels
+from symgrasp.folders import writes_folder
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE, WORKSPACE_SIZE
 
 SCORE_BINS = np.linspace(0.0, 1.0, 11)
 
 
+@writes_folder(DATASET, "root")
 def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str, Any]:
     """Counts, class balance and histograms of a dataset; written to ``card.json`` and
-    ``card.png`` in ``root``. ``validate`` > 0 adds that many physics trials of labelled
-    against random grasps."""
+    ``card.png`` in ``root``, which is held for the call (one writer at a time: not while
+    `generate` writes it, `symgrasp.folders`). ``validate`` > 0 adds that many physics trials
+    of labelled against random grasps."""
     root = Path(root)
     data = GraspDataset(root, split="all")
     per_scene: dict[str, list[float]] = {

@@ -15,7 +15,8 @@ made and this process writes it, to a temporary name renamed into place, so the 
 the same bytes on every backend, an interrupted run loses only the scenes in flight, and
 ``resume=True`` skips the scenes already on disk. A scene whose task raises is recorded in the
 manifest (``failed``: its id, seed, error and traceback) and the others are written;
-`generate` then raises `TasksFailed`, and a resumed run tries it again.
+`generate` then raises `TasksFailed`, and a resumed run tries it again. The process holds the
+folder for the run (`symgrasp.folders`): a second run into it is refused, not mixed in.
 """
 
 from __future__ import annotations
@@ -31,11 +32,12 @@ from typing import Any
 
 import numpy as np
 
-from symgrasp.atomic import check_folder, write_atomic
+from symgrasp.atomic import write_atomic
 from symgrasp.config import SEED_MAX, DatabaseConfig, ParallelConfig, SceneConfig, check_range
 from symgrasp.data.dataset import load_scene, scene_path
 from symgrasp.data.grasp_db import GraspDatabase, build_database, database_path, read_cached
 from symgrasp.data.scenes import ScenePool, make_scene_record, scene_pool
+from symgrasp.folders import Outputs, writes_folder
 from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor
 from symgrasp.parallel.base import versions
 from symgrasp.sim.grippers import GripperSpec, get_gripper
@@ -150,14 +152,16 @@ MAX_SCENES = 10_000_000
 """Most scenes one dataset holds (≈ 10 GB of scene files at the default size)."""
 
 
-def _of_a_dataset(name: str) -> bool:
-    """Whether a dataset folder's entry may be called ``name`` (what generate, the card and
-    `symgrasp data show` write there)."""
-    return name in ("manifest.json", "db", "scenes", "card.json", "card.png") or (
-        name.startswith("scene_") and name.endswith(".png")
-    )
+DATASET = Outputs(
+    "a symgrasp dataset",
+    kinds=("db", "scenes", "card.json", "card.png", "scene_*.png"),
+    record=("manifest.json",),
+)
+"""A dataset folder: what generate, the card and `symgrasp data show` write there; a folder
+without a manifest may hold them too (a copied ``db/`` of reusable databases)."""
 
 
+@writes_folder(DATASET)
 def generate(
     out: str | Path,
     cfg: SceneConfig,
@@ -169,22 +173,20 @@ def generate(
     """Write ``scenes`` labelled scenes (ids 0 … scenes − 1) to ``out`` with the executor
     ``parallel`` describes; returns the manifest.
 
+    ``out`` is held for the call (`symgrasp.folders.output_folder`): one writer at a time.
+
     Raises:
-        ValueError: ``out`` already holds scenes and ``resume`` is False, or holds a dataset
-            of another configuration or seed; or `open_executor`'s bad input.
+        ValueError: ``out`` is not a folder path, holds files that are not a dataset, or is
+            being written by another process; it already holds scenes and ``resume`` is
+            False, or holds a dataset of another configuration or seed; or `open_executor`'s
+            bad input.
         TasksFailed: some tasks raised (the other scenes are written).
     """
     hand = get_gripper(cfg.gripper)  # the names, resolved once (a ValueError names a bad one)
     check_range("scenes", scenes, 1, MAX_SCENES)
     check_range("seed", seed, 0, SEED_MAX)
-    root = check_folder(out)
+    root = Path(out)
     manifest_path = root / "manifest.json"
-    foreign = sorted(p.name for p in root.glob("*") if not _of_a_dataset(p.name))
-    if foreign and not manifest_path.exists():
-        raise ValueError(
-            f"out {root} holds files that are not a symgrasp dataset ({', '.join(foreign[:3])}"
-            f"{', …' if len(foreign) > 3 else ''}); choose an empty or new folder"
-        )
     generated_with = []  # the runs that wrote scenes: their versions and how many scenes
     if manifest_path.exists():
         old = json.loads(manifest_path.read_text())
@@ -199,7 +201,6 @@ def generate(
         raise ValueError(f"out {root} already holds scenes; pass resume=True (--resume)")
     pool = scene_pool(cfg)  # after the cheap checks: a bad --out is named before objects load
     with open_executor(parallel) as executor:  # a cluster is joined before anything is written
-        root.mkdir(parents=True, exist_ok=True)
         if not manifest_path.exists():  # records the configuration that --resume must match
             started = _manifest(cfg, hand, seed, [], root, generated_with)
             write_atomic(manifest_path, lambda f: json.dump(started, f, indent=1), mode="w")

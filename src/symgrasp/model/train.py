@@ -51,6 +51,7 @@ import symgrasp
 from symgrasp.atomic import write_atomic, write_csv
 from symgrasp.config import LossWeights, TrainConfig, ValidityLoss
 from symgrasp.device import resolve_device
+from symgrasp.folders import Outputs, output_folder
 from symgrasp.model import distributed
 from symgrasp.model.averaging import WeightAverage
 from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint, trained_gripper
@@ -122,6 +123,11 @@ def check_dataset(dataset: Any, config: TrainConfig, asked: GripperSpec) -> None
         )
 
 
+TRAINING_RUN = Outputs("a training run", record=("last.pt",))
+"""A run folder (`symgrasp.folders`): ``last.pt``, written after every epoch, is its record, so
+a folder without one must be empty; `symgrasp select` writes into it too."""
+
+
 def train(
     config: TrainConfig,
     datasets: tuple[Dataset, Dataset, Collate] | None = None,
@@ -131,7 +137,18 @@ def train(
 
     ``datasets`` = (train split, val split, collate function) replaces `open_dataset` (tests
     pass the synthetic dataset); each split needs the contract's ``gripper`` and ``manifest``.
+    ``config.out`` is held for the call by the process that writes it, rank 0
+    (`symgrasp.folders.output_folder`): a folder holding anything but a run, or held by
+    another process, is refused (ValueError).
     """
+    main = distributed.is_main_process()
+    with output_folder(config.out, TRAINING_RUN) if main else contextlib.nullcontext():
+        return _train(config, datasets)
+
+
+def _train(
+    config: TrainConfig, datasets: tuple[Dataset, Dataset, Collate] | None
+) -> list[dict[str, float]]:
     train_set, val_set, collate = datasets or open_dataset(config)
     if config.train_scenes:
         train_set = FirstScenes(train_set, config.train_scenes)

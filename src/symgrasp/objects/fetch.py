@@ -39,6 +39,7 @@ from pathlib import Path, PurePosixPath
 from tqdm import tqdm
 
 from symgrasp.atomic import move_into_place
+from symgrasp.folders import output_folder
 from symgrasp.names import MESH_OBJECT_SETS
 from symgrasp.objects.folder import DATA_ENV, VGN_ROOT, data_folder
 
@@ -104,8 +105,9 @@ def fetch_vgn(
     next run downloads it afresh.
 
     Raises DownloadError (an OSError) when the download fails, ArchiveError (a ValueError)
-    when the archive is unreadable, unsafe or not the pinned one, and OSError naming the
-    data folder when it is a file or not writable.
+    when the archive is unreadable, unsafe or not the pinned one, OSError naming the data
+    folder when it is a file or not writable, and ValueError when another fetch holds it
+    (`symgrasp.folders.output_folder`).
     """
     data = data_folder() if data is None else Path(data)
     target = data / VGN_ROOT
@@ -115,28 +117,31 @@ def fetch_vgn(
         return target
     expected = shipped_manifest() if expected is None else expected
     _check_writable(data)
-    try:
-        archive = download(url, data / "downloads", progress)
-    except DownloadError as error:
-        raise DownloadError(
-            f"{error}; on a machine without network, copy the object sets into {target} "
-            f"(see docs/objects.md) or point {DATA_ENV} at a folder holding {VGN_ROOT}"
-        ) from error
-    staging = target.with_name(f".{target.name}.partial")
-    shutil.rmtree(staging, ignore_errors=True)  # left by a fetch killed while extracting
-    try:
-        _extract(archive, staging)
-        _verify(staging, expected, url)
-        move_into_place(staging, target)
-    except ArchiveError as error:
-        archive.unlink(missing_ok=True)
-        raise ArchiveError(
-            f"{error}; {archive} was removed, run again to download it afresh"
-        ) from error
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
-    archive.unlink()
-    return target
+    with output_folder(data, None, "data"):  # one fetch at a time: they would share a download
+        if target.is_dir():  # put in place by the fetch that held the folder before
+            return target
+        try:
+            archive = download(url, data / "downloads", progress)
+        except DownloadError as error:
+            raise DownloadError(
+                f"{error}; on a machine without network, copy the object sets into {target} "
+                f"(see docs/objects.md) or point {DATA_ENV} at a folder holding {VGN_ROOT}"
+            ) from error
+        staging = target.with_name(f".{target.name}.partial")
+        shutil.rmtree(staging, ignore_errors=True)  # left by a fetch killed while extracting
+        try:
+            _extract(archive, staging)
+            _verify(staging, expected, url)
+            move_into_place(staging, target)
+        except ArchiveError as error:
+            archive.unlink(missing_ok=True)
+            raise ArchiveError(
+                f"{error}; {archive} was removed, run again to download it afresh"
+            ) from error
+        finally:
+            shutil.rmtree(staging, ignore_errors=True)
+        archive.unlink()
+        return target
 
 
 def _check_writable(data: Path) -> None:

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from symgrasp.folders import check_file_name
 from symgrasp.names import MESH_UNITS
 from symgrasp.objects.decomposition import decompose
 from symgrasp.objects.urdf import DEFAULT_FRICTION, convex_parts, object_colour
@@ -103,6 +104,7 @@ def load_mesh(path: str | Path, mesh_unit: str = "auto", name: str | None = None
 
     bare = read_mesh(path, mesh_unit)
     mesh, path = bare.mesh, bare.path
+    name = check_file_name(name or path.stem, f"{path}: the object's name")
     try:
         with np.errstate(divide="ignore", invalid="ignore"):  # a flat hull's centre of mass
             hull = mesh.convex_hull
@@ -135,7 +137,6 @@ def load_mesh(path: str | Path, mesh_unit: str = "auto", name: str | None = None
     else:
         groups = decompose(path, mesh.vertices, mesh.faces)
     parts = convex_parts([np.asarray(g) * bare.metres for g in groups], path)
-    name = name or path.stem
     mass = DEFAULT_DENSITY * volume * bare.metres**3
     return ObjectSpec(name, name, parts, mass, DEFAULT_FRICTION, object_colour(name))
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from symgrasp.folders import check_file_name
 from symgrasp.sim.objects import ConvexPart, ObjectSpec
 
 DEFAULT_FRICTION = 1.0
@@ -81,6 +82,7 @@ def load_urdf(path: str | Path) -> ObjectSpec:
     mesh = root.find("link/collision/geometry/mesh")
     if root.tag != "robot" or link is None or mesh is None or not mesh.get("filename"):
         raise ValueError(f"{path} is not a one-link URDF with a collision mesh")
+    name = check_file_name(root.get("name") or path.stem, f"{path}: the robot's name")
     mesh_path = path.parent / mesh.get("filename").removeprefix("package://")
     if not mesh_path.is_file():
         raise FileNotFoundError(f"{path} names the collision mesh {mesh_path}, which is missing")
@@ -90,7 +92,6 @@ def load_urdf(path: str | Path) -> ObjectSpec:
     if not (mass > 0 and friction > 0):
         raise ValueError(f"{path}: mass and friction must be positive, got {mass}, {friction}")
     parts = convex_parts([g * scale for g in read_obj_groups(mesh_path)], mesh_path)
-    name = root.get("name") or path.stem
     return ObjectSpec(name, name, parts, mass, friction, object_colour(name))
 
 

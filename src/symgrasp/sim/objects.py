@@ -26,6 +26,7 @@ import trimesh
 from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
+from symgrasp.folders import check_file_name
 from symgrasp.names import PROCEDURAL_OBJECT_SETS
 from symgrasp.sim.physics import OBJECT_TORSION_ROLL
 
@@ -175,8 +176,10 @@ class ConvexPart:
 class ObjectSpec:
     """A rigid object: its parts, mass [kg], sliding friction coefficient and colour.
 
-    ``family`` groups objects in the benchmark's per-family counts: the procedural family
-    (``box``, ``mug``, …) or, for a mesh object, the object's own name."""
+    ``name`` is one file name (`symgrasp.folders.check_file_name`): it names the object's files
+    (its grasp database caches). ``family`` groups objects in the benchmark's per-family
+    counts: the procedural family (``box``, ``mug``, …) or, for a mesh object, the object's
+    own name."""
 
     name: str
     family: str
@@ -186,6 +189,7 @@ class ObjectSpec:
     rgba: tuple[float, float, float, float] = (0.6, 0.6, 0.6, 1.0)
 
     def __post_init__(self) -> None:
+        check_file_name(self.name)
         if not self.parts:
             raise ValueError("parts must hold at least one Part")
         if self.mass <= 0:
