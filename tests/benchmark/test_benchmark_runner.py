@@ -108,7 +108,7 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
 
     monkeypatch.setattr(runner, "run_round", fake_round)
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, detector=Detector(), out=out))  # fmt: skip
+        config=config, detector=Detector(), out=out, objects=None))  # fmt: skip
     summary = runner.run_benchmark(BenchmarkConfig(rounds=3, seed=10), tmp_path)
     assert summary["rounds"] == 3 and summary["errors"][0]["seed"] == 11
     lines = [json.loads(x) for x in (tmp_path / "rounds.jsonl").read_text().splitlines()]
@@ -123,7 +123,7 @@ def test_a_benchmark_whose_every_round_failed_stops_naming_the_first_error(monke
 
     monkeypatch.setattr(runner, "run_round", failing_round)
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, detector=None, out=out))  # fmt: skip
+        config=config, detector=None, out=out, objects=None))  # fmt: skip
     config = BenchmarkConfig(rounds=2, seed=10)
     expected = "every one of the 2 rounds in .* failed; the first \\(seed 10\\): RuntimeError: no object in round 10"
     with pytest.raises(TasksFailed, match=expected):
@@ -154,7 +154,7 @@ def test_rounds_in_process_use_no_more_torch_threads_than_the_process_was_given(
     monkeypatch.setattr(runner, "run_round", lambda detector, objects, num_objects, seed, scene,
                         observer, diagnose: Round(seed, num_objects, "gl"))  # fmt: skip
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: (
-        seen.append(threads), runner._WORKER.update(config=config, detector=None, out=out)))  # fmt: skip
+        seen.append(threads), runner._WORKER.update(config=config, detector=None, out=out, objects=None)))  # fmt: skip
     monkeypatch.setattr(runner.os, "cpu_count", lambda: 16)
     before = torch.get_num_threads()
     torch.set_num_threads(given)
@@ -217,7 +217,7 @@ def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(mon
 
     monkeypatch.setattr(runner, "run_round", fake_round)
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, detector=Detector(), out=out))  # fmt: skip
+        config=config, detector=Detector(), out=out, objects=None))  # fmt: skip
     config = BenchmarkConfig(rounds=2, seed=5)
     assert runner.saved_rounds(config, tmp_path) is None
     first = runner.run_or_reuse(config, tmp_path)
