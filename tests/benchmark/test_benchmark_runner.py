@@ -1,5 +1,6 @@
-"""The declutter benchmark's bookkeeping: pooled ratios, bootstrap intervals, crashed rounds, a
-benchmark whose every round failed, an object set missing before any round is played."""
+"""The declutter benchmark's bookkeeping: pooled ratios, bootstrap intervals, crashed rounds
+(a run with any stops, naming the first; --resume plays them again), an object set missing
+before any round is played."""
 
 import json
 
@@ -109,12 +110,65 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
     monkeypatch.setattr(runner, "run_round", fake_round)
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
         config=config, detector=Detector(), out=out, objects=None))  # fmt: skip
-    summary = runner.run_benchmark(BenchmarkConfig(rounds=3, seed=10), tmp_path)
-    assert summary["rounds"] == 3 and summary["errors"][0]["seed"] == 11
+    config = BenchmarkConfig(rounds=3, seed=10)
+    expected = "1 of the 3 rounds in .* failed; the first \\(seed 11\\): RuntimeError: simulation"
+    with pytest.raises(TasksFailed, match=expected):
+        runner.run_benchmark(config, tmp_path)
     lines = [json.loads(x) for x in (tmp_path / "rounds.jsonl").read_text().splitlines()]
     assert [x["seed"] for x in lines] == [10, 11, 12]
     assert "simulation unstable" in lines[1]["traceback"]
-    assert json.loads((tmp_path / "results.json").read_text())["config"]["seed"] == 10
+    results = json.loads((tmp_path / "results.json").read_text())  # written, and marked
+    assert results["config"]["seed"] == 10
+    assert results["summary"]["rounds"] == 3 and results["summary"]["errors"][0]["seed"] == 11
+    assert "| 1 |" in (tmp_path / "results.md").read_text()  # the errors column
+    with pytest.raises(TasksFailed, match=expected):  # read back, not taken for a result
+        runner.run_or_reuse(config, tmp_path)
+
+
+def test_a_summary_never_averages_over_failed_rounds():
+    done = [_round(0, 2, ["success", "slipped"]), _round(2, 2, ["success"])]
+    failed = {"seed": 1, "error": "RuntimeError: boom", "traceback": ""}
+    with_failure, without = summarise([done[0], failed, done[1]]), summarise(done)
+    assert with_failure["rounds"] == 3 and with_failure["errors"] == [
+        {"seed": 1, "error": "RuntimeError: boom"}
+    ]
+    for key in ("success_ratio", "clear_ratio", "executed", "successes", "objects"):
+        assert with_failure[key] == without[key]
+
+
+def test_resume_plays_failed_rounds_again_and_keeps_one_record_per_seed(monkeypatch, tmp_path):
+    class Detector:
+        gripper = "franka"
+
+    broken = {11, 12}
+
+    def fake_round(detector, objects, num_objects, seed, scene, observer, diagnose):
+        if seed in broken:
+            raise RuntimeError(f"object set incomplete in round {seed}")
+        from symgrasp.benchmark.declutter import Attempt, Round
+
+        return Round(seed, num_objects, "gl", [Attempt("success", None, 1, 0, 0.1, 1)])
+
+    monkeypatch.setattr(runner, "run_round", fake_round)
+    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
+        config=config, detector=Detector(), out=out, objects=None))  # fmt: skip
+    config = BenchmarkConfig(rounds=4, seed=10)
+    with pytest.raises(TasksFailed, match=r"2 of the 4 rounds .* \(seed 11\): RuntimeError"):
+        runner.run_benchmark(config, tmp_path)
+    broken.clear()  # the cause fixed (the data fetched)
+    summary = runner.run_benchmark(config, tmp_path, resume=True)
+    lines = [json.loads(x) for x in (tmp_path / "rounds.jsonl").read_text().splitlines()]
+    assert [x["seed"] for x in lines] == [10, 11, 12, 13]
+    assert not any("error" in x for x in lines)
+    assert summary["errors"] == [] and summary["successes"] == 4
+    assert [r["seed"] for r in runner.saved_rounds(config, tmp_path)] == [10, 11, 12, 13]
+
+
+def test_a_later_finished_record_of_a_seed_wins_over_a_failed_one(tmp_path):
+    path = tmp_path / "rounds.jsonl"
+    failed, finished = {"seed": 3, "error": "E", "traceback": ""}, _round(3, 1, ["success"])
+    path.write_text("".join(json.dumps(r) + "\n" for r in (failed, finished, failed)))
+    assert runner.read_rounds(path) == {3: finished}
 
 
 def test_a_benchmark_whose_every_round_failed_stops_naming_the_first_error(monkeypatch, tmp_path):

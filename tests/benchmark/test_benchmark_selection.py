@@ -286,3 +286,31 @@ def test_the_command_line_shows_each_checkpoints_declutter_numbers(run, capsys, 
     lines = capsys.readouterr().out.splitlines()
     assert "declutter_sr_cr 1.001  declutter_sr 1.000  declutter_cr 0.001  grasps 8" in lines[0]
     assert lines[-1].startswith("chosen: epoch_002.pt")
+
+
+def test_failed_validation_rounds_name_their_cause_and_are_not_cached(run, monkeypatch, capsys):
+    from symgrasp.benchmark import runner
+    from symgrasp.benchmark.declutter import Attempt, Round
+
+    class Detector:
+        gripper = "franka"
+
+    broken = [True]
+
+    def fake_round(detector, objects, num_objects, seed, scene, observer, diagnose):
+        if broken[0] and seed % 2:
+            raise RuntimeError("mesh file unreadable")
+        return Round(seed, num_objects, "gl", [Attempt("success", None, 1, 0, 0.1, 1)])
+
+    monkeypatch.setattr(runner, "resolve", lambda objects, unit: None)  # the set is "there"
+    monkeypatch.setattr(runner, "run_round", fake_round)
+    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
+        config=config, detector=Detector(), out=out, objects=None))  # fmt: skip
+    with pytest.raises(SystemExit, match=r"1 of the 2 rounds .* failed; .*mesh file unreadable"):
+        main(["select", str(run), "--by", "declutter", "--rounds", "2"])
+    cached = [json.loads(p.read_text()) for p in (run / "selection").glob("*.json")]
+    assert not any("declutter" in c for c in cached)  # nothing cached as a value
+    broken[0] = False  # the cause fixed: the failed rounds play again, the others are reused
+    selection = sel.select_checkpoint(run, "declutter", validation=_rounds(2), copy=False)
+    assert [r["declutter_errors"] for r in selection["checkpoints"]] == [0, 0, 0]
+    assert [r["declutter_sr"] for r in selection["checkpoints"]] == [1.0, 1.0, 1.0]

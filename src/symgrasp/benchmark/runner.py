@@ -3,8 +3,10 @@
 Round ``r`` of a benchmark with seed ``s`` is `run_round` with seed ``s + r``: a pure task, so
 rounds run on any executor (`symgrasp.parallel`: this process, local processes, a Ray
 cluster) and a round can be rerun alone. A round that raises is recorded as an error with its
-seed, the message and the traceback; the benchmark goes on, and only a benchmark whose every
-round failed stops (`TasksFailed`, naming the first round's error). Ratios pool all rounds, as
+seed, the message and the traceback; the benchmark goes on, writes its results (counting the
+failed rounds, averaging over none of them) and then stops (`TasksFailed`, naming the first
+error and how many rounds failed), so that a run with failures never passes for a result.
+Ratios pool the rounds that finished, as
 the paper and VGN do (`RATIOS`: SR = successes / executed grasps, CR = successes / objects
 presented, `pooled_ratio`); their 95 % intervals come from a bootstrap over rounds (rounds are
 the independent units; attempts within a round are not).
@@ -19,7 +21,9 @@ Layout of a benchmark folder (`run_benchmark`)::
     results.md      the summary as a Markdown table row
 
 A killed run loses only the rounds in flight; ``resume=True`` (``--resume``) plays the rounds
-missing from ``rounds.jsonl`` and refuses a folder of another configuration. A folder holding
+missing from ``rounds.jsonl`` and those recorded as failed, and refuses a folder of another
+configuration. Before it plays them it rewrites ``rounds.jsonl`` (atomically) without the
+failed records, so the file never holds two records of a seed. A folder holding
 anything else, or held by another run, is refused (`BENCHMARK`, `symgrasp.folders`).
 """
 
@@ -170,7 +174,9 @@ def run_rounds(
 
 def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
     """Pooled SR and CR with bootstrap 95 % intervals, outcome and failure-mode counts,
-    executed grasps, successes and wrong yaws per aimed-at object family, planning time."""
+    executed grasps, successes and wrong yaws per aimed-at object family, planning time, all
+    over the rounds that finished; ``rounds`` counts every round and ``errors`` lists the
+    failed ones (seed and message), which nothing is averaged over."""
     done = [r for r in rounds if "error" not in r]
     counts = dict(zip(COUNTS, round_counts(done), strict=True))
     outcomes = Counter(a["outcome"] for r in done for a in r["attempts"])
@@ -303,8 +309,9 @@ def _check_model(config: BenchmarkConfig, out: Path) -> None:
 
 
 def read_rounds(path: str | Path) -> dict[int, dict[str, Any]]:
-    """The round records of a ``rounds.jsonl`` by seed (the first record of each seed). An
-    incomplete last line, left by a run killed while writing it, is ignored: its round is
+    """The round records of a ``rounds.jsonl`` by seed: the first record of each seed, or its
+    first finished one after a failed one (`run_benchmark` keeps one record a seed; this
+    holds whatever a file holds to the same rule). An incomplete last line, left by a run killed while writing it, is ignored: its round is
     missing and reruns."""
     path = Path(path)
     if not path.exists():
@@ -313,7 +320,8 @@ def read_rounds(path: str | Path) -> dict[int, dict[str, Any]]:
     rounds: dict[int, dict[str, Any]] = {}
     for line in text[: text.rfind("\n") + 1].splitlines():
         record = json.loads(line)
-        rounds.setdefault(record["seed"], record)
+        if "error" in rounds.get(record["seed"], {"error": None}):
+            rounds[record["seed"]] = record
     return rounds
 
 
@@ -354,11 +362,12 @@ def run_benchmark(
     is held for the call (`symgrasp.folders.output_folder`): one writer at a time.
     Raises ValueError as `check_out` and `open_executor` do, or when another process holds
     ``out``, and `symgrasp.objects.folder.MissingData` when the object set is not in the data
-    folder, before anything is played or written; `TasksFailed` after writing them when every round failed."""
+    folder, before anything is played or written; `TasksFailed` after writing them when any
+    round failed."""
     out = Path(out)
     check_out(config, out, resume)
     path = out / "rounds.jsonl"
-    done = read_rounds(path)
+    done = {seed: r for seed, r in read_rounds(path).items() if "error" not in r}  # failed: again
     missing = [seed for seed in round_seeds(config) if seed not in done]
     if missing:  # here, once, rather than in every round a worker plays
         resolve(config.objects, config.mesh_unit)
@@ -367,7 +376,7 @@ def run_benchmark(
         if not (out / "config.json").exists():
             _write_text(out / MODEL_SHA, file_sha256(resolve_model(config.model)) + "\n")
             _write_text(out / "config.json", json.dumps(asdict(config), indent=1) + "\n")
-        _write_rounds(path, done.values())  # without a torn last line, so appends start afresh
+        _write_rounds(path, done.values())  # without failed rounds or a torn last line
         if missing:
             with open(path, "a") as lines:
                 for record in run_rounds(config, executor, out, missing):
@@ -384,22 +393,29 @@ def run_benchmark(
 
 
 def _check_finished(rounds: list[dict[str, Any]], out: Path) -> None:
-    """`TasksFailed` naming the first round's error when every one of ``rounds`` (those of the
-    benchmark in ``out``) failed: its ratios are undefined, and whatever failed (a missing
-    object set on a worker, a broken model) failed for all. Some failed rounds are data."""
-    if rounds and all("error" in r for r in rounds):
+    """`TasksFailed` naming the first failed round's error and how many failed when any of
+    ``rounds`` (those of the benchmark in ``out``) failed: ratios over the others would pass
+    for the benchmark's, and whatever failed (a missing object set on a worker, a broken
+    model, an unstable simulation) may fail again; ``--resume`` plays them again."""
+    failed = [r for r in rounds if "error" in r]
+    if failed:
+        how_many = (
+            f"every one of the {len(rounds)} rounds"
+            if len(failed) == len(rounds)
+            else f"{len(failed)} of the {len(rounds)} rounds"
+        )
         raise TasksFailed(
-            f"every one of the {len(rounds)} rounds in {out} failed; the first (seed "
-            f"{rounds[0]['seed']}): {rounds[0]['error']} (tracebacks in {out / 'rounds.jsonl'}; "
-            "delete the folder to play them again)"
+            f"{how_many} in {out} failed; the first (seed {failed[0]['seed']}): "
+            f"{failed[0]['error']} (tracebacks in {out / 'rounds.jsonl'}; --resume plays them "
+            "again)"
         )
 
 
 def saved_rounds(
     config: BenchmarkConfig, out: str | Path, check_model: bool = True
 ) -> list[dict[str, Any]] | None:
-    """The round records of ``config`` in seed order when ``out`` holds every one of them,
-    else None (no benchmark, an unfinished one, or another configuration's). ValueError when
+    """The round records of ``config`` in seed order when ``out`` holds every one of them
+    (failed ones included, as their records: a reader counts them apart), else None (no benchmark, an unfinished one, or another configuration's). ValueError when
     the model file has changed since they were played; ``check_model=False`` skips that check,
     for stored rounds whose model file is not on this machine."""
     if recorded_config(out) != _plain(config):
@@ -414,14 +430,13 @@ def saved_rounds(
 def run_or_reuse(
     config: BenchmarkConfig, out: str | Path, parallel: ParallelConfig = ParallelConfig()
 ) -> list[dict[str, Any]]:
-    """The round records of ``config``: those in ``out`` when it holds them all
-    (`saved_rounds`), else `run_benchmark`'s resuming ``out``, so scripts over many benchmarks
-    skip finished ones and finish interrupted ones. Raises ValueError when ``out`` holds
-    another configuration's benchmark, and as `run_benchmark` does (`TasksFailed` when every
-    round failed, read back or played)."""
+    """The round records of ``config``: those in ``out`` when it holds them all and none
+    failed (`saved_rounds`), else `run_benchmark`'s resuming ``out``, so scripts over many
+    benchmarks skip finished ones and finish interrupted or failed ones. Raises ValueError
+    when ``out`` holds another configuration's benchmark, and as `run_benchmark` does
+    (`TasksFailed` when a round failed again)."""
     rounds = saved_rounds(config, out)
-    if rounds is None:
+    if rounds is None or any("error" in r for r in rounds):
         run_benchmark(config, out, resume=True, parallel=parallel)
         rounds = saved_rounds(config, out)
-    _check_finished(rounds, Path(out))
     return rounds

@@ -203,7 +203,10 @@ def declutter_validation(
 
     Returns the pooled ``success_ratio`` and ``clear_ratio`` with their bootstrap 95 %
     intervals (``*_ci95``), the counts (``rounds``, ``objects``, ``executed``, ``successes``,
-    ``errors``) and the benchmark's ``config``.
+    ``errors``: 0, as a validation with failed rounds has no value) and the benchmark's
+    ``config``. Raises `symgrasp.objects.folder.MissingData` when ``objects`` is not in the
+    data folder and `TasksFailed` naming the first error when a round failed (played again on
+    the next call), as `run_or_reuse` does.
     """
     check_validation_rounds(objects, rounds, seed)
     config = BenchmarkConfig(
@@ -342,7 +345,9 @@ def checkpoint_measures(
     `validation_metrics` when ``revalidate`` is given), and the declutter validation's numbers
     (``declutter_sr``, ``declutter_cr``, their ``_low``/``_high`` bounds, their sum
     ``declutter_sr_cr``, ``declutter_grasps`` …) when ``declutter`` is set or they are cached for the ``validation`` settings. Every
-    result is cached in ``run_dir/selection/`` (`select_checkpoint`)."""
+    result is cached in ``run_dir/selection/`` (`select_checkpoint`), a declutter validation
+    only when none of its rounds failed: one that did raises `TasksFailed` naming the first
+    error (`declutter_validation`), and its failed rounds play again on the next call."""
     run = Path(run_dir)
     checkpoints = find_checkpoints(run)
     rows = _metric_rows(run, checkpoints)
@@ -362,6 +367,8 @@ def checkpoint_measures(
                 cache.put("validation", revalidate.key, fresh)
             row.update(cache.get("validation", revalidate.key))
         result = cache.get("declutter", slug)
+        if result is not None and result["errors"]:  # cached by an older version: not a value
+            result = None
         if result is None and declutter:
             out = folder / "declutter" / slug / cache.id
             result = declutter_validation(
