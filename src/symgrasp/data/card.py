@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +16,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from symgrasp.atomic import write_atomic
-from symgrasp.data.dataset import GraspDataset, load_scene, scene_path
+from symgrasp.data.dataset import (
+    GraspDataset,
+    ManifestMismatch,
+    check_scene_file,
+    dataset_hash,
+    load_scene,
+    scene_path,
+)
 from symgrasp.data.generate import DATASET, config_from_dict
 from symgrasp.data.scenes import DEPTH_UNIT
 from symgrasp.data.validate import validate_labels
@@ -24,14 +33,65 @@ from symgrasp.workspace import RESOLUTION, VOXEL_SIZE, WORKSPACE_SIZE
 SCORE_BINS = np.linspace(0.0, 1.0, 11)
 
 
+def manifest_mismatches(root: str | Path) -> list[str]:
+    """What ``root``'s files break of its manifest's promises, one line each naming the file:
+    a scene file missing, one on disk that the manifest does not list, two scene files with
+    the same bytes, one that is not the scene its name says or breaks the contract's shapes
+    (`check_scene_file`), and the dataset hash (`dataset_hash`, over every file's bytes) when
+    it differs from the recorded one. Empty for a dataset as generated. `GraspDataset` refuses
+    the first of these it meets; this lists them all (≈ 0.6 ms per scene, 5 s for 8 000)."""
+    root = Path(root)
+    manifest = json.loads((root / "manifest.json").read_text())
+    listed = [int(i) for i in manifest["scene_ids"]]
+    on_disk = {p.name for p in (root / "scenes").glob("scene_*.npz")}
+    problems = [
+        f"{root / 'scenes' / name}: not in the manifest"
+        for name in sorted(on_disk - {scene_path(root, i).name for i in listed})
+    ]
+    seen: dict[bytes, Path] = {}
+    for scene_id in listed:
+        path = scene_path(root, scene_id)
+        if not path.is_file():
+            problems.append(f"{path}: missing")
+            continue
+        digest = hashlib.sha256(path.read_bytes()).digest()
+        if digest in seen:
+            problems.append(f"{path}: the same bytes as {seen[digest]}")
+        seen.setdefault(digest, path)
+        try:
+            with zipfile.ZipFile(path) as z:
+                check_scene_file(z, path, scene_id, int(manifest["k_max"]))
+        except (OSError, ValueError, zipfile.BadZipFile) as err:
+            problems.append(str(err) if str(path) in str(err) else f"{path}: {err}")
+    recorded = manifest.get("dataset_hash")
+    if recorded and not any(p.endswith(": missing") for p in problems):
+        actual = dataset_hash(root, listed)
+        if actual != recorded:
+            problems.append(
+                f"{root / 'manifest.json'}: dataset hash {recorded} recorded, {actual} on disk "
+                "(a scene file changed since it was generated)"
+            )
+    return problems
+
+
 @writes_folder(DATASET, "root")
 def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str, Any]:
     """Counts, class balance and histograms of a dataset; written to ``card.json`` and
     ``card.png`` in ``root``, which is held for the call (one writer at a time: not while
     `generate` writes it, `symgrasp.folders`). ``validate`` > 0 adds that many physics trials
-    of labelled against random grasps."""
+    of labelled against random grasps. ValueError listing `manifest_mismatches`, one a line,
+    when the folder is not what its manifest promises."""
     root = Path(root)
-    data = GraspDataset(root, split="all")
+    try:  # refuses an unfinished dataset in its own words; a mismatch: all of them below
+        data = GraspDataset(root, split="all")
+    except ManifestMismatch:
+        data = None
+    problems = manifest_mismatches(root)
+    if problems or data is None:
+        raise ValueError(
+            f"{root} does not match its manifest ({len(problems)} mismatches):\n  "
+            + "\n  ".join(problems)
+        )
     per_scene: dict[str, list[float]] = {
         k: [] for k in ("objects", "grasps_total", "grasps_kept", "valid_voxels", "targets")
     }

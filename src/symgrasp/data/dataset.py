@@ -16,9 +16,11 @@ the grid. Gravity stays along −z, so scores are unchanged.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import warnings
 import zipfile
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +53,69 @@ def scene_path(root: str | Path, scene_id: int) -> Path:
 
 ITEM_KEYS = (*REQUIRED, "voxel_rotation_mask")
 """The arrays of a scene file that a training item is made of."""
+
+
+def dataset_hash(root: str | Path, scene_ids: Iterable[int]) -> str:
+    """SHA-256 over the ordered scene ids and the bytes of their files (first 16 hex): the
+    manifest's ``dataset_hash``. Hashing costs ≈ 40 µs per 32 kB scene file once it is in the
+    page cache (0.3–0.4 s for 8 000 scenes), against ≈ 1.3 ms for the CRC test of its
+    members that opening a dataset makes anyway."""
+    h = hashlib.sha256()
+    for i in sorted(scene_ids):
+        h.update(str(i).encode())
+        h.update(hashlib.sha256(scene_path(root, i).read_bytes()).digest())
+    return h.hexdigest()[:16]
+
+
+class ManifestMismatch(ValueError):
+    """A dataset folder's files are not what its manifest promises (`check_scene_file`)."""
+
+
+def _shape(z: zipfile.ZipFile, key: str) -> tuple[int, ...] | None:
+    """The shape of array ``key`` of an open scene file, from its header alone (None: absent)."""
+    if f"{key}.npy" not in z.namelist():
+        return None
+    with z.open(f"{key}.npy") as member:
+        major, _ = np.lib.format.read_magic(member)
+        header = (
+            np.lib.format.read_array_header_1_0
+            if major == 1
+            else np.lib.format.read_array_header_2_0
+        )
+        return tuple(header(member)[0])
+
+
+def check_scene_file(z: zipfile.ZipFile, path: Path, scene_id: int, k_max: int) -> None:
+    """ValueError naming ``path`` unless the open scene file ``z`` is scene ``scene_id`` (its
+    recorded ``scene_id``: a file swapped or copied under another id is not) and its arrays
+    have the contract's shapes: ``tsdf`` (40, 40, 40), and for M valid voxels ``voxel_index``
+    (M, 3), ``voxel_score`` and ``voxel_width`` (M,), ``voxel_rotations`` (M, k_max, 3, 3),
+    ``voxel_rotation_mask`` (M, k_max). Reads the small ``scene_id`` member and the arrays'
+    headers, not the arrays: cheap enough for every scene at every open."""
+    if "scene_id.npy" in z.namelist():
+        with z.open("scene_id.npy") as member:
+            recorded = int(np.lib.format.read_array(member))
+        if recorded != scene_id:
+            raise ValueError(
+                f"scene file {path} holds scene {recorded}, not {scene_id}: a file swapped or "
+                "copied under another name"
+            )
+    m = _shape(z, "voxel_index")
+    m = m[0] if m else 0
+    expected = {
+        "tsdf": (RESOLUTION,) * 3,
+        "voxel_index": (m, 3),
+        "voxel_score": (m,),
+        "voxel_width": (m,),
+        "voxel_rotations": (m, k_max, 3, 3),
+        "voxel_rotation_mask": (m, k_max),
+    }
+    for key, shape in expected.items():
+        found = _shape(z, key)
+        if found is not None and found != shape:
+            raise ValueError(
+                f"scene file {path}: {key} has shape {found}, the dataset contract says {shape}"
+            )
 
 
 def load_scene(path: str | Path, keys: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
@@ -153,7 +218,10 @@ class GraspDataset(Dataset):
             augmented the same way every time, in any worker.
 
     A scene file that is missing or unreadable is reported (a warning naming its path) and
-    skipped.
+    skipped. One that is not the scene its name says (swapped, or copied under another name)
+    or whose arrays break the contract (a TSDF not 40³, …) is refused: `ManifestMismatch`
+    naming the first such file (`check_scene_file`, which reads headers only; the dataset hash, which
+    reads every byte, is checked by ``symgrasp data inspect``, `symgrasp.data.card`).
     """
 
     def __init__(
@@ -190,6 +258,8 @@ class GraspDataset(Dataset):
             try:
                 with zipfile.ZipFile(path) as z:
                     bad = z.testzip()
+                    if bad is None:
+                        check_scene_file(z, path, int(scene_id), self.k_max)
                 if bad is not None:
                     raise zipfile.BadZipFile(f"bad CRC in {bad}")
             except (OSError, zipfile.BadZipFile) as err:
@@ -198,9 +268,31 @@ class GraspDataset(Dataset):
                 )
                 self.skipped.append(path)
                 continue
+            except ValueError as err:
+                raise ManifestMismatch(
+                    f"{root} does not match its manifest: {err}; `symgrasp data inspect "
+                    f"{root}` lists every mismatch"
+                ) from None
             self.paths.append(path)
             self.scene_ids.append(int(scene_id))
+        self._check_hash()
         self.epoch = 0
+
+    def _check_hash(self) -> None:
+        """`ManifestMismatch` when the scene files' bytes are not those the manifest's
+        ``dataset_hash`` was made of; not checked for a manifest without one (made by hand) or
+        a dataset with a missing or unreadable file (already reported, and skipped)."""
+        recorded = self.manifest.get("dataset_hash")
+        ids = self.manifest["scene_ids"]
+        if not recorded or self.skipped or not all(scene_path(self.root, i).is_file() for i in ids):
+            return
+        actual = dataset_hash(self.root, ids)
+        if actual != recorded:
+            raise ManifestMismatch(
+                f"{self.root} does not match its manifest: dataset hash {recorded} recorded, "
+                f"{actual} on disk (a scene file changed since it was generated; "
+                f"`symgrasp data inspect {self.root}` lists what it can name)"
+            )
 
     def set_epoch(self, epoch: int) -> None:
         """Select the augmentation draws of ``epoch`` (call before each epoch)."""

@@ -22,10 +22,8 @@ folder for the run (`symgrasp.folders`): a second run into it is refused, not mi
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import io
 import json
-from collections.abc import Iterable
 from importlib.metadata import version
 from pathlib import Path
 from typing import Any
@@ -34,7 +32,7 @@ import numpy as np
 
 from symgrasp.atomic import write_atomic
 from symgrasp.config import SEED_MAX, DatabaseConfig, ParallelConfig, SceneConfig, check_range
-from symgrasp.data.dataset import load_scene, scene_path
+from symgrasp.data.dataset import dataset_hash, load_scene, scene_path
 from symgrasp.data.grasp_db import GraspDatabase, build_database, database_path, read_cached
 from symgrasp.data.scenes import ScenePool, make_scene_record, scene_pool
 from symgrasp.folders import Outputs, writes_folder
@@ -78,15 +76,6 @@ def _manifest(
         "config": dataclasses.asdict(cfg),
         "generated_with": generated_with,
     }
-
-
-def dataset_hash(root: Path, scene_ids: Iterable[int]) -> str:
-    """SHA-256 over the ordered scene ids and the bytes of their files (first 16 hex)."""
-    h = hashlib.sha256()
-    for i in sorted(scene_ids):
-        h.update(str(i).encode())
-        h.update(hashlib.sha256(scene_path(root, i).read_bytes()).digest())
-    return h.hexdigest()[:16]
 
 
 # --- the pure tasks and their worker-side state -----------------------------------------
