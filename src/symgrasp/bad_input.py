@@ -94,6 +94,8 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     manifest = {"gripper": "franka", "object_set": "blocks", "k_max": 8, "scene_ids": []}
     (unfinished / "manifest.json").write_text(json.dumps(manifest))
     (unfinished / "scenes" / "scene_000000.npz").write_bytes(b"")
+    _dataset(folder / "swapped", files=(0, 0))  # scene 0's file copied as scene 1's
+    _dataset(folder / "misshapen", files=(0, 1), tsdf=(39, 40, 40))
     _urdf_object(folder / "no_mesh", mesh=None)
     _urdf_object(folder / "too_big", mesh=0.4)
     _urdf_object(folder / "escaping", mesh=0.05, name="../../../x")
@@ -104,6 +106,24 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     config = json.loads(json.dumps(dataclasses.asdict(BenchmarkConfig())))
     (folder / "bench" / "config.json").write_text(json.dumps(config))
     return folder
+
+
+def _dataset(folder, files, tsdf=(40, 40, 40)):
+    """A dataset folder of scenes 0, 1, … whose files hold the scenes ``files`` (an empty
+    scene each: a TSDF of shape ``tsdf``, no valid voxel)."""
+    (folder / "scenes").mkdir(parents=True)
+    manifest = {"gripper": "franka", "object_set": "blocks", "k_max": 8}
+    (folder / "manifest.json").write_text(
+        json.dumps({**manifest, "scene_ids": [*range(len(files))]})
+    )
+    for i, held in enumerate(files):
+        np.savez_compressed(
+            folder / "scenes" / f"scene_{i:06d}.npz", scene_id=np.int64(held),
+            tsdf=np.zeros(tsdf, np.float32), voxel_index=np.zeros((0, 3), np.int64),
+            voxel_score=np.zeros(0, np.float32), voxel_width=np.zeros(0, np.float32),
+            voxel_rotations=np.zeros((0, 8, 3, 3), np.float32),
+            voxel_rotation_mask=np.zeros((0, 8), bool),
+        )  # fmt: skip
 
 
 def _urdf_object(folder, mesh, name="thing"):
@@ -197,6 +217,10 @@ CLI = {  # case: (argv of the `make_files` folder, text the one-line message nam
     "data generate --out unrelated files": (lambda d: ["data", "generate", "--out", str(d / "unrelated")], "not a symgrasp dataset"),
     "data inspect unfinished": (lambda d: ["data", "inspect", str(d / "unfinished")], "unfinished"),
     "data inspect not a dataset": (lambda d: ["data", "inspect", str(d / "folder")], "manifest"),
+    "data inspect a scene file copied under another id": (lambda d: ["data", "inspect", str(d / "swapped")], "scene_000001.npz holds scene 0, not 1"),
+    "data inspect a TSDF of 39 × 40 × 40": (lambda d: ["data", "inspect", str(d / "misshapen")], "tsdf has shape (39, 40, 40)"),
+    "train on a scene file copied under another id": (lambda d: ["train", "--data", str(d / "swapped"), "--out", str(d / "r")], "scene_000001.npz holds scene 0, not 1"),
+    "train on a TSDF of 39 × 40 × 40": (lambda d: ["train", "--data", str(d / "misshapen"), "--out", str(d / "r")], "tsdf has shape (39, 40, 40)"),
     "detect intrinsic without fx": (lambda d: detect_argv(d, intrinsic="no_fx.json"), "no_fx.json"),
     "detect missing depth": (lambda d: detect_argv(d, depth="nothing.npy"), "nothing.npy"),
     "detect garbage depth": (lambda d: detect_argv(d, depth="garbage.npy"), "garbage.npy"),

@@ -32,6 +32,10 @@ from symgrasp.workspace import RESOLUTION, VOXEL_SIZE, WORKSPACE_SIZE
 
 SCORE_BINS = np.linspace(0.0, 1.0, 11)
 
+SHOWN = 10
+"""The mismatches ``data inspect``'s one error line names (`manifest_mismatches`); it counts
+the rest."""
+
 
 def manifest_mismatches(root: str | Path) -> list[str]:
     """What ``root``'s files break of its manifest's promises, one line each naming the file:
@@ -79,8 +83,8 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
     """Counts, class balance and histograms of a dataset; written to ``card.json`` and
     ``card.png`` in ``root``, which is held for the call (one writer at a time: not while
     `generate` writes it, `symgrasp.folders`). ``validate`` > 0 adds that many physics trials
-    of labelled against random grasps. ValueError listing `manifest_mismatches`, one a line,
-    when the folder is not what its manifest promises."""
+    of labelled against random grasps. ValueError naming the first `SHOWN` of
+    `manifest_mismatches` on one line when the folder is not what its manifest promises."""
     root = Path(root)
     try:  # refuses an unfinished dataset in its own words; a mismatch: all of them below
         data = GraspDataset(root, split="all")
@@ -88,9 +92,11 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
         data = None
     problems = manifest_mismatches(root)
     if problems or data is None:
+        more = f"; and {len(problems) - SHOWN} more" if len(problems) > SHOWN else ""
         raise ValueError(
-            f"{root} does not match its manifest ({len(problems)} mismatches):\n  "
-            + "\n  ".join(problems)
+            f"{root} does not match its manifest ({len(problems)} mismatches): "
+            + "; ".join(problems[:SHOWN])
+            + more
         )
     per_scene: dict[str, list[float]] = {
         k: [] for k in ("objects", "grasps_total", "grasps_kept", "valid_voxels", "targets")
