@@ -39,7 +39,7 @@ so that a caller (the tests) tells missing data from a failure."""
 def run_main(main: Callable[[], None]) -> None:
     """Run a script's ``main``. Data it needs that is not there (`MissingData`: an object set,
     the reference hands) stops it with one line on stderr naming what is missing and how to get
-    it, and exit status `EX_NOINPUT`; tasks that failed (`TasksFailed`: e.g. every round of a
+    it, and exit status `EX_NOINPUT`; tasks that failed (`TasksFailed`: e.g. rounds of a
     benchmark) stop it with one line naming the first cause and exit status 1. Never a
     traceback for either."""
     try:
