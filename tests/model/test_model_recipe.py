@@ -1,6 +1,7 @@
 """The training recipe's options against closed forms and torch's own implementations: lr
 schedules, the weight average, the focal validity loss, the first N scenes, kept epochs."""
 
+import io
 import json
 import math
 import zipfile
@@ -214,9 +215,12 @@ def test_first_scenes_are_the_first_train_ids(tmp_path):
     manifest = {"gripper": "franka", "object_set": "blocks", "k_max": 4, "scene_ids": ids}
     (tmp_path / "manifest.json").write_text(json.dumps(manifest))
     (tmp_path / "scenes").mkdir()
+    tsdf = io.BytesIO()
+    np.save(tsdf, np.zeros((40, 40, 40), np.float32))  # a TSDF of the contract's shape
     for scene_id in ids:
-        with zipfile.ZipFile(tmp_path / "scenes" / f"scene_{scene_id:06d}.npz", "w") as z:
-            z.writestr("tsdf.npy", b"")
+        path = tmp_path / "scenes" / f"scene_{scene_id:06d}.npz"
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("tsdf.npy", tsdf.getvalue())
     dataset = GraspDataset(tmp_path, split="train")
     train_ids = sorted(i for i in ids if in_split(i, "train"))
     for count in (1, 5, 12, len(train_ids)):
