@@ -38,7 +38,8 @@ def _start_worker(parent: int, setup: Callable[..., None] | None, setup_args: tu
     """A pool worker's initializer: tie its life to ``parent`` (pid), then ``setup``.
 
     Ctrl-C reaches the whole process group; the parent stops the workers, so they ignore it
-    (no traceback from each). PR_SET_PDEATHSIG is the kernel's guarantee that the worker gets
+    (one interrupted in its setup would break the pool, and the parent might then report a
+    dead worker instead of the interrupt). PR_SET_PDEATHSIG is the kernel's guarantee that the worker gets
     SIGKILL when the parent dies, even by SIGKILL, mid-task; the pid check covers a parent
     that died before the call."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
