@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+import types
 from pathlib import Path
 
 import pytest
@@ -156,3 +157,25 @@ def test_sigterm_does_not_wait_for_the_tasks_in_flight(tmp_path):
     process.communicate(timeout=10)
     assert process.returncode == 143 and time.monotonic() - start < 5
     assert not any(_alive(pid) for pid in workers)
+
+
+@pytest.mark.parametrize(
+    ("argv", "line"),
+    [
+        (["data", "generate", "--out", "x"], f"interrupted{HINT}"),
+        (["data", "inspect", "x"], "interrupted"),
+    ],
+)
+def test_ctrl_c_hints_resume_only_where_a_command_has_it(argv, line, monkeypatch, capsys):
+    import symgrasp.cli as cli
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    parsed = cli.build_parser().parse_args(argv)
+    parsed.run = interrupted
+    parser = types.SimpleNamespace(parse_args=lambda argv: parsed)
+    monkeypatch.setattr(cli, "build_parser", lambda: parser)
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 130 and capsys.readouterr().err.strip() == line
