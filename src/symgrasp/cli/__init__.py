@@ -14,7 +14,10 @@ command's run function imports what it needs.
 from __future__ import annotations
 
 import argparse
+import signal
+import sys
 from collections.abc import Sequence
+from concurrent.futures.process import BrokenProcessPool
 from typing import NoReturn
 
 from symgrasp.cli import bench, data, demo, detect, figures, model, objects, sim
@@ -45,10 +48,40 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised where this process is, so it unwinds as from Ctrl-C: workers stopped,
+    files closed, the output folder released."""
+
+
+def _terminate(signum: int, frame: object) -> NoReturn:
+    raise Terminated
+
+
+def _continue(args: argparse.Namespace) -> str:
+    """How to continue the stopped command, if it can be (it has ``--resume``)."""
+    return "; run it again with --resume to continue" if hasattr(args, "resume") else ""
+
+
+def _stop(what: str, args: argparse.Namespace, status: int) -> NoReturn:
+    """Exit with ``status`` after one line: ``what`` stopped the command, how to continue."""
+    print(f"{what}{_continue(args)}", file=sys.stderr)
+    raise SystemExit(status)
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     args = build_parser().parse_args(argv)
+    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         args.run(args)
+    except KeyboardInterrupt:  # Ctrl-C: 128 + SIGINT, as a shell reports it
+        _stop("interrupted", args, 128 + signal.SIGINT)
+    except Terminated:
+        _stop("terminated", args, 128 + signal.SIGTERM)
+    except BrokenProcessPool as error:  # the pool says only "abruptly": say what that means
+        raise SystemExit(
+            "error: a worker process died (killed, or out of memory?); what finished is "
+            f"kept{_continue(args)}"
+        ) from error
     except ValueError as error:  # bad input: the message names the argument, no traceback needed
         raise SystemExit(f"error: {error}") from error
     except TasksFailed as error:  # the message says which tasks failed and where the tracebacks are
@@ -58,3 +91,5 @@ def main(argv: Sequence[str] | None = None) -> None:
     except OSError as error:  # a path that cannot be read or written: name it
         where = f"{error.filename}: " if error.filename else ""
         raise SystemExit(f"error: {where}{error.strerror or error}") from error
+    finally:
+        signal.signal(signal.SIGTERM, previous)

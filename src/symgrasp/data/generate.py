@@ -211,15 +211,27 @@ def generate(
                     print(f"regenerating {path}: {err}")
             todo.append(i)
         job = Job(_scene_task, _setup, (cfg, hand, seed, databases))
-        written = 0
-        for i, result in executor.map(job, todo, "scenes"):
-            if isinstance(result, Failure):
-                failed.append(_failure("scene", i, seed, result))
-            else:
-                _write_bytes(scene_path(root, i), result)
-                written += 1
-    if written:
-        generated_with = [*generated_with, {"scenes": written, "versions": versions()}]
+        run = {"scenes": 0, "versions": versions()}  # this run, in the record once it writes
+
+        def record() -> None:  # the manifest in progress, its counts those of the scenes on disk
+            runs = [*generated_with, run]
+            manifest = _manifest(cfg, hand, seed, [], root, runs)
+            write_atomic(manifest_path, lambda f: json.dump(manifest, f, indent=1), mode="w")
+
+        try:
+            for i, result in executor.map(job, todo, "scenes"):
+                if isinstance(result, Failure):
+                    failed.append(_failure("scene", i, seed, result))
+                else:
+                    _write_bytes(scene_path(root, i), result)
+                    run["scenes"] += 1
+                    record()  # a few kB per scene: even a killed run leaves a true count
+        except BaseException:  # interrupted, perhaps inside record(): the count as it stands
+            if run["scenes"]:
+                record()
+            raise
+    if run["scenes"]:
+        generated_with = [*generated_with, run]
 
     done = [i for i in range(scenes) if scene_path(root, i).exists()]
     manifest = _manifest(cfg, hand, seed, done, root, generated_with)
