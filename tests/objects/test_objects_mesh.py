@@ -154,6 +154,17 @@ def test_sub_folders_hold_one_mesh_each_and_name_it(tmp_path, decomposer):
         resolve(folder)
 
 
+def test_a_sub_folder_linking_back_is_skipped_not_an_object(tmp_path):
+    folder = tmp_path / "set"
+    folder.mkdir()
+    _box(folder / "block.obj")
+    (folder / "loop").symlink_to(folder, target_is_directory=True)
+    (folder / "up").symlink_to(tmp_path, target_is_directory=True)
+    with pytest.warns(UserWarning, match=r"loop links back to .* \(a loop\): skipped"):
+        files = resolve(folder).files
+    assert [p.name for p in files] == ["block.obj"]
+
+
 def test_a_folder_with_urdf_files_keeps_its_objs_as_their_parts(tmp_path):
     _box(tmp_path / "thing_collision.obj")
     (tmp_path / "thing.urdf").write_text(

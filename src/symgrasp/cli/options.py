@@ -31,6 +31,11 @@ def parse_object_set(value: str) -> str:
     """An object set's name, an existing folder, or mesh sets and folders joined by commas
     (read and checked when the command runs)."""
     parts = value.split(",")
+    if not all(p.strip() for p in parts):
+        raise argparse.ArgumentTypeError(
+            f"expected a set's name, a folder, or names joined by commas, got {value!r}: an "
+            "empty name would read the current folder"
+        )
     if value in OBJECT_SETS or all(
         p in MESH_OBJECT_SETS or Path(p).expanduser().is_dir() for p in parts
     ):

@@ -153,10 +153,16 @@ def mesh_files(folder: Path) -> tuple[Path, ...]:
     """The bare meshes of ``folder``, sorted by name: its mesh files, and the one mesh of each
     sub-folder. A file that is neither a mesh nor a mesh's companion (`COMPANION_SUFFIXES`)
     and a sub-folder without a mesh are skipped with a warning naming them; a sub-folder
-    holding several meshes is refused (ValueError naming them: which one is the object?)."""
+    holding several meshes is refused (ValueError naming them: which one is the object?). A
+    sub-folder that is a link back to ``folder`` or a folder above it (a loop) is skipped with a
+    warning: it holds no object of its own."""
     found = []
     for entry in sorted(folder.iterdir()):
-        if entry.is_dir() and not entry.name.startswith("."):
+        if entry.is_dir() and folder.resolve().is_relative_to(entry.resolve()):
+            warnings.warn(
+                f"{entry} links back to {entry.resolve()} (a loop): skipped", stacklevel=2
+            )
+        elif entry.is_dir() and not entry.name.startswith("."):
             meshes = sorted(p for p in entry.iterdir() if p.is_file() and _kind(p) == "mesh")
             if len(meshes) > 1:
                 names = ", ".join(p.name for p in meshes)

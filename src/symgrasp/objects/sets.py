@@ -145,13 +145,19 @@ def resolve(objects: str | Path, mesh_unit: str = "auto") -> ObjectSource:
     """The source named ``objects``: a procedural set, one of VGN's sets (from the data
     folder), a folder holding URDF files or bare meshes (read in ``mesh_unit``, one of
     `MESH_UNITS`), or several of the last two joined by commas. Raises ValueError listing the
-    known names when a part is none of these (or a procedural set is joined to others), and
+    known names when a part is none of these (or a procedural set is joined to others), or
+    when a part is empty (it would name the current folder), and
     `symgrasp.objects.folder.MissingData` when a named mesh set is not in the data folder."""
     if mesh_unit not in MESH_UNITS:
         raise ValueError(f"mesh_unit must be one of {MESH_UNITS}, got {mesh_unit!r}")
     name = str(objects)
     if name in PROCEDURAL_OBJECT_SETS:
         return ObjectSource(name)
+    if not all(part.strip() for part in name.split(",")):
+        raise ValueError(
+            f"objects holds an empty name (an empty string, or a comma with nothing on one side"
+            f" of it), which would read the current folder: {name!r}"
+        )
     folders = tuple(_mesh_folder(part) for part in name.split(","))
     if len(set(folders)) < len(folders):
         raise ValueError(f"objects names a set twice: {name!r}")
