@@ -1,8 +1,10 @@
 """Writing files so that a reader never sees half of one: temporary file, then rename. Every
-rename of something the package wrote happens here (a test checks it)."""
+rename of something the package wrote happens here (a test checks it). Reading back the JSON
+records so written (`read_json`): a hand-edited or torn one is one error naming the file."""
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -48,3 +50,34 @@ def move_into_place(source: str | Path, path: str | Path) -> Path:
     folder ``path`` must not exist; a file replaces any file there."""
     os.replace(source, path)
     return Path(path)
+
+
+def read_json(path: str | Path, what: str, kind: type = dict, keys: tuple[str, ...] = ()) -> Any:
+    """The JSON value of the file ``path``, a ``what`` (e.g. "dataset manifest"): of the type
+    ``kind`` (dict: a JSON object, list: an array) and, for an object, holding ``keys``. Raises
+    ValueError ``"{path} is not a valid {what}: …"`` saying what was expected otherwise."""
+    try:
+        value = json.loads(Path(path).read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise ValueError(f"{path} is not a valid {what}: not JSON ({err})") from None
+    return check_json(value, path, what, kind, keys)
+
+
+def check_json(
+    value: Any, path: str | Path, what: str, kind: type = dict, keys: tuple[str, ...] = ()
+) -> Any:
+    """``value``, read from ``path``, when it is a ``what`` of the type ``kind`` holding
+    ``keys`` (`read_json`); ValueError naming the file and what was expected otherwise."""
+    names = {dict: "a JSON object", list: "a JSON array"}
+    if not isinstance(value, kind):
+        raise ValueError(
+            f"{path} is not a valid {what}: expected {names.get(kind, kind.__name__)}, got "
+            f"{json.dumps(value)[:40]}"
+        )
+    missing = [key for key in keys if key not in value]
+    if missing:
+        raise ValueError(
+            f"{path} is not a valid {what}: it lacks the key{'s' * (len(missing) > 1)} "
+            f"{', '.join(map(repr, missing))}"
+        )
+    return value

@@ -105,6 +105,20 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     (folder / "bench").mkdir()  # a benchmark folder of the default configuration
     config = json.loads(json.dumps(dataclasses.asdict(BenchmarkConfig())))
     (folder / "bench" / "config.json").write_text(json.dumps(config))
+    for name, text in (("manifest_list", "[]"), ("manifest_torn", '{"gripper": "fr')):
+        (folder / name / "scenes").mkdir(parents=True)
+        (folder / name / "manifest.json").write_text(text)
+    _dataset(folder / "manifest_keyless", files=(0,))
+    keyless = json.loads((folder / "manifest_keyless" / "manifest.json").read_text())
+    del keyless["k_max"]
+    (folder / "manifest_keyless" / "manifest.json").write_text(json.dumps(keyless))
+    (folder / "bench_list").mkdir()
+    (folder / "bench_list" / "config.json").write_text("[]")
+    (folder / "bench_torn").mkdir()  # rounds.jsonl torn in the middle (hand-edited, merged)
+    (folder / "bench_torn" / "config.json").write_text(json.dumps(config))
+    (folder / "bench_torn" / "rounds.jsonl").write_text(
+        '{"seed": 0}\n{"seed": 1, "gr\n{"seed": 2}\n'
+    )
     return folder
 
 
@@ -202,6 +216,8 @@ CLI = {  # case: (argv of the `make_files` folder, text the one-line message nam
     "an unknown command": (lambda d: ["declutter"], "declutter"),
     # files: named in the message
     "bench into an existing benchmark": (lambda d: ["bench", "declutter", "--out", str(d / "bench")], "--resume"),
+    "bench --resume a config.json that is []": (lambda d: ["bench", "declutter", "--out", str(d / "bench_list"), "--resume"], "config.json is not a valid benchmark configuration: expected a JSON object"),
+    "bench --resume a rounds.jsonl torn in the middle": (lambda d: ["bench", "declutter", "--out", str(d / "bench_torn"), "--resume"], "rounds.jsonl line 2 is not a valid round record"),
     "bench --resume of another configuration": (lambda d: ["bench", "declutter", "--out", str(d / "bench"), "--resume", "--rounds", "3"], "rounds differ"),
     "data generate --out ''": (lambda d: ["data", "generate", "--out", ""], "--out"),
     "data generate --out ' '": (lambda d: ["data", "generate", "--out", " "], "--out"),
@@ -215,6 +231,10 @@ CLI = {  # case: (argv of the `make_files` folder, text the one-line message nam
     "data generate --objects a URDF whose name leaves the folder": (lambda d: ["data", "generate", "--objects", str(d / "escaping"), "--out", str(d / "g")], "thing.urdf: the robot's name must be one file name"),
     "data generate --out a file": (lambda d: ["data", "generate", "--out", str(d / "a_file")], "a_file"),
     "data generate --out unrelated files": (lambda d: ["data", "generate", "--out", str(d / "unrelated")], "not a symgrasp dataset"),
+    "data inspect a manifest that is []": (lambda d: ["data", "inspect", str(d / "manifest_list")], "manifest.json is not a valid dataset manifest: expected a JSON object"),
+    "data inspect a torn manifest": (lambda d: ["data", "inspect", str(d / "manifest_torn")], "manifest.json is not a valid dataset manifest: not JSON"),
+    "train on a manifest without k_max": (lambda d: ["train", "--data", str(d / "manifest_keyless"), "--out", str(d / "r")], "manifest.json is not a valid dataset manifest: it lacks the key 'k_max'"),
+    "data generate --resume on a manifest that is []": (lambda d: ["data", "generate", "--out", str(d / "manifest_list"), "--resume"], "manifest.json is not a valid dataset manifest"),
     "data inspect unfinished": (lambda d: ["data", "inspect", str(d / "unfinished")], "unfinished"),
     "data inspect not a dataset": (lambda d: ["data", "inspect", str(d / "folder")], "manifest"),
     "data inspect a scene file copied under another id": (lambda d: ["data", "inspect", str(d / "swapped")], "scene_000001.npz holds scene 0, not 1"),

@@ -39,7 +39,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from symgrasp.atomic import write_atomic
+from symgrasp.atomic import check_json, read_json, write_atomic
 from symgrasp.benchmark.declutter import Round, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES
 from symgrasp.config import BenchmarkConfig, ParallelConfig
@@ -255,9 +255,10 @@ def recorded_config(out: str | Path) -> dict[str, Any] | None:
     before ``config.json`` was written, its ``results.json``'s; None when it has neither."""
     out = Path(out)
     if (out / "config.json").exists():
-        recorded = json.loads((out / "config.json").read_text())
+        recorded = read_json(out / "config.json", "benchmark configuration")
     elif (out / "results.json").exists():
-        recorded = json.loads((out / "results.json").read_text())["config"]
+        results = read_json(out / "results.json", "benchmark result", dict, ("config",))
+        recorded = check_json(results["config"], out / "results.json", "benchmark configuration")
     else:
         return None
     return {**_plain(BenchmarkConfig()), **recorded}  # fields added later: their defaults
@@ -266,8 +267,8 @@ def recorded_config(out: str | Path) -> dict[str, Any] | None:
 def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) -> None:
     """Raise ValueError unless ``out`` may take ``config``'s rounds: a folder path holding
     nothing (`BENCHMARK`), or, with ``resume``, a benchmark of ``config`` played by the same
-    model file. Reads a small file and hashes the model file, so the CLI calls it before it
-    loads a model or starts workers."""
+    model file and of readable rounds (`read_rounds`). Reads small files and hashes the model
+    file, so the CLI calls it before it loads a model or starts workers."""
     out = check_folder(out)
     check_owned(out, BENCHMARK)
     if not any((out / name).exists() for name in ("config.json", "rounds.jsonl", "results.json")):
@@ -292,6 +293,7 @@ def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) ->
             "differ); choose another out (--out)"
         )
     _check_model(config, out)
+    read_rounds(out / "rounds.jsonl")  # a line torn in the middle is named before any work
 
 
 def _check_model(config: BenchmarkConfig, out: Path) -> None:
@@ -311,15 +313,20 @@ def _check_model(config: BenchmarkConfig, out: Path) -> None:
 def read_rounds(path: str | Path) -> dict[int, dict[str, Any]]:
     """The round records of a ``rounds.jsonl`` by seed: the first record of each seed, or its
     first finished one after a failed one (`run_benchmark` keeps one record a seed; this
-    holds whatever a file holds to the same rule). An incomplete last line, left by a run killed while writing it, is ignored: its round is
-    missing and reruns."""
+    holds whatever a file holds to the same rule). An incomplete last line, left by a run killed
+    while writing it, is ignored: its round is missing and reruns. Any other line that is not
+    a JSON object with a seed is an error naming the file and the line."""
     path = Path(path)
     if not path.exists():
         return {}
     text = path.read_text()
     rounds: dict[int, dict[str, Any]] = {}
-    for line in text[: text.rfind("\n") + 1].splitlines():
-        record = json.loads(line)
+    for number, line in enumerate(text[: text.rfind("\n") + 1].splitlines(), 1):
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError as err:
+            raise ValueError(f"{path} line {number} is not a valid round record: {err}") from None
+        check_json(record, f"{path} line {number}", "round record", dict, ("seed",))
         if "error" in rounds.get(record["seed"], {"error": None}):
             rounds[record["seed"]] = record
     return rounds

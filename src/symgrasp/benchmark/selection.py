@@ -35,7 +35,7 @@ from typing import Any
 
 from torch.utils.data import DataLoader
 
-from symgrasp.atomic import write_atomic, write_csv
+from symgrasp.atomic import read_json, write_atomic, write_csv
 from symgrasp.benchmark.runner import run_or_reuse, summarise
 from symgrasp.config import (
     TEST_SEED_LIMIT,
@@ -321,7 +321,7 @@ class _Cache:
         self.file = folder / f"{self.id}.json"
         self.data = {"checkpoint": path.name, "epoch": epoch, "sha256": self.sha}
         if self.file.is_file():
-            self.data = {**self.data, **json.loads(self.file.read_text())}
+            self.data = {**self.data, **read_json(self.file, "checkpoint selection record")}
 
     def get(self, part: str, key: str) -> Any:
         return self.data.get(part, {}).get(key)

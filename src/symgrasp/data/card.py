@@ -15,8 +15,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from symgrasp.atomic import write_atomic
+from symgrasp.atomic import read_json, write_atomic
 from symgrasp.data.dataset import (
+    MANIFEST_KEYS,
     GraspDataset,
     ManifestMismatch,
     check_scene_file,
@@ -45,7 +46,7 @@ def manifest_mismatches(root: str | Path) -> list[str]:
     it differs from the recorded one. Empty for a dataset as generated. `GraspDataset` refuses
     the first of these it meets; this lists them all (≈ 0.6 ms per scene, 5 s for 8 000)."""
     root = Path(root)
-    manifest = json.loads((root / "manifest.json").read_text())
+    manifest = read_json(root / "manifest.json", "dataset manifest", dict, MANIFEST_KEYS)
     listed = [int(i) for i in manifest["scene_ids"]]
     on_disk = {p.name for p in (root / "scenes").glob("scene_*.npz")}
     problems = [

@@ -17,7 +17,6 @@ the grid. Gravity stays along −z, so scores are unchanged.
 from __future__ import annotations
 
 import hashlib
-import json
 import warnings
 import zipfile
 from collections.abc import Iterable
@@ -27,10 +26,13 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
+from symgrasp.atomic import read_json
 from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.workspace import RESOLUTION
 
 SPLITS = ("train", "val", "all")
+MANIFEST_KEYS = ("scene_ids", "gripper", "object_set", "k_max")
+"""The keys of ``manifest.json`` a dataset is read by."""
 VAL_EVERY = 10
 """Scene ``id`` is in the validation split when ``id % VAL_EVERY == VAL_EVERY − 1``."""
 
@@ -233,10 +235,7 @@ class GraspDataset(Dataset):
         manifest = self.root / "manifest.json"
         if not manifest.exists():
             raise ValueError(f"root must be a dataset folder with manifest.json, got {root}")
-        try:
-            self.manifest: dict = json.loads(manifest.read_text())
-        except json.JSONDecodeError as err:
-            raise ValueError(f"{manifest} is not a dataset manifest: {err}") from None
+        self.manifest: dict = read_json(manifest, "dataset manifest", dict, MANIFEST_KEYS)
         on_disk = len(list((self.root / "scenes").glob("scene_*.npz")))
         if on_disk > len(self.manifest["scene_ids"]):
             raise ValueError(

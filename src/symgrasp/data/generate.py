@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from symgrasp.atomic import write_atomic
+from symgrasp.atomic import read_json, write_atomic
 from symgrasp.config import SEED_MAX, DatabaseConfig, ParallelConfig, SceneConfig, check_range
 from symgrasp.data.dataset import dataset_hash, load_scene, scene_path
 from symgrasp.data.grasp_db import GraspDatabase, build_database, database_path, read_cached
@@ -178,7 +178,7 @@ def generate(
     manifest_path = root / "manifest.json"
     generated_with = []  # the runs that wrote scenes: their versions and how many scenes
     if manifest_path.exists():
-        old = json.loads(manifest_path.read_text())
+        old = read_json(manifest_path, "dataset manifest", dict, ("config", "seed"))
         generated_with = old.get("generated_with", [])
         if not resume:
             raise ValueError(f"out {root} already holds a dataset; pass resume=True (--resume)")

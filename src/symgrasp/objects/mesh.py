@@ -158,11 +158,12 @@ def mesh_files(folder: Path) -> tuple[Path, ...]:
     warning: it holds no object of its own."""
     found = []
     for entry in sorted(folder.iterdir()):
-        if entry.is_dir() and folder.resolve().is_relative_to(entry.resolve()):
+        hidden = entry.name.startswith(".")
+        if entry.is_dir() and not hidden and folder.resolve().is_relative_to(entry.resolve()):
             warnings.warn(
                 f"{entry} links back to {entry.resolve()} (a loop): skipped", stacklevel=2
             )
-        elif entry.is_dir() and not entry.name.startswith("."):
+        elif entry.is_dir() and not hidden:
             meshes = sorted(p for p in entry.iterdir() if p.is_file() and _kind(p) == "mesh")
             if len(meshes) > 1:
                 names = ", ".join(p.name for p in meshes)
