@@ -84,6 +84,8 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     first = next(tensor for tensor in state["model"].values() if tensor.is_floating_point())
     first.view(-1)[0] = torch.nan  # one weight of a diverged run
     torch.save(state, folder / "nan.pt")
+    del state["model"]  # a checkpoint without its network (hand-made, or a script's)
+    torch.save(state, folder / "no_network.pt")
     (folder / "garbage.npy").write_bytes(b"\x93NUMPY garbage")
     (folder / "a_file").write_text("x")
     (folder / "unrelated").mkdir()
@@ -274,6 +276,8 @@ CLI = {  # case: (argv of the `make_files` folder, text the one-line message nam
     "demo --gripper a spec file without --model": (lambda d: ["demo", "--gripper", str(d / "negative.toml"), "--out", str(d / "pictures")], "--model"),
     "bench --gripper another than the model's": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--gripper", "franka"], "--gripper franka, but --model bingham2d-robotiq-2f85 is robotiq-2f85"),
     "objects inspect a procedural set": (lambda d: ["objects", "inspect", "blocks"], "built in code"),
+    "export a checkpoint without its network": (lambda d: ["export", str(d / "no_network.pt"), str(d / "x.pt")], "no_network.pt lacks 'model'"),
+    "detect --model a checkpoint without its network": (lambda d: detect_argv(d, model=d / "no_network.pt"), "no_network.pt lacks 'model'"),
     "export a garbage checkpoint": (lambda d: ["export", str(d / "garbage.pt"), str(d / "x.pt")], "garbage.pt"),
 }  # fmt: skip
 

@@ -35,6 +35,10 @@ WEIGHTS = ("model", "model_raw")
 """The entries of a checkpoint that hold a network's state dict (`load_checkpoint` checks that
 their floating tensors are finite)."""
 
+MODEL_KEYS = ("representation", "network", "model")
+"""The entries a checkpoint needs to rebuild its network (`load_model`): `load_checkpoint`
+refuses one without them."""
+
 NUMPY_FLOATS = (torch.float16, torch.float32, torch.float64)
 """The floating dtypes numpy has (not bfloat16)."""
 
@@ -52,8 +56,9 @@ def load_checkpoint(
     """The checkpoint dict at ``path``.
 
     Raises:
-        ValueError: the file is not a symgrasp checkpoint of this format, or it was trained
-            for another rotation representation than ``representation`` (when given).
+        ValueError: the file is not a symgrasp checkpoint of this format, lacks an entry of
+            `MODEL_KEYS`, or it was trained for another rotation representation than
+            ``representation`` (when given).
     """
     path = Path(path)
     if not path.is_file():
@@ -77,6 +82,12 @@ def load_checkpoint(
     if not isinstance(state, dict) or state.get("format") != CHECKPOINT_FORMAT:
         raise ValueError(
             f"checkpoint: {path} is not a symgrasp checkpoint of format {CHECKPOINT_FORMAT}"
+        )
+    missing = [key for key in MODEL_KEYS if key not in state]
+    if missing:
+        raise ValueError(
+            f"checkpoint: {path} lacks {', '.join(map(repr, missing))}: a checkpoint holds "
+            f"{', '.join(MODEL_KEYS)} to rebuild its network"
         )
     if representation is not None and state["representation"] != representation:
         raise ValueError(
