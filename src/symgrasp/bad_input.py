@@ -101,6 +101,9 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     _urdf_object(folder / "no_mesh", mesh=None)
     _urdf_object(folder / "too_big", mesh=0.4)
     _urdf_object(folder / "escaping", mesh=0.05, name="../../../x")
+    _urdf_object(folder / "face_out_of_range", mesh=0.05, faces="f 1 2 4\nf 5 6 99\n")
+    _urdf_object(folder / "face_text", mesh=0.05, faces="f 1 2 4\nf one two three\n")
+    _urdf_object(folder / "bad_scale", mesh=0.05, scale="0.1 0.1")
     (folder / "mine").mkdir()  # a user's own files, named as a benchmark's are
     (folder / "mine" / "results.md").write_text("my notes")
     (folder / "mine" / "model.sha256").write_text("my hash")
@@ -142,19 +145,23 @@ def _dataset(folder, files, tsdf=(40, 40, 40)):
         )  # fmt: skip
 
 
-def _urdf_object(folder, mesh, name="thing"):
+def _urdf_object(
+    folder, mesh, name="thing", faces="f 1 2 4\nf 5 6 8\nf 1 3 5\nf 2 4 8\n", scale=""
+):
     """A folder holding ``thing.urdf``, the robot ``name``, whose collision mesh is a cube of
-    side ``mesh`` [m], or names a file that is not there (``mesh=None``)."""
+    side ``mesh`` [m] (its vertices, then the lines ``faces``) scaled by the attribute
+    ``scale`` (none when empty), or names a file that is not there (``mesh=None``)."""
     folder.mkdir()
     if mesh is not None:
         corners = np.array(np.meshgrid([0, mesh], [0, mesh], [0, mesh])).reshape(3, -1).T
-        faces = "f 1 2 4\nf 5 6 8\nf 1 3 5\nf 2 4 8\n"
         (folder / "thing.obj").write_text(
             "".join(f"v {x} {y} {z}\n" for x, y, z in corners) + faces
         )
+    scaled = f' scale="{scale}"' if scale else ""
     (folder / "thing.urdf").write_text(
         f'<robot name="{name}"><link name="l"><inertial><mass value="0.2"/></inertial>'
-        '<collision><geometry><mesh filename="thing.obj"/></geometry></collision></link></robot>'
+        f'<collision><geometry><mesh filename="thing.obj"{scaled}/></geometry></collision>'
+        "</link></robot>"
     )
 
 
@@ -262,6 +269,9 @@ CLI = {  # case: (argv of the `make_files` folder, text the one-line message nam
     "sim show --objects an empty folder": (lambda d: ["sim", "show", "--objects", str(d / "folder"), "--out", str(d / "s")], "holds no .urdf file"),
     "sim show --objects a URDF without its mesh": (lambda d: ["sim", "show", "--objects", str(d / "no_mesh"), "--out", str(d / "s")], "thing.obj"),
     "sim show --objects an object larger than the workspace": (lambda d: ["sim", "show", "--objects", str(d / "too_big"), "--out", str(d / "s")], "larger than the 0.3 m workspace"),
+    "sim show --objects an OBJ face out of range": (lambda d: ["sim", "show", "--objects", str(d / "face_out_of_range"), "--out", str(d / "s")], "thing.obj: a face names vertex 99, out of range: the file holds 8 vertices"),
+    "sim show --objects an OBJ face of words": (lambda d: ["sim", "show", "--objects", str(d / "face_text"), "--out", str(d / "s")], "thing.obj:10: a face needs vertex numbers"),
+    "sim show --objects a URDF scale of two numbers": (lambda d: ["sim", "show", "--objects", str(d / "bad_scale"), "--out", str(d / "s")], "thing.urdf: the mesh's scale must be three positive numbers"),
     "sim show --objects an unknown set": (lambda d: ["sim", "show", "--objects", "kitchen", "--out", str(d / "s")], "data folder"),
     "sim show --objects good, (an empty part)": (lambda d: ["sim", "show", "--objects", f"{d / 'too_big'},", "--out", str(d / "s")], "--objects"),
     "sim show --objects ''": (lambda d: ["sim", "show", "--objects", "", "--out", str(d / "s")], "--objects"),

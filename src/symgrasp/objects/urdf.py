@@ -25,7 +25,9 @@ DEFAULT_FRICTION = 1.0
 
 def read_obj_groups(path: Path) -> list[np.ndarray]:
     """The vertices used by each ``o``/``g`` group's faces of an OBJ file, as (V, 3) arrays
-    (one group when the file has none). Texture and normal indices are ignored."""
+    (one group when the file has none). Texture and normal indices are ignored. Raises
+    ValueError naming the file (and line) for a vertex or face that is not numbers, or a face
+    naming a vertex the file does not hold."""
     vertices: list[list[float]] = []
     groups: list[set[int]] = [set()]
     for number, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
@@ -43,10 +45,26 @@ def read_obj_groups(path: Path) -> list[np.ndarray]:
                 groups.append(set())
         elif head == "f":
             for corner in rest.split():
-                index = int(corner.split("/")[0])
+                try:
+                    index = int(corner.split("/")[0])
+                except ValueError:
+                    raise ValueError(
+                        f"{path}:{number}: a face needs vertex numbers, got {rest!r}"
+                    ) from None
+                if index == 0 or len(vertices) + index < 0:
+                    raise ValueError(
+                        f"{path}:{number}: a face names vertex {index}, out of range: "
+                        f"{len(vertices)} vertices come before it"
+                    )
                 groups[-1].add(index - 1 if index > 0 else len(vertices) + index)
     if not vertices:
         raise ValueError(f"{path} holds no vertices: not an OBJ mesh")
+    last = max(max(g, default=-1) for g in groups)
+    if last >= len(vertices):
+        raise ValueError(
+            f"{path}: a face names vertex {last + 1}, out of range: the file holds "
+            f"{len(vertices)} vertices"
+        )
     v = np.asarray(vertices)
     return [v[sorted(g)] for g in groups if g] or [v]
 
@@ -56,7 +74,23 @@ def _float(element: ET.Element | None, default: float | None, what: str, path: P
         if default is None:
             raise ValueError(f"{path} gives no {what}")
         return default
-    return float(element.get("value"))
+    try:
+        return float(element.get("value"))
+    except ValueError:
+        raise ValueError(f"{path}: {what} must be a number, got {element.get('value')!r}") from None
+
+
+def _scale(text: str, path: Path) -> np.ndarray:
+    """The mesh element's ``scale`` attribute: three positive finite numbers (x y z)."""
+    try:
+        scale = np.array([float(s) for s in text.split()])
+    except ValueError:
+        scale = np.array([])
+    if scale.shape != (3,) or not (np.isfinite(scale).all() and (scale > 0).all()):
+        raise ValueError(
+            f"{path}: the mesh's scale must be three positive numbers (x y z), got {text!r}"
+        )
+    return scale
 
 
 def object_colour(name: str) -> tuple[float, float, float, float]:
@@ -86,9 +120,11 @@ def load_urdf(path: str | Path) -> ObjectSpec:
     mesh_path = path.parent / mesh.get("filename").removeprefix("package://")
     if not mesh_path.is_file():
         raise FileNotFoundError(f"{path} names the collision mesh {mesh_path}, which is missing")
-    scale = np.array([float(s) for s in mesh.get("scale", "1 1 1").split()])
+    scale = _scale(mesh.get("scale", "1 1 1"), path)
     mass = _float(root.find("link/inertial/mass"), None, "mass (inertial/mass)", path)
-    friction = _float(root.find("link/contact/lateral_friction"), DEFAULT_FRICTION, "", path)
+    friction = _float(
+        root.find("link/contact/lateral_friction"), DEFAULT_FRICTION, "friction", path
+    )
     if not (mass > 0 and friction > 0):
         raise ValueError(f"{path}: mass and friction must be positive, got {mass}, {friction}")
     parts = convex_parts([g * scale for g in read_obj_groups(mesh_path)], mesh_path)
