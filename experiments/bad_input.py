@@ -10,7 +10,8 @@ that does not name what was wrong), a *silent* run (exit 0) or a *hang* (the tim
 The valid inputs that give no grasp for a visible cause (the tables ``WARNED_*``) are played
 too: a *clear warning* (exit 0 and one ``warning:`` line naming the cause; a `NoGraspWarning`)
 is what they should end with, a run without one is *silent*.
-The seconds of each case show whether it was checked before any work started.
+The seconds of each case show whether it was checked before any work started: a bad argument
+(`ARGUMENTS`) before the command imports torch or MuJoCo, a bad file (`FILES`) when it is read.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from pathlib import Path
 
 from common import add_result_option
 
-from symgrasp.bad_input import API, CLI, MODEL, WARNED_API, WARNED_CLI, make_files
+from symgrasp.bad_input import API, ARGUMENTS, FILES, MODEL, WARNED_API, WARNED_CLI, make_files
 from symgrasp.scripts import parse_args, run_main, write_result
 
 WIDE_JAW = Path(__file__).resolve().parents[1] / "tests" / "wide-jaw.toml"
@@ -105,7 +106,8 @@ def main() -> None:
     cells = []
     with tempfile.TemporaryDirectory() as folder:
         files = make_files(Path(folder), WIDE_JAW)
-        for kind, table, warned in (("command line", CLI, False),
+        for kind, table, warned in (("command line, arguments", ARGUMENTS, False),
+                                     ("command line, files", FILES, False),
                                      ("command line, no grasp", WARNED_CLI, True)):  # fmt: skip
             for case, (argv, named) in list(table.items())[:limit]:
                 outcome, seconds, message = command_line_case(

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
+import subprocess
 import sys
 import warnings
 
@@ -17,6 +18,7 @@ import pytest
 
 from symgrasp.bad_input import (
     API,
+    ARGUMENTS,
     CLI,
     MODEL,
     WARNED_API,
@@ -52,6 +54,47 @@ def test_command_line_with_ray(case, files, capsys, monkeypatch):
     monkeypatch.setenv("RAY_ADDRESS", "127.0.0.1:1")  # read when --ray-address is not given
     _refused(RAY_CLI[case], files, capsys)
     assert not (files / "g").exists()
+
+
+HEAVY = ("torch", "mujoco", "trimesh", "matplotlib")
+"""What a bad argument must be refused without: each takes from a fifth of a second (MuJoCo) to
+two seconds (torch) to import."""
+
+_PLAY_BLOCKED = """
+import contextlib, io, json, sys
+for name in json.loads(sys.argv[1]):
+    sys.modules[name] = None  # importing it raises ImportError
+from symgrasp.cli import main
+results = []
+for argv in json.loads(sys.argv[2]):
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        try:
+            main(argv)
+            code = 0
+        except SystemExit as exit_:
+            code = exit_.code
+        except BaseException as error:
+            code = f"{type(error).__name__}: {error}"
+    results.append([code if isinstance(code, str) else err.getvalue().strip(), code])
+print(json.dumps(results))
+"""
+
+
+def test_bad_arguments_are_refused_before_the_heavy_imports(files):
+    """Every `ARGUMENTS` case, played in one process where importing torch, MuJoCo, trimesh or
+    matplotlib fails, still ends in its own one-line refusal: it is found before them."""
+    argvs = [argv(files) for argv, _ in ARGUMENTS.values()]
+    played = subprocess.run(
+        [sys.executable, "-c", _PLAY_BLOCKED, json.dumps(HEAVY), json.dumps(argvs)],
+        capture_output=True, text=True, check=True, timeout=120,
+    )  # fmt: skip
+    for (case, (_, named)), (message, code) in zip(
+        ARGUMENTS.items(), json.loads(played.stdout), strict=True
+    ):
+        assert code not in (0, None) and named in message and len(message.splitlines()) == 1, (
+            f"{case}: {message}"
+        )
 
 
 def test_backend_ray_without_ray_installed(files, capsys, monkeypatch):

@@ -77,15 +77,6 @@ def test_detect_writes_ranked_grasps_and_pictures_from_npy_and_png(scene_files, 
     assert tuple(grasps[0]["voxel"]) in best or len(best & {tuple(g["voxel"]) for g in grasps[:5]})
 
 
-def test_detect_reports_a_missing_file_by_name(scene_files, tmp_path):
-    with pytest.raises(SystemExit, match=r"depth: no file at .*nothing\.npy"):
-        main(
-            ["detect", "--depth", str(tmp_path / "nothing.npy"), "--intrinsic",
-             str(scene_files / "K.json"), "--extrinsic", str(scene_files / "T.json"),
-             "--out", str(tmp_path)]
-        )  # fmt: skip
-
-
 def test_every_option_has_help():
     import argparse
 

@@ -16,9 +16,10 @@ from pathlib import Path
 import pytest
 
 import symgrasp
-from symgrasp.bad_input import detect_argv, make_files
+from symgrasp.bad_input import MODEL, detect_argv, make_files
 from symgrasp.cli import build_parser, main
-from symgrasp.cli.options import output_path
+from symgrasp.cli.options import input_folder, output_folder_path, output_path
+from symgrasp.detect.pretrained import shipped_path
 from symgrasp.folders import LOCK, Outputs, check_file_name, output_folder
 
 TINY_DATASET = ["--objects", "blocks", "--gripper", "franka", "--pool-size", "1", "--grasps", "5",
@@ -50,7 +51,7 @@ def _output_actions():
 
 
 POSITIONAL_OUTPUTS = {
-    (("export",), "out"): (["export", "model.pt", "{}"], "argument out"),
+    (("export",), "out"): (["export", str(shipped_path(MODEL)), "{}"], "argument out"),
     (("select",), "run_dir"): (["select", "{}", "--by", "val_loss"], "argument RUN_DIR"),
     (("data", "inspect"), "root"): (["data", "inspect", "{}"], "argument root"),
     (("objects", "fetch"), "data"): (
@@ -63,7 +64,9 @@ the parser names it)."""
 
 
 def test_every_output_is_typed_as_an_output_path():
-    """The list the next test plays is every command's output, and each is checked alike."""
+    """The list the next test plays is every command's output, and each is checked alike: a
+    folder written into as a folder path, a file as a file path, a folder read and reported
+    into (a dataset, a run) as an existing folder."""
     outputs = _output_actions()
     assert set(outputs) == {
         "demo", "sim show", "gripper show", "data generate", "data inspect", "data show",
@@ -71,7 +74,9 @@ def test_every_output_is_typed_as_an_output_path():
         "detect", "export", "bench declutter", "objects inspect", "objects fetch",
     }  # fmt: skip
     for command, actions in outputs.items():
-        assert all(a.type is output_path for a in actions), command
+        kinds = {a.type for a in actions}
+        assert kinds <= {output_path, output_folder_path, input_folder}, command
+        assert (input_folder in kinds) == (command in ("data inspect", "select")), command
 
 
 def _argv(command: str, path: str) -> tuple[list[str], str]:

@@ -54,6 +54,7 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     name; the bad gripper specs are made from the spec file ``wide_jaw`` (the tests' made-up
     110 mm jaw, tests/wide-jaw.toml, whose lines `BAD_SPECS` replaces)."""
     spec = wide_jaw.read_text()
+    (folder / "wide_jaw.toml").write_text(spec)
     for name, old, new in BAD_SPECS:
         assert old in spec
         (folder / name).write_text(spec.replace(old, new))
@@ -187,8 +188,7 @@ BAD_SPECS = (
 )
 """Gripper spec files made from the made-up wide jaw's: (file, text replaced, replacement)."""
 
-CLI = {  # case: (argv of the `make_files` folder, text the one-line message names)
-    # argument ranges and names, refused by the parser
+ARGUMENTS = {  # case: (argv of the `make_files` folder, text the one-line message names)
     "bench --workers 0": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--workers", "0"], "--workers"),
     "bench --backend spark": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--backend", "spark"], "--backend"),
     "data generate --ray-address without --backend ray": (lambda d: ["data", "generate", "--out", str(d / "g"), "--ray-address", "10.0.0.1:6379"], "ray_address"),
@@ -223,22 +223,47 @@ CLI = {  # case: (argv of the `make_files` folder, text the one-line message nam
     "sim show --n 1000": (lambda d: ["sim", "show", "--n", "1000", "--out", str(d / "pictures")], "--n"),
     "demo --num-objects 1000": (lambda d: ["demo", "--num-objects", "1000", "--out", str(d / "pictures")], "--num-objects"),
     "an unknown command": (lambda d: ["declutter"], "declutter"),
-    # files: named in the message
-    "bench into an existing benchmark": (lambda d: ["bench", "declutter", "--out", str(d / "bench")], "--resume"),
-    "bench --resume a config.json that is []": (lambda d: ["bench", "declutter", "--out", str(d / "bench_list"), "--resume"], "config.json is not a valid benchmark configuration: expected a JSON object"),
-    "bench --resume a rounds.jsonl torn in the middle": (lambda d: ["bench", "declutter", "--out", str(d / "bench_torn"), "--resume"], "rounds.jsonl line 2 is not a valid round record"),
-    "bench --resume of another configuration": (lambda d: ["bench", "declutter", "--out", str(d / "bench"), "--resume", "--rounds", "3"], "rounds differ"),
     "data generate --out ''": (lambda d: ["data", "generate", "--out", ""], "--out"),
     "data generate --out ' '": (lambda d: ["data", "generate", "--out", " "], "--out"),
     "bench --out ''": (lambda d: ["bench", "declutter", "--out", ""], "--out"),
     "demo --out ''": (lambda d: ["demo", "--out", ""], "--out"),
     "sim show --out ''": (lambda d: ["sim", "show", "--out", ""], "--out"),
     "train --out ' '": (lambda d: ["train", "--data", str(d), "--out", " "], "--out"),
+    "data generate --out a file": (lambda d: ["data", "generate", "--out", str(d / "a_file")], "a_file"),
+    "detect missing depth": (lambda d: detect_argv(d, depth="nothing.npy"), "nothing.npy"),
+    "detect unknown model": (lambda d: detect_argv(d, model="bingham9d-hand"), "bingham9d-hand"),
+    "detect --out under a file": (lambda d: [*detect_argv(d)[:-1], str(d / "a_file" / "out")], "a_file"),
+    "detect --out is a file": (lambda d: [*detect_argv(d)[:-1], str(d / "a_file")], "a_file"),
+    "sim show --out is a file": (lambda d: ["sim", "show", "--n", "1", "--out", str(d / "a_file")], "a_file"),
+    "export into a folder": (lambda d: ["export", str(shipped_path(MODEL)), str(d / "folder")], "folder"),
+    "sim show --objects an unknown set": (lambda d: ["sim", "show", "--objects", "kitchen", "--out", str(d / "s")], "data folder"),
+    "sim show --objects good, (an empty part)": (lambda d: ["sim", "show", "--objects", f"{d / 'too_big'},", "--out", str(d / "s")], "--objects"),
+    "sim show --objects ''": (lambda d: ["sim", "show", "--objects", "", "--out", str(d / "s")], "--objects"),
+    "gripper show an unknown name": (lambda d: ["gripper", "show", "shadow-hand"], "shadow-hand"),
+    "gripper show a missing spec file": (lambda d: ["gripper", "show", str(d / "nothing.toml")], "nothing.toml"),
+    "gripper show a negative size": (lambda d: ["gripper", "show", str(d / "negative.toml")], "negative.toml: pad_width must be in (0, 1] m"),
+    "gripper show a pad wider than the palm": (lambda d: ["gripper", "show", str(d / "wide_pad.toml")], "pad_width (0.08 m) is wider than the palm"),
+    "gripper show a missing key": (lambda d: ["gripper", "show", str(d / "no_force.toml")], "no_force.toml: missing key grip_force"),
+    "gripper show an unknown key": (lambda d: ["gripper", "show", str(d / "colour.toml")], "colour.toml: unknown key colour"),
+    "data generate --gripper a bad spec": (lambda d: ["data", "generate", "--out", str(d / "g"), "--gripper", str(d / "negative.toml")], "pad_width"),
+    "train --gripper a missing spec file": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--gripper", str(d / "nothing.toml")], "--gripper"),
+    "demo --gripper a spec file without --model": (lambda d: ["demo", "--gripper", str(d / "wide_jaw.toml"), "--out", str(d / "pictures")], "--model"),
+    "objects inspect a procedural set": (lambda d: ["objects", "inspect", "blocks"], "built in code"),
+}  # fmt: skip
+"""Bad arguments: values out of range or of no known name, options that contradict each other,
+paths that are blank, missing or of the wrong kind, gripper spec files (plain data). Each is
+refused before the command imports torch, MuJoCo, trimesh or matplotlib, so in well under a
+second (tests/test_bad_input.py plays them with those imports blocked)."""
+
+FILES = {  # case: (argv of the `make_files` folder, text the one-line message names)
+    "bench into an existing benchmark": (lambda d: ["bench", "declutter", "--out", str(d / "bench")], "--resume"),
+    "bench --resume a config.json that is []": (lambda d: ["bench", "declutter", "--out", str(d / "bench_list"), "--resume"], "config.json is not a valid benchmark configuration: expected a JSON object"),
+    "bench --resume a rounds.jsonl torn in the middle": (lambda d: ["bench", "declutter", "--out", str(d / "bench_torn"), "--resume"], "rounds.jsonl line 2 is not a valid round record"),
+    "bench --resume of another configuration": (lambda d: ["bench", "declutter", "--out", str(d / "bench"), "--resume", "--rounds", "3"], "rounds differ"),
     "bench --out a folder of the user's results.md": (lambda d: ["bench", "declutter", "--out", str(d / "mine")], "holds files that are not a benchmark (model.sha256, results.md)"),
     "train --out unrelated files": (lambda d: ["train", "--data", str(d), "--out", str(d / "unrelated")], "not a training run (notes.txt)"),
     "demo --out unrelated files": (lambda d: ["demo", "--out", str(d / "unrelated")], "not pictures"),
     "data generate --objects a URDF whose name leaves the folder": (lambda d: ["data", "generate", "--objects", str(d / "escaping"), "--out", str(d / "g")], "thing.urdf: the robot's name must be one file name"),
-    "data generate --out a file": (lambda d: ["data", "generate", "--out", str(d / "a_file")], "a_file"),
     "data generate --out unrelated files": (lambda d: ["data", "generate", "--out", str(d / "unrelated")], "not a symgrasp dataset"),
     "data inspect a manifest that is []": (lambda d: ["data", "inspect", str(d / "manifest_list")], "manifest.json is not a valid dataset manifest: expected a JSON object"),
     "data inspect a torn manifest": (lambda d: ["data", "inspect", str(d / "manifest_torn")], "manifest.json is not a valid dataset manifest: not JSON"),
@@ -251,7 +276,6 @@ CLI = {  # case: (argv of the `make_files` folder, text the one-line message nam
     "train on a scene file copied under another id": (lambda d: ["train", "--data", str(d / "swapped"), "--out", str(d / "r")], "scene_000001.npz holds scene 0, not 1"),
     "train on a TSDF of 39 × 40 × 40": (lambda d: ["train", "--data", str(d / "misshapen"), "--out", str(d / "r")], "tsdf has shape (39, 40, 40)"),
     "detect intrinsic without fx": (lambda d: detect_argv(d, intrinsic="no_fx.json"), "no_fx.json"),
-    "detect missing depth": (lambda d: detect_argv(d, depth="nothing.npy"), "nothing.npy"),
     "detect garbage depth": (lambda d: detect_argv(d, depth="garbage.npy"), "garbage.npy"),
     "detect depth in millimetres": (lambda d: detect_argv(d, depth="depth_mm.npy"), "metres"),
     "detect bool depth": (lambda d: detect_argv(d, depth="depth_bool.npy"), "depth_bool.npy holds bool"),
@@ -261,35 +285,22 @@ CLI = {  # case: (argv of the `make_files` folder, text the one-line message nam
     "detect a checkpoint with a flipped bit": (lambda d: detect_argv(d, model=d / "corrupted.pt"), "corrupted.pt is not a readable symgrasp checkpoint"),
     "detect garbage checkpoint": (lambda d: detect_argv(d, model=d / "garbage.pt"), "garbage.pt"),
     "detect truncated checkpoint": (lambda d: detect_argv(d, model=d / "truncated.pt"), "truncated.pt"),
-    "detect unknown model": (lambda d: detect_argv(d, model="bingham9d-hand"), "bingham9d-hand"),
-    "detect --out under a file": (lambda d: [*detect_argv(d)[:-1], str(d / "a_file" / "out")], "a_file"),
-    "detect --out is a file": (lambda d: [*detect_argv(d)[:-1], str(d / "a_file")], "a_file"),
-    "sim show --out is a file": (lambda d: ["sim", "show", "--n", "1", "--out", str(d / "a_file")], "a_file"),
-    "export into a folder": (lambda d: ["export", str(shipped_path(MODEL)), str(d / "folder")], "folder"),
     "sim show --objects an empty folder": (lambda d: ["sim", "show", "--objects", str(d / "folder"), "--out", str(d / "s")], "holds no .urdf file"),
     "sim show --objects a URDF without its mesh": (lambda d: ["sim", "show", "--objects", str(d / "no_mesh"), "--out", str(d / "s")], "thing.obj"),
     "sim show --objects an object larger than the workspace": (lambda d: ["sim", "show", "--objects", str(d / "too_big"), "--out", str(d / "s")], "larger than the 0.3 m workspace"),
     "sim show --objects an OBJ face out of range": (lambda d: ["sim", "show", "--objects", str(d / "face_out_of_range"), "--out", str(d / "s")], "thing.obj: a face names vertex 99, out of range: the file holds 8 vertices"),
     "sim show --objects an OBJ face of words": (lambda d: ["sim", "show", "--objects", str(d / "face_text"), "--out", str(d / "s")], "thing.obj:10: a face needs vertex numbers"),
     "sim show --objects a URDF scale of two numbers": (lambda d: ["sim", "show", "--objects", str(d / "bad_scale"), "--out", str(d / "s")], "thing.urdf: the mesh's scale must be three positive numbers"),
-    "sim show --objects an unknown set": (lambda d: ["sim", "show", "--objects", "kitchen", "--out", str(d / "s")], "data folder"),
-    "sim show --objects good, (an empty part)": (lambda d: ["sim", "show", "--objects", f"{d / 'too_big'},", "--out", str(d / "s")], "--objects"),
-    "sim show --objects ''": (lambda d: ["sim", "show", "--objects", "", "--out", str(d / "s")], "--objects"),
-    "gripper show an unknown name": (lambda d: ["gripper", "show", "shadow-hand"], "shadow-hand"),
-    "gripper show a missing spec file": (lambda d: ["gripper", "show", str(d / "nothing.toml")], "nothing.toml"),
-    "gripper show a negative size": (lambda d: ["gripper", "show", str(d / "negative.toml")], "negative.toml: pad_width must be in (0, 1] m"),
-    "gripper show a pad wider than the palm": (lambda d: ["gripper", "show", str(d / "wide_pad.toml")], "pad_width (0.08 m) is wider than the palm"),
-    "gripper show a missing key": (lambda d: ["gripper", "show", str(d / "no_force.toml")], "no_force.toml: missing key grip_force"),
-    "gripper show an unknown key": (lambda d: ["gripper", "show", str(d / "colour.toml")], "colour.toml: unknown key colour"),
-    "data generate --gripper a bad spec": (lambda d: ["data", "generate", "--out", str(d / "g"), "--gripper", str(d / "negative.toml")], "pad_width"),
-    "train --gripper a missing spec file": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--gripper", str(d / "nothing.toml")], "--gripper"),
-    "demo --gripper a spec file without --model": (lambda d: ["demo", "--gripper", str(d / "negative.toml"), "--out", str(d / "pictures")], "--model"),
     "bench --gripper another than the model's": (lambda d: ["bench", "declutter", "--out", str(d / "b"), "--gripper", "franka"], "--gripper franka, but --model bingham2d-robotiq-2f85 is robotiq-2f85"),
-    "objects inspect a procedural set": (lambda d: ["objects", "inspect", "blocks"], "built in code"),
     "export a checkpoint without its network": (lambda d: ["export", str(d / "no_network.pt"), str(d / "x.pt")], "no_network.pt lacks 'model'"),
     "detect --model a checkpoint without its network": (lambda d: detect_argv(d, model=d / "no_network.pt"), "no_network.pt lacks 'model'"),
     "export a garbage checkpoint": (lambda d: ["export", str(d / "garbage.pt"), str(d / "x.pt")], "garbage.pt"),
 }  # fmt: skip
+"""Files whose contents are wrong (a checkpoint, a dataset, a benchmark folder, a depth image, a
+mesh): refused when the command reads them, with the library it reads them by, naming the file."""
+
+CLI = {**ARGUMENTS, **FILES}
+"""Every command-line case."""
 
 
 def _construct(**options):

@@ -34,6 +34,15 @@ MAX_OBJECTS = 20
 """Most objects a benchmark round drops into the 30 cm workspace (VGN drops 5)."""
 
 
+def check_global_batch(batch_size: int, world: int) -> None:
+    """Raise ValueError unless ``world`` ranks can split the global batch evenly."""
+    if batch_size % world:
+        raise ValueError(
+            f"batch_size {batch_size} must be a multiple of the {world} training processes: "
+            "it is the global batch, split evenly between them"
+        )
+
+
 def check_range(name: str, value: Any, lo: float, hi: float, integer: bool = True) -> None:
     """Raise ValueError naming ``name`` unless ``value`` is a finite number (an integer where
     ``integer``) in [lo, hi]: arguments are checked before any work starts, with bounds where

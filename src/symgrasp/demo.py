@@ -21,9 +21,10 @@ import numpy as np
 from symgrasp.benchmark.declutter import Attempt, Round, run_round, save_attempt_png
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.folders import PICTURES, writes_folder
+from symgrasp.names import demo_model
 from symgrasp.objects.sets import resolve
 from symgrasp.sim import World
-from symgrasp.sim.grippers import get_gripper, is_spec_file
+from symgrasp.sim.grippers import get_gripper
 
 
 @writes_folder(PICTURES)
@@ -42,12 +43,7 @@ def run_demo(
     ``out`` holds pictures only, and is held for the call (`symgrasp.folders`)."""
     start = time.perf_counter()
     out = Path(out)
-    if model is None and is_spec_file(gripper):
-        raise ValueError(
-            f"gripper {gripper} is a spec file: no model is shipped for it; pass a model "
-            "trained for it (--model)"
-        )
-    name = model or f"bingham2d-{gripper}"
+    name = model or demo_model(gripper)
     detector = GraspDetector.from_pretrained(name, device="cpu", gripper=get_gripper(gripper))
     pictures: list[Path] = []
     print(f"model {name} ({detector.representation.name}, {detector.gripper.name}); seed {seed}")

@@ -53,3 +53,15 @@ each built-in hand, then seed 0 of each baseline cell of Table 1 (`docs/models.m
 BACKENDS = ("process", "ray")
 """Where the tasks of data generation and benchmarks run (`symgrasp.parallel`): a pool of
 local processes, or a Ray cluster (the optional extra ``cluster``)."""
+
+
+def demo_model(gripper: str) -> str:
+    """The shipped model the demo plays for ``gripper`` when no model is given: the paper's
+    ``bingham2d`` trained for that built-in hand; a ValueError for a spec file (no model is
+    shipped for it)."""
+    if gripper.lower().endswith(GRIPPER_SPEC_SUFFIX):
+        raise ValueError(
+            f"gripper {gripper} is a spec file: no model is shipped for it; pass a model "
+            "trained for it (--model)"
+        )
+    return f"bingham2d-{gripper}"

@@ -22,18 +22,27 @@ DETECT = ["detect", "--model", "m.pt", "--depth", "d.npy", "--intrinsic", "k.jso
 DECLUTTER = ["bench", "declutter", "--model", "m.pt", "--out", "o"]
 
 
+@pytest.fixture
+def inputs(tmp_path, monkeypatch):
+    """The files DETECT and DECLUTTER read, existing (the parser checks that), in the current
+    folder."""
+    monkeypatch.chdir(tmp_path)
+    for name in ("m.pt", "d.npy", "k.json", "t.json"):
+        (tmp_path / name).touch()
+
+
 @pytest.mark.parametrize("command", [DETECT, DECLUTTER], ids=["detect", "declutter"])
 @pytest.mark.parametrize(
     ("extra", "expected"),
     [([], None), (["--confidence", "7.5"], 7.5), (["--no-confidence"], 0.0)],
 )
-def test_confidence_options_map_to_the_detector_threshold(command, extra, expected):
+def test_confidence_options_map_to_the_detector_threshold(command, extra, expected, inputs):
     args = build_parser().parse_args([*command, *extra])
     assert confidence_threshold(args) == expected
 
 
 @pytest.mark.parametrize("command", [DETECT, DECLUTTER], ids=["detect", "declutter"])
-def test_confidence_and_no_confidence_are_exclusive(command, capsys):
+def test_confidence_and_no_confidence_are_exclusive(command, capsys, inputs):
     with pytest.raises(SystemExit):
         build_parser().parse_args([*command, "--confidence", "3", "--no-confidence"])
     assert "not allowed with argument" in capsys.readouterr().err

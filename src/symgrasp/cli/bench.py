@@ -12,7 +12,8 @@ from symgrasp.cli.options import (
     add_confidence_options,
     add_shared,
     confidence_threshold,
-    output_path,
+    input_folder,
+    output_folder_path,
 )
 from symgrasp.config import DEFAULT_VALIDITY, BenchmarkConfig
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
@@ -42,7 +43,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "otherwise it is named by how it ended (collision, wrong approach = closed on nothing, "
         "slip).",
     )
-    declutter.add_argument("--out", type=output_path, required=True, help="output folder")
+    declutter.add_argument("--out", type=output_folder_path, required=True, help="output folder")
     declutter.add_argument(
         "--resume",
         action="store_true",
@@ -80,8 +81,8 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "same world (objects, mesh units, scene, objects per round); the models, thresholds and "
         "hands may differ.",
     )
-    compare.add_argument("a", help="benchmark folder A")
-    compare.add_argument("b", help="benchmark folder B (the baseline)")
+    compare.add_argument("a", type=input_folder, help="benchmark folder A")
+    compare.add_argument("b", type=input_folder, help="benchmark folder B (the baseline)")
     compare.set_defaults(run=_run_compare)
 
 
@@ -92,14 +93,15 @@ def _run_compare(args: argparse.Namespace) -> None:
 
 
 def _run_declutter(args: argparse.Namespace) -> None:
-    from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark
-
     threshold = confidence_threshold(args)
     options = () if threshold is None else (("confidence_threshold", threshold),)
     if args.validity is not None:
         options += (("validity_threshold", args.validity),)
     config = dataclasses.replace(config_from_args(BenchmarkConfig, args), options=options)
     parallel = parallel_from_args(args)
+
+    from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark
+
     check_out(config, args.out, args.resume)  # before the model loads
     if args.representation is not None or args.gripper is not None:
         from symgrasp.detect.pretrained import trained_for

@@ -7,7 +7,7 @@ import argparse
 
 from symgrasp.arguments import integer
 from symgrasp.cli.fields import add_config_options, config_from_args
-from symgrasp.cli.options import SEED, output_path
+from symgrasp.cli.options import SEED, input_folder, output_folder_path, output_path
 from symgrasp.config import SceneConfig
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
@@ -30,7 +30,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "interrupted run. Every field of the dataset's configuration (symgrasp.config."
         "SceneConfig, and its DatabaseConfig) is an option.",
     )
-    gen.add_argument("--out", type=output_path, required=True, help="dataset folder")
+    gen.add_argument("--out", type=output_folder_path, required=True, help="dataset folder")
     gen.add_argument(
         "--scenes", type=integer(1, 10**7), default=2000, help="number of scenes (default: 2000)"
     )
@@ -48,7 +48,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         description="Print counts, class balance and score histograms of a dataset and write "
         "card.json and card.png into it.",
     )
-    inspect.add_argument("root", type=output_path, help="dataset folder")
+    inspect.add_argument("root", type=input_folder, help="dataset folder")
     inspect.add_argument(
         "--validate",
         type=integer(0, 100_000),
@@ -63,19 +63,19 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         help="draw one scene",
         description="Draw a scene's TSDF surface, its labelled grasps and its depth image.",
     )
-    show.add_argument("root", help="dataset folder")
+    show.add_argument("root", type=input_folder, help="dataset folder")
     show.add_argument("--scene", type=integer(0, 10**7), default=0, help="scene id (default: 0)")
     show.add_argument("--out", type=output_path, help="picture path (default: ROOT/scene_<id>.png)")
     show.set_defaults(run=_run_data_show)
 
 
 def _run_data_generate(args: argparse.Namespace) -> None:
+    config = config_from_args(SceneConfig, args)
+    parallel = parallel_from_args(args)
+
     from symgrasp.data.generate import generate
 
-    config = config_from_args(SceneConfig, args)
-    manifest = generate(
-        args.out, config, args.scenes, args.seed, args.resume, parallel_from_args(args)
-    )
+    manifest = generate(args.out, config, args.scenes, args.seed, args.resume, parallel)
     print(f"{manifest['num_scenes']} scenes in {args.out} (hash {manifest['dataset_hash']})")
 
 

@@ -5,8 +5,16 @@ from __future__ import annotations
 import argparse
 
 from symgrasp.arguments import integer
-from symgrasp.cli.options import MODEL_METAVAR, SEED, add_mesh_unit, add_shared, output_path
+from symgrasp.cli.options import (
+    MODEL_METAVAR,
+    SEED,
+    add_mesh_unit,
+    add_shared,
+    output_folder_path,
+    parse_model,
+)
 from symgrasp.config import MAX_OBJECTS
+from symgrasp.names import demo_model
 
 
 def add(subparsers: argparse._SubParsersAction) -> None:
@@ -20,7 +28,10 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "demo.html and summary.json into --out.",
     )
     parser.add_argument(
-        "--out", type=output_path, default="out/demo", help="output folder (default: out/demo)"
+        "--out",
+        type=output_folder_path,
+        default="out/demo",
+        help="output folder (default: out/demo)",
     )
     parser.add_argument(
         "--seed", type=SEED, default=0, help="seed of the objects and the pile (default: 0)"
@@ -41,6 +52,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--model",
+        type=parse_model,
         default=None,
         metavar=MODEL_METAVAR,
         help="another shipped model or a checkpoint path instead of the gripper's bingham2d model",
@@ -50,6 +62,9 @@ def add(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run_demo(args: argparse.Namespace) -> None:
+    if args.model is None:
+        demo_model(args.gripper)  # a spec file needs --model: refused before the imports
+
     from symgrasp.demo import run_demo
 
     run_demo(

@@ -13,7 +13,10 @@ from symgrasp.cli.options import (
     PROBABILITY,
     add_confidence_options,
     confidence_threshold,
+    input_file,
+    output_folder_path,
     output_path,
+    parse_model,
 )
 from symgrasp.config import DEFAULT_VALIDITY
 
@@ -37,25 +40,31 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--depth",
+        type=input_file,
         required=True,
         help="depth image: .npy of floating-point metres, or a 16-bit .png in units of "
         "--png-scale (millimetres by default); an 8-bit .png is refused",
     )
     parser.add_argument(
         "--intrinsic",
+        type=input_file,
         required=True,
         help='JSON: {"fx", "fy", "cx", "cy"[, "width", "height"]} or a 3×3 matrix',
     )
     parser.add_argument(
-        "--extrinsic", required=True, help="JSON: the 4×4 camera pose T_world_camera [m]"
+        "--extrinsic",
+        type=input_file,
+        required=True,
+        help="JSON: the 4×4 camera pose T_world_camera [m]",
     )
     parser.add_argument(
         "--model",
+        type=parse_model,
         default="bingham2d-robotiq-2f85",
         metavar=MODEL_METAVAR,
         help="shipped model name or checkpoint path (default: bingham2d-robotiq-2f85)",
     )
-    parser.add_argument("--out", type=output_path, required=True, help="output folder")
+    parser.add_argument("--out", type=output_folder_path, required=True, help="output folder")
     parser.add_argument(
         "--png-scale",
         type=number(1e-9, 1e3),
@@ -134,7 +143,9 @@ def _add_export(subparsers: argparse._SubParsersAction) -> None:
         "and, for a run with --ema, its trained weights next to the average (what symgrasp "
         "ships in symgrasp/detect/models/).",
     )
-    parser.add_argument("checkpoint", help="checkpoint path, e.g. runs/NAME/best.pt")
+    parser.add_argument(
+        "checkpoint", type=input_file, help="checkpoint path, e.g. runs/NAME/best.pt"
+    )
     parser.add_argument("out", type=output_path, help="output .pt path")
     parser.set_defaults(run=_run_export)
 

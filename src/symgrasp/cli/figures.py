@@ -7,7 +7,7 @@ import argparse
 import shlex
 
 from symgrasp.arguments import integer, number
-from symgrasp.cli.options import MODEL_METAVAR, PROBABILITY, SEED, output_path
+from symgrasp.cli.options import MODEL_METAVAR, PROBABILITY, SEED, output_folder_path, parse_model
 from symgrasp.config import DEFAULT_VALIDITY
 from symgrasp.workspace import WORKSPACE_SIZE
 
@@ -59,7 +59,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     )
     percentiles.add_argument(
         "--out",
-        type=output_path,
+        type=output_folder_path,
         default="docs/figures",
         help="output folder (default: docs/figures)",
     )
@@ -96,6 +96,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     )
     distribution.add_argument(
         "--model",
+        type=parse_model,
         required=True,
         metavar=MODEL_METAVAR,
         help="checkpoint path or shipped model name (a Bingham model)",
@@ -136,7 +137,7 @@ def _add_slice_options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--out",
-        type=output_path,
+        type=output_folder_path,
         default="docs/figures",
         help="output folder (default: docs/figures)",
     )

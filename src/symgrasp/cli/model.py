@@ -7,7 +7,7 @@ import argparse
 
 from symgrasp.arguments import integer
 from symgrasp.cli.fields import add_config_options, config_from_args
-from symgrasp.cli.options import SEED, add_mesh_unit, add_shared, output_path
+from symgrasp.cli.options import SEED, add_mesh_unit, add_shared, input_folder
 from symgrasp.config import (
     MAX_OBJECTS,
     TEST_SEED_LIMIT,
@@ -15,6 +15,7 @@ from symgrasp.config import (
     VALIDATION_ROUNDS,
     VALIDATION_SEED,
     TrainConfig,
+    check_global_batch,
 )
 from symgrasp.names import SCENES
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
@@ -49,12 +50,13 @@ def _add_train(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run_train(args: argparse.Namespace) -> None:
+    config = config_from_args(TrainConfig, args, prefixes=_TRAIN_PREFIXES)
+    check_global_batch(config.batch_size, args.nproc)
+
     from symgrasp.model import distributed
     from symgrasp.model.train import train
 
-    config = config_from_args(TrainConfig, args, prefixes=_TRAIN_PREFIXES)
     if args.nproc > 1:
-        distributed.check_global_batch(config.batch_size, args.nproc)  # before processes start
         distributed.launch(train, (config,), args.nproc)
         print(f"{config.epochs} epochs on {args.nproc} processes; checkpoints and metrics in "
               f"{config.out}")  # fmt: skip
@@ -84,7 +86,7 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "run_dir",
-        type=output_path,
+        type=input_folder,
         metavar="RUN_DIR",
         help="run folder of symgrasp train (its --out)",
     )

@@ -7,7 +7,8 @@ import argparse
 from pathlib import Path
 
 from symgrasp.arguments import integer
-from symgrasp.cli.options import add_mesh_unit, output_path, parse_object_set
+from symgrasp.cli.options import add_mesh_unit, output_folder_path, output_path, parse_object_set
+from symgrasp.names import PROCEDURAL_OBJECT_SETS
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 
@@ -33,7 +34,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     )
     fetch.add_argument("what", choices=("vgn",), help="what to download (vgn: VGN's four sets)")
     fetch.add_argument(
-        "--data", type=output_path, default=None,
+        "--data", type=output_folder_path, default=None,
         help="data folder to download into (default: $SYMGRASP_DATA, else ~/.cache/symgrasp)",
     )  # fmt: skip
     fetch.add_argument(
@@ -72,12 +73,13 @@ def _run_objects_fetch(args: argparse.Namespace) -> None:
 
 
 def _run_objects_inspect(args: argparse.Namespace) -> None:
+    if args.objects in PROCEDURAL_OBJECT_SETS:
+        raise SystemExit(f"error: {args.objects} is built in code, not read from meshes")
+
     from symgrasp.objects.inspect import HEADER, contact_sheet, inspect_objects
     from symgrasp.objects.sets import resolve
 
     source = resolve(args.objects, args.mesh_unit)
-    if not source.meshes:
-        raise SystemExit(f"error: {args.objects} is built in code, not read from meshes")
     reports, refused = inspect_objects(source, parallel_from_args(args))
     where = ", ".join(map(str, source.folders))
     print(f"{len(reports)} objects in {where}, {len(refused)} refused")

@@ -11,7 +11,7 @@ from typing import Any
 from symgrasp.arguments import integer, number, sentence
 from symgrasp.config import SEED_MAX, SceneConfig
 from symgrasp.fields import field_docs
-from symgrasp.folders import check_path
+from symgrasp.folders import check_folder, check_path
 from symgrasp.names import (
     GRIPPER_SPEC_SUFFIX,
     GRIPPERS,
@@ -47,25 +47,83 @@ def parse_object_set(value: str) -> str:
     )
 
 
-def output_path(value: str) -> str:
-    """An argparse type: the path of a folder or file a command writes, not empty or blank
-    (`symgrasp.folders.check_path`: ``''`` would write into the current folder)."""
+def _named(value: str) -> Path:
+    """``value`` as a Path; an argparse error when it is empty or blank
+    (`symgrasp.folders.check_path`)."""
     try:
-        check_path(value, None)
+        return check_path(value, None)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def output_path(value: str) -> str:
+    """An argparse type: the path of a file a command writes, not empty or blank
+    (`symgrasp.folders.check_path`: ``''`` would write into the current folder) and not a
+    folder."""
+    if _named(value).is_dir():
+        raise argparse.ArgumentTypeError(f"expected a file to write, got the folder {value!r}")
+    return value
+
+
+def output_folder_path(value: str) -> str:
+    """An argparse type: the path of a folder a command writes into, not empty or blank and
+    neither a file nor under one (`symgrasp.folders.check_folder`); what it may already hold is
+    the command's to check."""
+    try:
+        check_folder(value, None)
     except ValueError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
     return value
 
 
-def parse_gripper(value: str) -> str:
-    """A built-in gripper's name or an existing .toml spec file (read and checked when the
-    command runs)."""
-    if value in GRIPPERS or (value.lower().endswith(GRIPPER_SPEC_SUFFIX) and Path(value).is_file()):
+def input_file(value: str) -> str:
+    """An argparse type: an existing file the command reads, not a blank path (what it holds
+    is checked when the command reads it)."""
+    _named(value)
+    if not Path(value).expanduser().is_file():
+        what = "a folder" if Path(value).expanduser().is_dir() else "missing"
+        raise argparse.ArgumentTypeError(f"expected an existing file, got {value!r} ({what})")
+    return value
+
+
+def input_folder(value: str) -> str:
+    """An argparse type: an existing folder the command reads (and may write its reports
+    into), not a blank path (``''`` would be the current folder)."""
+    _named(value)
+    if not Path(value).expanduser().is_dir():
+        what = "a file" if Path(value).expanduser().exists() else "missing"
+        raise argparse.ArgumentTypeError(f"expected an existing folder, got {value!r} ({what})")
+    return value
+
+
+def parse_model(value: str) -> str:
+    """A shipped model's name or an existing checkpoint file (read when the command runs)."""
+    if value in PRETRAINED or Path(value).expanduser().is_file():
         return value
     raise argparse.ArgumentTypeError(
-        f"expected one of {', '.join(GRIPPERS)} or an existing .toml gripper spec file "
-        f"(docs/sim.md), got {value!r}"
+        f"expected a shipped model ({', '.join(PRETRAINED)}) or an existing checkpoint file, "
+        f"got {value!r}"
     )
+
+
+def parse_gripper(value: str) -> str:
+    """A built-in gripper's name or an existing .toml spec file, read and checked whole now
+    (`symgrasp.sim.grippers.load_gripper`: plain data, no simulator), so a bad spec stops the
+    command before any work; the command resolves the name again where its work starts."""
+    if value in GRIPPERS:
+        return value
+    if not (value.lower().endswith(GRIPPER_SPEC_SUFFIX) and Path(value).is_file()):
+        raise argparse.ArgumentTypeError(
+            f"expected one of {', '.join(GRIPPERS)} or an existing .toml gripper spec file "
+            f"(docs/sim.md), got {value!r}"
+        )
+    from symgrasp.sim.grippers import load_gripper
+
+    try:
+        load_gripper(value)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return value
 
 
 GRIPPER_METAVAR = "{" + ",".join(GRIPPERS) + "}|SPEC" + GRIPPER_SPEC_SUFFIX
@@ -79,13 +137,13 @@ SHARED = {
     "object_set": ("--objects", {"type": parse_object_set, "metavar": "SET|FOLDER"}),
     "scene": ("--scene", {"choices": SCENES}),
     "gripper": ("--gripper", {"type": parse_gripper, "metavar": GRIPPER_METAVAR}),
-    "model": ("--model", {"metavar": MODEL_METAVAR}),
+    "model": ("--model", {"type": parse_model, "metavar": MODEL_METAVAR}),
     "representation": ("--rep", {"choices": REPRESENTATIONS}),
     "kinds": ("--kinds", {"choices": SCENES}),
     "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),
     "schedule": ("--schedule", {"choices": SCHEDULES}),
     "validity.kind": ("--validity-loss", {"choices": VALIDITY_LOSSES}),
-    "out": ("--out", {"type": output_path}),
+    "out": ("--out", {"type": output_folder_path}),
 }
 """How a field of these names (a nested one also by its path) appears on any command line: its
 flag and its choices."""

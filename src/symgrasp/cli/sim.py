@@ -12,6 +12,7 @@ from symgrasp.cli.options import (
     SEED,
     add_mesh_unit,
     add_shared,
+    output_folder_path,
     output_path,
     parse_gripper,
 )
@@ -49,7 +50,7 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
     )
     show.add_argument("--seed", type=SEED, default=0, help="random seed (default: 0)")
     show.add_argument(
-        "--out", type=output_path, default="out/sim", help="output folder (default: out/sim)"
+        "--out", type=output_folder_path, default="out/sim", help="output folder (default: out/sim)"
     )
     add_mesh_unit(show)
     show.set_defaults(run=_run_sim_show)
@@ -100,9 +101,11 @@ def _add_gripper(subparsers: argparse._SubParsersAction) -> None:
 
 def _run_gripper_show(args: argparse.Namespace) -> None:
     from symgrasp.sim.grippers import get_gripper
-    from symgrasp.sim.show import save_gripper_png
 
     spec = get_gripper(args.spec)
+
+    from symgrasp.sim.show import save_gripper_png
+
     path = save_gripper_png(spec, args.out or f"out/gripper/{spec.name}.png")
     print(f"{spec.name} ({spec.kind}): opening {spec.max_width * 1000:g} mm, finger depth "
           f"{spec.finger_depth * 1000:.1f} mm, pads {spec.pad_width * 1000:g} mm wide, "

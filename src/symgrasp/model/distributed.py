@@ -22,6 +22,8 @@ import torch.distributed as dist
 from torch.nn.parallel import DistributedDataParallel
 from torch.utils.data import Sampler
 
+from symgrasp.config import check_global_batch
+
 
 def start(device: torch.device) -> tuple[int, int, torch.device]:
     """Join the process group torchrun's environment describes (``RANK``, ``WORLD_SIZE``,
@@ -64,15 +66,6 @@ def data_parallel(net: torch.nn.Module) -> DistributedDataParallel:
     # only: DDP copies those few gradients into its buckets and would warn on every backward.
     warnings.filterwarnings("ignore", message="Grad strides do not match bucket view strides")
     return DistributedDataParallel(net)
-
-
-def check_global_batch(batch_size: int, world: int) -> None:
-    """Raise ValueError unless ``world`` ranks can split the global batch evenly."""
-    if batch_size % world:
-        raise ValueError(
-            f"batch_size {batch_size} must be a multiple of the {world} training processes: "
-            "it is the global batch, split evenly between them"
-        )
 
 
 class ShardedBatches(Sampler[list[int]]):
