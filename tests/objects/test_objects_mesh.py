@@ -14,6 +14,7 @@ import trimesh
 
 from symgrasp.cli import build_parser, main
 from symgrasp.objects import decomposition
+from symgrasp.objects import mesh as mesh_module
 from symgrasp.objects.folder import DATA_ENV
 from symgrasp.objects.mesh import DEFAULT_DENSITY, load_mesh
 from symgrasp.objects.sets import resolve
@@ -82,6 +83,18 @@ def test_a_box_is_one_part_with_its_exact_volume_mass_and_frame(tmp_path, decomp
     assert vertices[:, 2].min() == pytest.approx(0.0)  # origin at the base, centred in x, y
     assert np.allclose((vertices.min(0) + vertices.max(0))[:2] / 2, 0.0)
     assert decomposer == [], "a convex mesh is not decomposed"
+
+
+def test_a_mesh_of_many_faces_says_how_long_it_will_take(tmp_path, decomposer, monkeypatch):
+    """Above `LARGE_MESH_FACES` reading a mesh warns with the estimate; at or below, nothing."""
+    path = tmp_path / "ball.obj"
+    trimesh.creation.icosphere(subdivisions=3, radius=0.04).export(path)  # 1 280 faces
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_mesh(path)
+    monkeypatch.setattr(mesh_module, "LARGE_MESH_FACES", 1_279)
+    with pytest.warns(UserWarning, match=r"ball.obj: 1,280 faces: making it an object takes about"):  # fmt: skip
+        load_mesh(path)
 
 
 def test_a_millimetre_mesh_is_read_in_metres_and_says_so(tmp_path, decomposer):

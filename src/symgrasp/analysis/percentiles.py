@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -68,22 +68,28 @@ class PercentileRow:
 
 
 def percentile_row(
-    lam: Shape, axis: int, samples: int, repeats: int, seed: int, p: float = PERCENTILE
+    lam: Shape,
+    axis: int,
+    samples: int,
+    repeats: int,
+    seed: int,
+    p: float = PERCENTILE,
+    drawn: Callable[[int], object] | None = None,
 ) -> PercentileRow:
     """θ_{axis+1}^(p) of B(diag(λ)) in float64 by Eq. 12 and by ``repeats``
-    Monte-Carlo estimates of ``samples`` exact draws each, the r-th seeded ``seed + r``."""
+    Monte-Carlo estimates of ``samples`` exact draws each, the r-th seeded ``seed + r``;
+    ``drawn(samples)`` is called after each estimate (a progress bar's ``update``)."""
     if samples < 1 or repeats < 1:
         raise ValueError(f"--samples and --repeats must be ≥ 1, got {samples} and {repeats}")
     distribution = Bingham(torch.diag(torch.tensor(lam, dtype=torch.float64)))
     approx = math.degrees(distribution.percentile_angle(p, axis).item())
-    estimates = np.degrees(
-        [
-            distribution.percentile_angle_mc(
-                p, axis, samples, torch.Generator().manual_seed(seed + r)
-            ).item()
-            for r in range(repeats)
-        ]
-    )
+    estimates = []
+    for r in range(repeats):
+        generator = torch.Generator().manual_seed(seed + r)
+        estimates.append(distribution.percentile_angle_mc(p, axis, samples, generator).item())
+        if drawn is not None:
+            drawn(samples)
+    estimates = np.degrees(estimates)
     mean = float(estimates.mean())
     return PercentileRow(lam, axis, approx, mean, float(estimates.std()), (approx - mean) / mean)
 
@@ -91,12 +97,15 @@ def percentile_row(
 def percentile_rows(
     samples: int, repeats: int, seed: int, shapes: Sequence[Shape] = SHAPES
 ) -> list[PercentileRow]:
-    """`percentile_row` for every λ of ``shapes`` and i = 1, 2, with a progress bar."""
+    """`percentile_row` for every λ of ``shapes`` and i = 1, 2, with a progress bar of the
+    draws (its rate and the time left show after the first estimate)."""
     cases = list(itertools.product(shapes, (0, 1)))
-    return [
-        percentile_row(lam, axis, samples, repeats, seed)
-        for lam, axis in tqdm(cases, desc="percentile rows", unit="row")
-    ]
+    with tqdm(total=len(cases) * repeats * samples, desc="Bingham draws", unit="draw",
+              unit_scale=True) as bar:  # fmt: skip
+        return [
+            percentile_row(lam, axis, samples, repeats, seed, drawn=bar.update)
+            for lam, axis in cases
+        ]
 
 
 def percentile_markdown(rows: Iterable[PercentileRow]) -> str:

@@ -61,6 +61,16 @@ CONVEX_TOLERANCE = 0.01
 one part, no decomposition."""
 
 
+LARGE_MESH_FACES = 100_000
+"""A mesh of more faces than this is slow to become an object, and reading it says so: its
+hull, watertightness, convex parts and MuJoCo's compile of them grow with the faces, about a
+minute per million faces on one core (a 1.3 M-face mesh took 79 s in ``objects inspect`` and
+136 s in ``sim show`` on the 2-core reference machine; docs/objects.md)."""
+
+SECONDS_PER_FACE = 6e-5
+"""[s] what `LARGE_MESH_FACES` quotes per face, for the estimate read_mesh gives."""
+
+
 @dataclass(frozen=True)
 class BareMesh:
     """A mesh file as read: ``mesh`` in the file's units, ``unit`` the units it is read in
@@ -92,6 +102,13 @@ def read_mesh(path: str | Path, mesh_unit: str = "auto") -> BareMesh:
         raise ValueError(f"{path} is not a mesh trimesh can read: {error}") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise ValueError(f"{path} holds no triangles: not an OBJ, STL or PLY mesh")
+    if len(mesh.faces) > LARGE_MESH_FACES:
+        warnings.warn(
+            f"{path}: {len(mesh.faces):,} faces: making it an object takes about "
+            f"{len(mesh.faces) * SECONDS_PER_FACE:.0f} s or more (a minute per million faces); "
+            "a simplified copy is faster",
+            stacklevel=2,
+        )
     if mesh_unit != "auto":
         return BareMesh(path, mesh, mesh_unit, guessed=False)
     return BareMesh(path, mesh, "mm" if mesh.extents.max() > MILLIMETRE_HINT else "m", True)
