@@ -98,9 +98,7 @@ def load_intrinsic(path: str | Path, shape: tuple[int, int]) -> CameraIntrinsic:
                 *(float(data[k]) for k in ("fx", "fy", "cx", "cy")),
             )
         K = np.asarray(data["K"] if isinstance(data, dict) else data, dtype=float)
-        if K.shape != (3, 3):
-            raise ValueError(f"a 3×3 matrix is needed, got shape {K.shape}")
-        return CameraIntrinsic(shape[1], shape[0], K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+        return CameraIntrinsic.from_matrix(K, shape[1], shape[0])
     except (KeyError, TypeError, ValueError) as err:
         raise ValueError(
             f'intrinsic {path}: expected {{"fx", "fy", "cx", "cy"[, "width", "height"]}} or a '

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -43,6 +43,15 @@ class Grasp:
     def closing_axis(self) -> np.ndarray:
         """The closing axis e_z (3,) (its sign is arbitrary: the gripper is symmetric)."""
         return self.pose[:3, 2]
+
+    def transformed(self, T_frame_world: np.ndarray) -> Grasp:
+        """The same grasp with its pose in another frame: ``T_frame_world @ pose``, e.g.
+        ``T_base_workspace`` to take a grasp detected on a fitted table
+        (`symgrasp.perception.fit_table`) to the robot's base. Scores and the voxel stay."""
+        T = np.asarray(T_frame_world, dtype=float)
+        if T.shape != (4, 4):
+            raise ValueError(f"T_frame_world must be 4×4, got shape {T.shape}")
+        return replace(self, pose=T @ self.pose)
 
     def approach_trajectory(
         self, pregrasp_distance: float = PREGRASP_DISTANCE, lift_height: float = LIFT_HEIGHT
