@@ -101,3 +101,89 @@ def test_grasps_on_a_fitted_table_are_the_world_frames_after_the_move(detector, 
         assert np.allclose(moved.pose[:3, :3] @ moved.pose[:3, :3].T, np.eye(3), atol=1e-9)
     with pytest.raises(ValueError, match="T_frame_world must be 4×4"):
         grasps[0].transformed(np.eye(3))
+
+
+def _write_ply(path, points, fmt="binary_little_endian", extra=""):
+    """A PLY file of ``points`` (N, 3) as float32 x, y, z and an 8-bit colour, written here
+    by hand (the oracle of `load_points`)."""
+    header = (
+        f"ply\nformat {fmt} 1.0\ncomment written by a test\nelement vertex {len(points)}\n"
+        "property float x\nproperty float y\nproperty float z\nproperty uchar red\n"
+        f"{extra}element face 0\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    with open(path, "wb") as file:
+        file.write(header.encode())
+        if fmt == "ascii":
+            file.write("".join(f"{x} {y} {z} 7\n" for x, y, z in points).encode())
+        else:
+            order = "<" if fmt == "binary_little_endian" else ">"
+            rows = np.zeros(len(points), dtype=[(a, order + "f4") for a in "xyz"] + [("red", "u1")])
+            for i, axis in enumerate("xyz"):
+                rows[axis] = points[:, i]
+            file.write(rows.tobytes())
+    return path
+
+
+def test_load_points_reads_npy_and_ascii_and_binary_ply(scene, tmp_path):
+    from symgrasp.detect.files import load_points
+
+    cloud = scene[2][:500].astype(np.float32)
+    np.save(tmp_path / "cloud.npy", cloud)
+    assert np.array_equal(load_points(tmp_path / "cloud.npy"), cloud)
+    for fmt in ("ascii", "binary_little_endian", "binary_big_endian"):
+        read = load_points(_write_ply(tmp_path / f"{fmt}.ply", cloud, fmt))
+        assert read.shape == (500, 3) and np.allclose(read, cloud, atol=1e-6), fmt
+    organised = np.full((4, 5, 3), np.nan)
+    np.save(tmp_path / "organised.npy", organised)
+    assert load_points(tmp_path / "organised.npy").shape == (4, 5, 3)
+    refused = {
+        "nothing.npy": (None, "points: no file at"),
+        "cloud.txt": ("x", "must be a .npy or .ply file"),
+        "ints.npy": (np.zeros((4, 3), dtype=np.int32), "holds int32 of shape"),
+        "pairs.npy": (np.zeros((4, 2)), r"of shape \(4, 2\); a point cloud"),
+        "broken.ply": (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n", "no end_header"),
+        "xy.ply": (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n", "x, y, z"),
+        "short.ply": (b"ply\nformat binary_little_endian 1.0\nelement vertex 9\nproperty float x\nproperty float y\nproperty float z\nend_header\n\x00", "ends before its 9 vertices"),
+        "faces_first.ply": (b"ply\nformat ascii 1.0\nelement face 0\nelement vertex 0\nend_header\n", "first element must be vertex"),
+    }  # fmt: skip
+    for name, (content, said) in refused.items():
+        if isinstance(content, np.ndarray):
+            np.save(tmp_path / name, content)
+        elif isinstance(content, bytes):
+            (tmp_path / name).write_bytes(content)
+        elif content is not None:
+            (tmp_path / name).write_text(content)
+        with pytest.raises(ValueError, match=said) as error:
+            load_points(tmp_path / name)
+        assert name in str(error.value)
+
+
+def test_symgrasp_detect_points_writes_the_grasps_of_the_depth_image(detector, scene, tmp_path):
+    import json
+
+    from symgrasp.cli import main
+
+    depth, T, cloud = scene
+    (tmp_path / "T.json").write_text(json.dumps(T.tolist()))
+    K = {"fx": SMALL.fx, "fy": SMALL.fy, "cx": SMALL.cx, "cy": SMALL.cy, "width": SMALL.width,
+         "height": SMALL.height}  # fmt: skip
+    (tmp_path / "K.json").write_text(json.dumps(K))
+    _write_ply(tmp_path / "cloud.ply", cloud.astype(np.float32))
+    main(["detect", "--points", str(tmp_path / "cloud.ply"), "--extrinsic", str(tmp_path / "T.json"),
+          "--intrinsic", str(tmp_path / "K.json"), "--out", str(tmp_path / "sensor")])  # fmt: skip
+    written = json.loads((tmp_path / "sensor" / "grasps.json").read_text())["grasps"]
+    expected = detector.detect(depth, SMALL, T)
+    assert [tuple(g["voxel"]) for g in written] == [g.voxel for g in expected]
+    main(["detect", "--points", str(tmp_path / "cloud.ply"), "--viewpoint", *map(str, T[:3, 3]),
+          "--out", str(tmp_path / "virtual")])  # fmt: skip
+    virtual = json.loads((tmp_path / "virtual" / "grasps.json").read_text())["grasps"]
+    assert len(virtual) == len(expected)
+    assert (tmp_path / "virtual" / "grasps.png").stat().st_size > 10_000
+    for argv, said in (
+        (["--points", str(tmp_path / "cloud.ply")], "--points needs --extrinsic or --viewpoint"),
+        (["--depth", "d.npy", "--extrinsic", "T.json"], "--depth needs --intrinsic and --extrinsic"),
+        (["--points", "c.ply", "--viewpoint", "1", "0", "1", "--points-frame", "camera"],
+         "--points-frame camera needs --extrinsic"),
+    ):  # fmt: skip
+        with pytest.raises(SystemExit, match=said):
+            main(["detect", *argv, "--out", str(tmp_path / "refused")])

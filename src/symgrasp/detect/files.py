@@ -159,9 +159,10 @@ def _read_ply(path: Path) -> np.ndarray:
             raise ValueError(f"unknown property type {', '.join(unknown)}")
         order = PLY_FORMATS[fmt]
         dtype = np.dtype([(name, order + PLY_TYPES[kind]) for name, kind in properties])
-        vertices = np.frombuffer(file.read(dtype.itemsize * count), dtype=dtype)
-        if len(vertices) != count:
+        data = file.read(dtype.itemsize * count)
+        if len(data) != dtype.itemsize * count:
             raise ValueError(f"the file ends before its {count} vertices")
+        vertices = np.frombuffer(data, dtype=dtype)
         return np.stack([vertices[axis].astype(np.float64) for axis in "xyz"], axis=1)
 
 
