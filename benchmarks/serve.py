@@ -129,7 +129,10 @@ def main() -> None:
             "best_ms": min(times[name]),
         }
         if name in server_ms:
-            added = [t - here for t, here in zip(times[name], times[f"{source}, in process"], strict=True)]
+            added = [
+                t - here
+                for t, here in zip(times[name], times[f"{source}, in process"], strict=True)
+            ]
             cell["added_median_ms"] = statistics.median(added)
             cell["added_interval_ms"] = median_interval(added)
             cell["server_side_median_ms"] = statistics.median(server_ms[name])

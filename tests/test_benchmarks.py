@@ -40,6 +40,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "experiments/decomposition": ("decomposition.json", "summary"),
     "experiments/grasp_db": ("grasp_db.json", "cells"),
     "experiments/bad_input": ("bad_input.json", "counts"),
+    "experiments/sensor_depth": ("sensor_depth.json", "cells"),
     "experiments/hands": ("hands.json", "cells"),
     "experiments/scale": ("scale.json", "one_million_scenes"),
     "experiments/campaign": ("campaign.json", "steps"),
