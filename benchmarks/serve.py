@@ -1,7 +1,7 @@
 """What the grasp server adds to a detection's latency → benchmarks/results/serve.{json,md}.
 
-    PYTHONPATH=src python benchmarks/serve.py [--model bingham2d-robotiq-2f85] [--requests 50]
-        [--threads 1] [--quick [DIR]]
+    OMP_NUM_THREADS=1 PYTHONPATH=src python benchmarks/serve.py [--model bingham2d-robotiq-2f85]
+        [--requests 50] [--threads 1] [--quick [DIR]]
 
 Renders one 640×480 depth image of a 5-object household-test pile (seed 0) from the default
 camera, as benchmarks/detect.py does, starts ``symgrasp serve`` in its own process on a free
@@ -10,7 +10,9 @@ round every round, the same detection in this process (`GraspDetector.detect`) a
 server (`symgrasp.serve.client.GraspClient`): the depth image as base64 and as nested lists,
 and its point cloud (each seen pixel's point, base64) against `detect_points` here. The added
 latency is the round trip minus the in-process call of the same round; its median over the
-rounds has a bootstrap 95% interval. ``--quick`` plays 3 rounds.
+rounds has a bootstrap 95% interval. ``--quick`` plays 3 rounds. ``OMP_NUM_THREADS`` (the
+BLAS and OpenMP threads, recorded) goes to the server too: on a shared 2-core machine two BLAS
+threads made the point-cloud path here several times slower than in the server.
 """
 
 from __future__ import annotations
@@ -50,7 +52,7 @@ def median_interval(values: list[float], seed: int = 0) -> tuple[float, float]:
 
 def start_server(model: str, threads: int) -> tuple[subprocess.Popen, str]:
     """``symgrasp serve`` on a free loopback port, this checkout's code, and its URL."""
-    env = {**os.environ, "OMP_NUM_THREADS": str(threads)}
+    env = {"OMP_NUM_THREADS": str(threads), **os.environ}
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT / "src"), env.get("PYTHONPATH")]))
     process = subprocess.Popen(
         [sys.executable, "-m", "symgrasp", "serve", "--port", "0", "--quiet", "--device", "cpu",
@@ -156,8 +158,9 @@ def main() -> None:
     write_result(
         args.result,
         "the grasp server's added latency: round trip minus the same detection in process",
-        "PYTHONPATH=src python benchmarks/serve.py "
-        f"--model {args.model} --requests {args.requests} --threads {args.threads}",
+        f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', '')} PYTHONPATH=src python "
+        f"benchmarks/serve.py --model {args.model} --requests {args.requests} "
+        f"--threads {args.threads}",
         cells,
         table,
         model=args.model,
