@@ -8,6 +8,7 @@ import json
 import os
 import re
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -213,6 +214,9 @@ def test_wrong_paths_methods_and_lengths_are_answered_in_json(server):
         response = connection.getresponse()
         assert response.status == status and "error" in json.loads(response.read())
         connection.close()
+    with socket.create_connection(server.server_address[:2], timeout=30) as raw:
+        raw.sendall(b"garbage\r\n\r\n")  # not even a request line
+        assert b"Bad request syntax" in raw.recv(4096)
     huge = {"Content-Length": str(2**40)}
     assert _post(server, DETECT_PATH, b"", huge)[0] == 413
     with pytest.raises(ServerError, match="answered 400: give depth or points") as error:
@@ -245,10 +249,12 @@ def test_concurrent_clients_each_get_their_own_answer(server, detector, scene):
         assert got == expected[kind]
 
 
-def test_the_client_needs_neither_torch_nor_mujoco():
-    code = "import sys, symgrasp.serve.client; print(' '.join(m for m in ('torch', 'mujoco', 'numpy') if m in sys.modules))"
+@pytest.mark.parametrize("module, loaded", [("client", ["numpy"]), ("server", ["numpy", "torch"])])
+def test_the_client_needs_neither_torch_nor_mujoco_and_the_server_no_mujoco(module, loaded):
+    code = (f"import sys, symgrasp.serve.{module}; "
+            "print(' '.join(m for m in ('numpy', 'torch', 'mujoco') if m in sys.modules))")  # fmt: skip
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.split() == ["numpy"]
+    assert out.stdout.split() == loaded
 
 
 @pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGINT])

@@ -253,15 +253,16 @@ class _Handler(BaseHTTPRequestHandler):
     server_version = f"symgrasp-serve/{PROTOCOL}"
 
     def do_GET(self) -> None:
+        start = time.perf_counter()
         if self.path != HEALTH_PATH:
-            self._reply(HTTPStatus.NOT_FOUND, {"error": _unknown_path(self.path, "GET")})
+            self._reply(HTTPStatus.NOT_FOUND, {"error": _unknown_path(self.path, "GET")}, start)
             return
-        self._reply(HTTPStatus.OK, health(self.server.detector, self.server.model))
+        self._reply(HTTPStatus.OK, health(self.server.detector, self.server.model), start)
 
     def do_POST(self) -> None:
         start = time.perf_counter()
         if self.path != DETECT_PATH:
-            self._reply(HTTPStatus.NOT_FOUND, {"error": _unknown_path(self.path, "POST")})
+            self._reply(HTTPStatus.NOT_FOUND, {"error": _unknown_path(self.path, "POST")}, start)
             return
         try:
             body = self._body()
