@@ -185,6 +185,8 @@ MALFORMED = {
     "an intrinsic without fy": (_request(intrinsic={"fx": 1, "cx": 1, "cy": 1}), 400, "intrinsic: expected"),
     "top_k 0": (_request(top_k=0), 400, r"top_k must be an integer in \[1, "),
     "a text fit_table": (_request(fit_table="yes"), 400, "fit_table must be true or false"),
+    "fit_table with a scaled pose": (_request(fit_table=True, T_world_camera=(2 * CAMERA).tolist()), 400, "one rigid"),
+    "around without fit_table": (_request(around=[0, 0, 0]), 400, "around goes with fit_table"),
     "a viewpoint with depth": (_request(viewpoint=[1, 0, 1]), 400, "viewpoint goes with points"),
     "points in no frame": (json.dumps({"points": [[0, 0, 1]], "T_world_camera": CAMERA.tolist(), "frame": "base"}).encode(), 400, "frame must be one of world, camera"),
     "points with no pose": (json.dumps({"points": [[0, 0, 1]]}).encode(), 400, "T_world_camera or its viewpoint"),

@@ -42,7 +42,8 @@ class Detection:
             "confidence" (None for point estimates), "voxel"}``.
         warnings: the detector's warnings, e.g. why no grasp was found.
         timing_ms: milliseconds per stage (``tsdf``, ``network``, ``decode``) and ``server``,
-            from the request's arrival to its answer.
+            from the request's arrival (its body read, decoded, waiting for the lock,
+            detected) to its answer.
         T_world_workspace: with ``fit_table``, the fitted workspace cube's pose (4, 4), else
             None.
     """

@@ -28,6 +28,7 @@ import numpy as np
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.detect.files import intrinsic_from_json
 from symgrasp.perception import CameraIntrinsic, fit_table
+from symgrasp.perception.camera import is_rigid
 from symgrasp.perception.points import FRAMES
 from symgrasp.serve.protocol import (
     DETECT_PATH,
@@ -73,13 +74,17 @@ def health(detector: GraspDetector, model: str) -> dict[str, Any]:
 
 
 def answer(
-    detector: GraspDetector, body: Any, lock: threading.Lock | None = None
+    detector: GraspDetector,
+    body: Any,
+    lock: threading.Lock | None = None,
+    start: float | None = None,
 ) -> dict[str, Any]:
     """The answer to a detect request ``body`` (parsed JSON): the grasps best first, the
-    detector's stage timing, the warnings it gave, and with ``fit_table`` the fitted
+    detector's stage timing and the server's (from ``start``, `time.perf_counter` when the
+    request arrived; default now), the warnings it gave, and with ``fit_table`` the fitted
     workspace's pose. `RequestError` (or ValueError from the detector, which names its
     argument) for a request that cannot be answered. ``lock``: held around the detection."""
-    start = time.perf_counter()
+    start = time.perf_counter() if start is None else start
     if not isinstance(body, dict):
         raise RequestError(f"the request must be a JSON object, got {type(body).__name__}")
     unknown = sorted(set(body) - FIELDS)
@@ -155,8 +160,10 @@ def _table_call(
     frame of ``T`` (``T_world_camera``, whose +z is taken for up), else to the camera's."""
     if depth.ndim == 3 and len(depth) != 1:
         raise RequestError(f"fit_table takes one depth image, got {len(depth)}")
-    if T is not None and T.shape != (4, 4):
-        raise RequestError(f"T_world_camera of fit_table must be (4, 4), got shape {T.shape}")
+    if T is not None and (T.shape != (4, 4) or not is_rigid(T)):
+        raise RequestError(
+            f"T_world_camera of fit_table must be one rigid (4, 4) transform, got shape {T.shape}"
+        )
     T_frame_camera = np.eye(4) if T is None else T
     around = None
     if "around" in body:
@@ -266,7 +273,7 @@ class _Handler(BaseHTTPRequestHandler):
             return
         try:
             body = self._body()
-            reply = answer(self.server.detector, body, self.server.lock)
+            reply = answer(self.server.detector, body, self.server.lock, start)
         except ValueError as error:  # RequestError, and the detector's argument errors
             self._reply(HTTPStatus.BAD_REQUEST, {"error": str(error)}, start)
             return
