@@ -294,3 +294,16 @@ def test_base64_is_standard_base64():
     data = np.array([1.0, -2.5], dtype="<f4").tobytes()
     value = {"dtype": "float32", "shape": [2], "data": base64.standard_b64encode(data).decode()}
     assert decode_array(value, "a").tolist() == [1.0, -2.5]
+
+
+def test_a_port_already_taken_is_one_line_naming_it():
+    from symgrasp.cli import main
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        with pytest.raises(
+            SystemExit, match=f"cannot listen on 127.0.0.1:{port}: Address already in use"
+        ):
+            main(["serve", "--port", str(port), "--device", "cpu"])

@@ -54,8 +54,11 @@ def _run_serve(args: argparse.Namespace) -> None:
 
     detector = load_detector(args)
     detector.predict(torch.ones((40, 40, 40)))  # warm-up: the first request is not slower
-    server = GraspServer((args.host, args.port), detector, str(args.model),
-                         log=None if args.quiet else sys.stderr)  # fmt: skip
+    try:
+        server = GraspServer((args.host, args.port), detector, str(args.model),
+                             log=None if args.quiet else sys.stderr)  # fmt: skip
+    except OSError as error:  # the port taken, the address not this machine's
+        raise ValueError(f"cannot listen on {args.host}:{args.port}: {error.strerror}") from None
     stopped: list[str] = []
 
     def stop(signum: int, frame: object) -> None:

@@ -261,7 +261,7 @@ class GraspDetector:
         gives that image's grasps; without, a virtual camera of ``pixel_size`` [m] at the
         workspace centre. ``frame``: ``"world"`` or ``"camera"`` (the sensor's own frame,
         with ``T_world_camera``). An empty list with a visible cause comes with a
-        `NoGraspWarning`, as in `detect`."""
+        `NoGraspWarning`, as in `detect`. `timing`'s ``tsdf`` stage counts the projection."""
         start = time.perf_counter()
         depth, camera, T = points_view(
             points, T_world_camera, viewpoint=viewpoint, intrinsic=intrinsic, frame=frame,

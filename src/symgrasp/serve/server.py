@@ -300,7 +300,13 @@ class _Handler(BaseHTTPRequestHandler):
                 HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
                 f"the request has {int(length)} bytes, over the {MAX_BODY} accepted",
             )
-        data = self.rfile.read(int(length))
+        try:
+            data = self.rfile.read(int(length))
+        except TimeoutError:
+            raise _BodyError(
+                HTTPStatus.REQUEST_TIMEOUT,
+                f"the request's {length} bytes did not arrive within {REQUEST_TIMEOUT:g} s",
+            ) from None
         try:
             return json.loads(data)
         except (UnicodeDecodeError, json.JSONDecodeError) as error:
