@@ -49,6 +49,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/data.py
 	$(PY) benchmarks/model.py
 	$(PY) benchmarks/detect.py
+	$(PY) benchmarks/serve.py
 
 clean:
 	rm -rf $(VENV) build dist src/*.egg-info .pytest_cache .ruff_cache

@@ -49,6 +49,13 @@ def table_depth() -> np.ndarray:
     return np.where(depth > 0, depth, 0.0).astype(np.float32)
 
 
+def table_cloud() -> np.ndarray:
+    """The world points (N, 3) [m] of `table_depth`: the empty table as a point cloud."""
+    rays = INTRINSIC.pixel_rays() @ CAMERA[:3, :3].T
+    depth = table_depth()
+    return (CAMERA[:3, 3] + depth[..., None] * rays)[depth > 0]
+
+
 def make_files(folder: Path, wide_jaw: Path) -> Path:
     """Valid and broken input files in the folder ``folder``, by name, that the `CLI` cases
     name; the bad gripper specs are made from the spec file ``wide_jaw`` (the tests' made-up
@@ -88,6 +95,9 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     del state["model"]  # a checkpoint without its network (hand-made, or a script's)
     torch.save(state, folder / "no_network.pt")
     (folder / "garbage.npy").write_bytes(b"\x93NUMPY garbage")
+    np.save(folder / "cloud.npy", table_cloud())
+    np.save(folder / "pairs.npy", table_cloud()[:, :2])
+    (folder / "faces.ply").write_text("ply\nformat ascii 1.0\nelement face 0\nend_header\n")
     (folder / "a_file").write_text("x")
     (folder / "unrelated").mkdir()
     (folder / "unrelated" / "notes.txt").write_text("mine")
@@ -217,6 +227,9 @@ ARGUMENTS = {  # case: (argv of the `make_files` folder, text the one-line messa
     "train --train-scenes -1": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--train-scenes", "-1"], "train_scenes"),
     "detect --samples-per-voxel 10**6": (lambda d: detect_argv(d, "--samples-per-voxel", str(10**6)), "--samples-per-voxel"),
     "detect --top-k 0": (lambda d: detect_argv(d, "--top-k", "0"), "--top-k"),
+    "detect --fill-holes -1": (lambda d: detect_argv(d, "--fill-holes", "-1"), "--fill-holes"),
+    "detect --depth and --points": (lambda d: detect_argv(d, "--points", str(d / "cloud.npy")), "not allowed with argument --depth"),
+    "serve --port 70000": (lambda d: ["serve", "--port", "70000"], "--port"),
     "detect --workspace-origin nan": (lambda d: detect_argv(d, "--workspace-origin", "nan", "0", "0"), "--workspace-origin"),
     "figures percentiles --samples 10**12": (lambda d: ["figures", "percentiles", "--samples", str(10**12), "--out", str(d / "pictures")], "--samples"),
     "figures distribution --height nan": (lambda d: ["figures", "distribution", "--model", MODEL, "--height", "nan", "--out", str(d / "pictures")], "--height"),
@@ -249,6 +262,8 @@ ARGUMENTS = {  # case: (argv of the `make_files` folder, text the one-line messa
     "train --gripper a missing spec file": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--gripper", str(d / "nothing.toml")], "--gripper"),
     "demo --gripper a spec file without --model": (lambda d: ["demo", "--gripper", str(d / "wide_jaw.toml"), "--out", str(d / "pictures")], "--model"),
     "objects inspect a procedural set": (lambda d: ["objects", "inspect", "blocks"], "built in code"),
+    "detect --points without a pose": (lambda d: ["detect", "--points", str(d / "cloud.npy"), "--out", str(d / "out")], "--points needs --extrinsic or --viewpoint"),
+    "serve an unknown model": (lambda d: ["serve", "--port", "0", "--model", "bingham9d-hand"], "bingham9d-hand"),
 }  # fmt: skip
 """Bad arguments: values out of range or of no known name, options that contradict each other,
 paths that are blank, missing or of the wrong kind, gripper spec files (plain data). Each is
@@ -276,6 +291,9 @@ FILES = {  # case: (argv of the `make_files` folder, text the one-line message n
     "train on a scene file copied under another id": (lambda d: ["train", "--data", str(d / "swapped"), "--out", str(d / "r")], "scene_000001.npz holds scene 0, not 1"),
     "train on a TSDF of 39 × 40 × 40": (lambda d: ["train", "--data", str(d / "misshapen"), "--out", str(d / "r")], "tsdf has shape (39, 40, 40)"),
     "detect intrinsic without fx": (lambda d: detect_argv(d, intrinsic="no_fx.json"), "no_fx.json"),
+    "detect --points a text file": (lambda d: ["detect", "--points", str(d / "a_file"), "--viewpoint", "1", "0", "1", "--out", str(d / "out")], "must be a .npy or .ply file"),
+    "detect --points of (N, 2)": (lambda d: ["detect", "--points", str(d / "pairs.npy"), "--viewpoint", "1", "0", "1", "--out", str(d / "out")], "pairs.npy holds float64 of shape"),
+    "detect --points a PLY without vertices": (lambda d: ["detect", "--points", str(d / "faces.ply"), "--viewpoint", "1", "0", "1", "--out", str(d / "out")], "faces.ply"),
     "detect garbage depth": (lambda d: detect_argv(d, depth="garbage.npy"), "garbage.npy"),
     "detect depth in millimetres": (lambda d: detect_argv(d, depth="depth_mm.npy"), "metres"),
     "detect bool depth": (lambda d: detect_argv(d, depth="depth_bool.npy"), "depth_bool.npy holds bool"),
@@ -329,6 +347,11 @@ API = {
     "bounds NaN": (lambda d: _construct(bounds=(np.full(3, np.nan), np.ones(3))), "bounds"),
     "bounds outside the workspace": (lambda d: _construct(bounds=(np.full(3, 5.0), np.full(3, 6.0))), "bounds"),
     "extrinsic not rigid": (lambda d: d.detect(np.full((48, 64), 0.6), np.diag([50.0, 50, 1]), 2 * np.eye(4)), "extrinsic"),
+    "fill_holes=-1": (lambda d: _construct(fill_holes=-1), "fill_holes"),
+    "detect_points with a pose and a viewpoint": (lambda d: d.detect_points(table_cloud(), CAMERA, viewpoint=(1, 0, 1)), "exactly one"),
+    "detect_points of (N, 2)": (lambda d: d.detect_points(table_cloud()[:, :2], CAMERA), "points must be"),
+    "detect_points frame='base'": (lambda d: d.detect_points(table_cloud(), CAMERA, frame="base"), "frame must be one of"),
+    "fit_table of an empty image": (lambda d: __import__("symgrasp.perception", fromlist=["x"]).fit_table(np.zeros((48, 64)), INTRINSIC), "needs seen depth pixels"),
     "objects 'a,' (an empty part)": (lambda d: __import__("symgrasp.objects.sets", fromlist=["x"]).resolve("household-train,"), "empty name"),
     "objects ''": (lambda d: __import__("symgrasp.objects.sets", fromlist=["x"]).resolve(""), "empty name"),
     "unknown object set": (lambda d: __import__("symgrasp.sim", fromlist=["x"]).object_set("kitchen", 3), "household-train"),
@@ -373,6 +396,7 @@ WARNED_API = {
     "no valid depth pixel": (lambda d: d.detect(np.full((48, 64), np.nan), INTRINSIC, CAMERA), "no valid pixel"),
     "a network with NaN weights": (lambda d: _nan_network().detect(table_depth(), INTRINSIC, CAMERA), "network's output is NaN"),
     "a TSDF that shows nothing": (lambda d: d.detect_tsdf(np.ones((40, 40, 40))), "TSDF shows nothing"),
+    "a camera-frame cloud read as the world's": (lambda d: d.detect_points((table_cloud() - CAMERA[:3, 3]) @ CAMERA[:3, :3], CAMERA), "frame"),
 }  # fmt: skip
 """Valid calls that give no grasp for a cause their input shows, each ``case: (call of a detector
 of `MODEL`, text the warning names)``: each returns [] with one `NoGraspWarning` naming it."""

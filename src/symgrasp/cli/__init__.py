@@ -1,7 +1,7 @@
 """The ``symgrasp`` command: one sub-command per job, each a thin wrapper over the package.
 
 One module per command group adds its sub-commands (``add``) and runs them (`demo`,
-`objects`, `sim`, `data`, `figures`, `model`, `detect`, `bench`). A job's options are built
+`objects`, `sim`, `data`, `figures`, `model`, `detect`, `serve`, `bench`). A job's options are built
 from its configuration (`symgrasp.config`) by `fields`: every field is an option and its
 documentation is the option's help, so a new field is on the command line without an edit
 here. The options several commands share (``--objects``, ``--gripper``, ``--rep``, the
@@ -20,10 +20,10 @@ from collections.abc import Sequence
 from concurrent.futures.process import BrokenProcessPool
 from typing import NoReturn
 
-from symgrasp.cli import bench, data, demo, detect, figures, model, objects, sim
+from symgrasp.cli import bench, data, demo, detect, figures, model, objects, serve, sim
 from symgrasp.parallel import TasksFailed
 
-COMMANDS = (demo, objects, sim, data, figures, model, detect, bench)
+COMMANDS = (demo, objects, sim, data, figures, model, detect, serve, bench)
 """The command groups, in the order ``symgrasp --help`` lists their sub-commands."""
 
 

@@ -1,5 +1,6 @@
-"""``symgrasp detect`` (grasps in a depth image) and ``symgrasp export`` (a checkpoint made
-shippable): the detector's commands (`symgrasp.detect`)."""
+"""``symgrasp detect`` (grasps in a depth image or a point cloud) and ``symgrasp export`` (a
+checkpoint made shippable): the detector's commands (`symgrasp.detect`). The detector's own
+options (`add_detector_options`) are ``symgrasp serve``'s too."""
 
 from __future__ import annotations
 
@@ -29,8 +30,9 @@ def add(subparsers: argparse._SubParsersAction) -> None:
 def _add_detect(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "detect",
-        help="detect grasps in a depth image",
-        description="Fuse a depth image into the workspace TSDF, run a grasp detector and write "
+        help="detect grasps in a depth image or a point cloud",
+        description="Fuse a depth image (or a point cloud, as the depth image its camera would "
+        "take) into the workspace TSDF, run a grasp detector and write "
         "grasps.json (T_world_tcp, scores, confidences; best first), grasps.png (points and the "
         "top grasps coloured by score) and grasps.html (interactive 3-D view) into --out. The "
         "workspace is the 30 cm cube from --workspace-origin, with the table 5 cm above its "
@@ -38,38 +40,67 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
         "input shows why (no depth point inside the workspace, an implausible depth, a "
         "network output that is not finite), a 'warning:' line on stderr says which.",
     )
-    parser.add_argument(
+    given = parser.add_mutually_exclusive_group(required=True)
+    given.add_argument(
         "--depth",
         type=input_file,
-        required=True,
         help="depth image: .npy of floating-point metres, or a 16-bit .png in units of "
-        "--png-scale (millimetres by default); an 8-bit .png is refused",
+        "--png-scale (millimetres by default; 0 = no measurement); an 8-bit .png is refused",
+    )
+    given.add_argument(
+        "--points",
+        type=input_file,
+        help="point cloud [m]: .npy of (N, 3) or organised (H, W, 3) floats (NaN rows missing) "
+        "or .ply (its vertices' x, y, z), seen from --extrinsic or --viewpoint; it becomes "
+        "the depth image its camera would take, each pixel the nearest point (docs/detect.md)",
     )
     parser.add_argument(
         "--intrinsic",
         type=input_file,
-        required=True,
-        help='JSON: {"fx", "fy", "cx", "cy"[, "width", "height"]} or a 3×3 matrix',
+        help='JSON: {"fx", "fy", "cx", "cy"[, "width", "height"]} or a 3×3 matrix; needed '
+        "with --depth; with --points the sensor's camera (width and height for an unorganised "
+        "cloud), else a virtual camera",
+    )
+    pose = parser.add_mutually_exclusive_group()
+    pose.add_argument(
+        "--extrinsic", type=input_file, help="JSON: the 4×4 camera pose T_world_camera [m]"
+    )
+    pose.add_argument(
+        "--viewpoint",
+        type=number(-1e3, 1e3),
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        help="with --points instead of --extrinsic: where the camera stood [m, world frame]; "
+        "a camera there looking at the workspace centre",
     )
     parser.add_argument(
-        "--extrinsic",
-        type=input_file,
-        required=True,
-        help="JSON: the 4×4 camera pose T_world_camera [m]",
+        "--points-frame",
+        choices=("world", "camera"),
+        default="world",
+        help="the frame --points are in: world (default) or camera (the sensor's own, with "
+        "--extrinsic)",
     )
+    parser.add_argument(
+        "--png-scale",
+        type=number(1e-9, 1e3),
+        default=0.001,
+        help="metres per unit of a 16-bit --depth .png, the sensor's depth scale (default: "
+        "0.001, millimetres)",
+    )
+    parser.add_argument("--out", type=output_folder_path, required=True, help="output folder")
+    add_detector_options(parser)
+    parser.set_defaults(run=_run_detect)
+
+
+def add_detector_options(parser: argparse.ArgumentParser) -> None:
+    """The options of the detector a command loads (`symgrasp detect`, `symgrasp serve`):
+    the model and how its output is decoded; `detector_options` reads them."""
     parser.add_argument(
         "--model",
         type=parse_model,
         default="bingham2d-robotiq-2f85",
         metavar=MODEL_METAVAR,
         help="shipped model name or checkpoint path (default: bingham2d-robotiq-2f85)",
-    )
-    parser.add_argument("--out", type=output_folder_path, required=True, help="output folder")
-    parser.add_argument(
-        "--png-scale",
-        type=number(1e-9, 1e3),
-        default=0.001,
-        help="metres per unit of a 16-bit --depth .png (default: 0.001, millimetres)",
     )
     parser.add_argument(
         "--workspace-origin",
@@ -95,26 +126,23 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
         default=0,
         help="draw N closing axes per voxel from the Bingham output (default: 0, the mode)",
     )
+    parser.add_argument(
+        "--fill-holes",
+        type=integer(0, 64),
+        default=0,
+        metavar="PIXELS",
+        help="fill the depth image's holes up to PIXELS from their edge with the farthest seen "
+        "neighbour before fusion, as a real sensor leaves them at object edges (default: 0, "
+        "none; docs/detect.md)",
+    )
     parser.add_argument("--device", default="auto", help="auto, cpu or cuda (default: auto)")
-    parser.set_defaults(run=_run_detect)
 
 
-def _run_detect(args: argparse.Namespace) -> None:
-    from symgrasp.folders import PICTURES, output_folder
-
-    with output_folder(args.out, PICTURES, "--out"):  # checked before the model loads
-        _detect(args)
-
-
-def _detect(args: argparse.Namespace) -> None:
+def load_detector(args: argparse.Namespace):  # -> GraspDetector (imported here, not above)
+    """The detector `add_detector_options`'s options ask for."""
     from symgrasp.detect import GraspDetector
-    from symgrasp.detect.files import load_depth, load_extrinsic, load_intrinsic, write_detection
-    from symgrasp.perception import depth_to_points
 
-    depth = load_depth(args.depth, args.png_scale)
-    intrinsic = load_intrinsic(args.intrinsic, depth.shape)
-    extrinsic = load_extrinsic(args.extrinsic)
-    detector = GraspDetector.from_pretrained(
+    return GraspDetector.from_pretrained(
         args.model,
         device=args.device,
         validity_threshold=args.validity,
@@ -122,10 +150,62 @@ def _detect(args: argparse.Namespace) -> None:
         top_k=args.top_k,
         samples_per_voxel=args.samples_per_voxel,
         workspace_origin=tuple(args.workspace_origin),
+        fill_holes=args.fill_holes,
     )
+
+
+def _run_detect(args: argparse.Namespace) -> None:
+    from symgrasp.folders import PICTURES, output_folder
+
+    if args.depth is not None and (args.intrinsic is None or args.extrinsic is None):
+        raise ValueError("--depth needs --intrinsic and --extrinsic (its camera and pose)")
+    if args.points is not None and args.extrinsic is None and args.viewpoint is None:
+        raise ValueError("--points needs --extrinsic or --viewpoint: the rays the TSDF fuses "
+                         "start at the camera")  # fmt: skip
+    if args.depth is not None and args.viewpoint is not None:
+        raise ValueError("--viewpoint goes with --points; a depth image needs --extrinsic")
+    if args.points_frame == "camera" and args.extrinsic is None:
+        raise ValueError("--points-frame camera needs --extrinsic (a viewpoint does not fix "
+                         "the camera's axes)")  # fmt: skip
+    with output_folder(args.out, PICTURES, "--out"):  # checked before the model loads
+        _detect(args)
+
+
+def _detect(args: argparse.Namespace) -> None:
+    from symgrasp.detect.files import (
+        load_depth,
+        load_extrinsic,
+        load_intrinsic,
+        load_points,
+        write_detection,
+    )
+    from symgrasp.perception import depth_to_points, points_view
+
+    extrinsic = None if args.extrinsic is None else load_extrinsic(args.extrinsic)
+    if args.depth is not None:
+        depth = load_depth(args.depth, args.png_scale)
+        intrinsic = load_intrinsic(args.intrinsic, depth.shape)
+    else:
+        points = load_points(args.points)
+        intrinsic = None
+        if args.intrinsic is not None:
+            intrinsic = load_intrinsic(
+                args.intrinsic, points.shape[:2] if points.ndim == 3 else None
+            )
+    detector = load_detector(args)
     with warnings.catch_warnings(record=True) as caught:  # one line each, as errors are
         warnings.simplefilter("always")
-        grasps = detector.detect(depth, intrinsic, extrinsic)
+        if args.depth is not None:
+            grasps = detector.detect(depth, intrinsic, extrinsic)
+        else:
+            grasps = detector.detect_points(
+                points, extrinsic, viewpoint=args.viewpoint, intrinsic=intrinsic,
+                frame=args.points_frame,
+            )  # fmt: skip
+            depth, intrinsic, extrinsic = points_view(
+                points, extrinsic, viewpoint=args.viewpoint, intrinsic=intrinsic,
+                frame=args.points_frame, origin=detector.origin,
+            )  # fmt: skip
     for warning in caught:
         print(f"warning: {warning.message}", file=sys.stderr)
     volume = detector.fuse(depth, intrinsic, extrinsic)  # again, for the pictures

@@ -34,6 +34,8 @@ from symgrasp.model.checkpoint import load_model, trained_gripper
 from symgrasp.model.network import GraspNet
 from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, rank_voxels
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, depth_to_points
+from symgrasp.perception.camera import is_rigid
+from symgrasp.perception.points import DEFAULT_PIXEL_SIZE, fill_holes, points_view
 from symgrasp.sim.grippers import GripperSpec, same_name_note
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE, WORKSPACE_SIZE
 
@@ -42,6 +44,9 @@ Tensor = torch.Tensor
 
 MAX_SAMPLES_PER_VOXEL = 1000
 """Most closing axes drawn per voxel (each is one grasp)."""
+
+MAX_FILL_HOLES = 64
+"""Most pixels ``fill_holes`` reaches into a hole from its edge."""
 
 MAX_MEDIAN_DEPTH = 10.0
 """[m] a depth image whose median is farther than this is taken for one in other units."""
@@ -84,6 +89,10 @@ class GraspDetector:
             predicted distribution (Bingham representations only).
         workspace_origin: world position [m] of the workspace cube's corner; the table top is
             expected 5 cm above it, as in training (docs/sim.md).
+        fill_holes: fill the holes of every depth image up to this many pixels from their edge
+            with the farthest seen neighbour before fusion (`symgrasp.perception.fill_holes`:
+            the missing pixels a real sensor leaves at object edges); 0 fuses the images as
+            they are.
         seed: seed of ``samples_per_voxel``'s draws.
         device: ``"auto"``, ``"cpu"``, ``"cuda"``, … where TSDF and network run.
         info: the checkpoint's metadata (shown by `repr`, kept for model cards).
@@ -101,6 +110,7 @@ class GraspDetector:
         bounds: tuple[np.ndarray, np.ndarray] | None = None,
         samples_per_voxel: int = 0,
         workspace_origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        fill_holes: int = 0,
         seed: int = 0,
         device: str | torch.device = "auto",
         info: dict[str, Any] | None = None,
@@ -127,6 +137,7 @@ class GraspDetector:
             check_range("top_k", top_k, 1, RESOLUTION**3 * MAX_SAMPLES_PER_VOXEL)
         check_range("samples_per_voxel", samples_per_voxel, 0, MAX_SAMPLES_PER_VOXEL)
         check_range("seed", seed, 0, SEED_MAX)
+        check_range("fill_holes", fill_holes, 0, MAX_FILL_HOLES)
         origin = np.asarray(workspace_origin, dtype=float)
         if origin.shape != (3,) or not np.isfinite(origin).all():
             raise ValueError(
@@ -146,6 +157,7 @@ class GraspDetector:
         self.top_k = top_k
         self.bounds = None if bounds is None else _check_bounds(bounds)
         self.samples_per_voxel = int(samples_per_voxel)
+        self.fill_holes = int(fill_holes)
         self.origin = origin
         self.voxel_size = VOXEL_SIZE
         if self.bounds is not None and not self._inside_bounds().any():
@@ -202,10 +214,12 @@ class GraspDetector:
         """The workspace TSDF of depth images ``depth`` (H, W) or (V, H, W) [m] taken by
         cameras ``intrinsic`` (a `CameraIntrinsic` or a 3×3 matrix) at ``extrinsic``
         ``T_world_camera`` (4, 4) or (V, 4, 4). NaN, inf and non-positive pixels count as
-        missing."""
+        missing (their holes filled first with ``fill_holes``)."""
         return self._fuse(*_views(depth, intrinsic, extrinsic))
 
     def _fuse(self, views: np.ndarray, intrinsic: CameraIntrinsic, T: np.ndarray) -> TSDFVolume:
+        if self.fill_holes:
+            views = np.stack([fill_holes(view, self.fill_holes) for view in views])
         volume = TSDFVolume(resolution=RESOLUTION, origin=tuple(self.origin), device=self.device)
         volume.integrate(views, intrinsic, T)
         return volume
@@ -224,13 +238,52 @@ class GraspDetector:
         `MIN_MEDIAN_DEPTH`, a non-finite network output) comes with a `NoGraspWarning`."""
         start = time.perf_counter()
         views = _views(depth, intrinsic, extrinsic)
+        grasps, out = self._detect_views(views, start)
+        if not grasps:
+            _warn_no_grasp(_output_cause(out), self._depth_cause(*views))
+        return grasps
+
+    def detect_points(
+        self,
+        points: np.ndarray,
+        T_world_camera: np.ndarray | None = None,
+        *,
+        viewpoint: np.ndarray | None = None,
+        intrinsic: CameraIntrinsic | np.ndarray | None = None,
+        frame: str = "world",
+        pixel_size: float = DEFAULT_PIXEL_SIZE,
+    ) -> list[Grasp]:
+        """Ranked grasps from a point cloud ``points`` (N, 3) or organised (H, W, 3) [m]
+        seen from ``T_world_camera`` (4, 4) or, if only that is known, from ``viewpoint`` (3,)
+        [m]. The cloud becomes the depth image its camera would take (a z-buffer: each pixel
+        keeps the nearest point; `symgrasp.perception.points` states the rule), fused as in
+        `detect`: with the sensor's ``intrinsic`` a cloud back-projected from a depth image
+        gives that image's grasps; without, a virtual camera of ``pixel_size`` [m] at the
+        workspace centre. ``frame``: ``"world"`` or ``"camera"`` (the sensor's own frame,
+        with ``T_world_camera``). An empty list with a visible cause comes with a
+        `NoGraspWarning`, as in `detect`. `timing`'s ``tsdf`` stage counts the projection."""
+        start = time.perf_counter()
+        depth, camera, T = points_view(
+            points, T_world_camera, viewpoint=viewpoint, intrinsic=intrinsic, frame=frame,
+            origin=self.origin, pixel_size=pixel_size,
+        )  # fmt: skip
+        views = _views(depth, camera, T)
+        grasps, out = self._detect_views(views, start)
+        if not grasps:
+            seen = _points_cause(points, depth) or self._depth_cause(*views, POINTS_HINT)
+            _warn_no_grasp(_output_cause(out), seen)
+        return grasps
+
+    def _detect_views(
+        self, views: tuple[np.ndarray, CameraIntrinsic, np.ndarray], start: float
+    ) -> tuple[list[Grasp], dict[str, Tensor]]:
+        """The grasps of checked ``views`` (`_views`) and the network's outputs; `timing`
+        counts the TSDF stage from ``start`` (`time.perf_counter`)."""
         volume = self._fuse(*views)
         tsdf_ms = _ms_since(start, self.device)
         grasps, out = self._detect(volume.grid())
         self.timing = {"tsdf": tsdf_ms, **self.timing}
-        if not grasps:
-            _warn_no_grasp(_output_cause(out), self._depth_cause(*views))
-        return grasps
+        return grasps, out
 
     @torch.no_grad()
     def predict(self, tsdf: np.ndarray | Tensor) -> dict[str, Tensor]:
@@ -267,11 +320,12 @@ class GraspDetector:
         return grasps, out
 
     def _depth_cause(
-        self, views: np.ndarray, intrinsic: CameraIntrinsic, T: np.ndarray
+        self, views: np.ndarray, intrinsic: CameraIntrinsic, T: np.ndarray, hint: str = ""
     ) -> str | None:
         """Why depth images ``views`` (V, H, W) [m, 0 = missing] plainly hold nothing to
         grasp, or None: no pixel seen, a median depth under `MIN_MEDIAN_DEPTH`, no point inside
-        the workspace cube (the message says where the points are instead)."""
+        the workspace cube (the message says where the points are instead, and what to check,
+        ``hint`` added)."""
         seen = views[views > 0]
         if not seen.size:
             return "the depth image has no valid pixel (each is NaN, infinite or ≤ 0)"
@@ -293,7 +347,7 @@ class GraspDetector:
             f"{_xyz(np.median(points, axis=0))} m at a median depth of {median:.3g} m{near or '.'} "
             "Check that the depth is in metres (for a PNG: its scale), that the extrinsic is "
             "T_world_camera (the camera's pose in the world, not its inverse) and the workspace "
-            "origin"
+            f"origin{hint}"
         )
 
     def _decode(self, out: dict[str, Tensor]) -> list[Grasp]:
@@ -361,6 +415,27 @@ def _output_cause(out: dict[str, Tensor]) -> str | None:
     return (
         f"the network's output is NaN or infinite in {int(bad.sum())} of {bad.numel()} voxels "
         "(weights that are not finite, or ones that overflow): check the model"
+    )
+
+
+POINTS_HINT = "; for a point cloud, also the frame it is in (frame='world' or 'camera')"
+"""What else to check when a point cloud's points miss the workspace."""
+
+
+def _points_cause(points: np.ndarray, depth: np.ndarray) -> str | None:
+    """The cloud ``points`` giving an empty depth image ``depth`` (its camera saw none of
+    them), or None."""
+    if (depth > 0).any():
+        return None
+    cloud = np.asarray(points, dtype=float).reshape(-1, 3)
+    finite = cloud[np.isfinite(cloud).all(axis=1)]
+    if not len(finite):
+        return f"none of the {len(cloud)} points is finite (each has a NaN or infinite coordinate)"
+    return (
+        f"none of the {len(finite)} finite points lies in the camera's view of the workspace (in "
+        f"front of the camera and inside its image); they lie around "
+        f"{_xyz(np.median(finite, axis=0))} m. Check the frame the points are in (frame='world' "
+        "or 'camera') and that the pose is T_world_camera, not its inverse"
     )
 
 
@@ -462,7 +537,7 @@ def _as_intrinsic(
     K = np.asarray(intrinsic, dtype=float)
     if K.shape != (3, 3):
         raise ValueError(f"intrinsic must be a CameraIntrinsic or 3×3 matrix, got shape {K.shape}")
-    return CameraIntrinsic(width, height, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+    return CameraIntrinsic.from_matrix(K, width, height)
 
 
 def _check_extrinsic(extrinsic: np.ndarray | Tensor, views: int) -> np.ndarray:
@@ -475,14 +550,7 @@ def _check_extrinsic(extrinsic: np.ndarray | Tensor, views: int) -> np.ndarray:
             f"extrinsic must be T_world_camera (4, 4) or ({views}, 4, 4) for {views} depth "
             f"image(s), got shape {T.shape}"
         )
-    R = T[:, :3, :3]
-    rigid = (
-        np.allclose(R @ R.transpose(0, 2, 1), np.eye(3), atol=1e-4)
-        and np.allclose(np.linalg.det(R), 1.0, atol=1e-4)
-        and np.allclose(T[:, 3], [0, 0, 0, 1])
-        and np.isfinite(T).all()
-    )
-    if not rigid:
+    if not is_rigid(T):
         raise ValueError(
             f"extrinsic of shape {T.shape} is not a rigid transform: its rotation block must be "
             "orthonormal with det +1 and its last row (0, 0, 0, 1)"

@@ -79,6 +79,93 @@ def load_depth(path: str | Path, png_scale: float = 0.001) -> np.ndarray:
     return (raw.astype(np.float64) * scale).astype(np.float32)
 
 
+PLY_TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+    "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}  # fmt: skip
+"""PLY's scalar property types (Turk's format, 1994, and its newer names) as numpy's."""
+
+PLY_FORMATS = {"ascii": None, "binary_little_endian": "<", "binary_big_endian": ">"}
+
+
+def load_points(path: str | Path) -> np.ndarray:
+    """A point cloud [m] from ``.npy`` (floats, (N, 3) or organised (H, W, 3); NaN rows are
+    missing points) or ``.ply`` (the x, y, z of its vertices, the first element; ASCII or
+    binary), as float64 (N, 3) or (H, W, 3). ValueError naming the file otherwise."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"points: no file at {path}")
+    if path.suffix not in (".npy", ".ply"):
+        raise ValueError(f"points must be a .npy or .ply file, got {path}")
+    try:
+        cloud = np.load(path) if path.suffix == ".npy" else _read_ply(path)
+    except (OSError, ValueError, EOFError, TypeError, IndexError) as err:  # a broken file
+        raise ValueError(f"points: cannot read a point cloud from {path} ({err})") from None
+    if (
+        not np.issubdtype(cloud.dtype, np.floating)
+        or cloud.ndim not in (2, 3)
+        or cloud.shape[-1] != 3
+    ):
+        raise ValueError(
+            f"points {path} holds {cloud.dtype} of shape {cloud.shape}; a point cloud is "
+            "floating-point metres of shape (N, 3) or organised (H, W, 3)"
+        )
+    return cloud.astype(np.float64)
+
+
+def _read_ply(path: Path) -> np.ndarray:
+    """The (N, 3) vertex positions of a PLY file (ValueError for what it cannot read)."""
+    with open(path, "rb") as file:
+        if file.readline().strip() != b"ply":
+            raise ValueError("not a PLY file (no 'ply' first line)")
+        fmt, elements = None, []
+        while True:
+            line = file.readline()
+            if not line:
+                raise ValueError("the header has no end_header")
+            words = line.decode("ascii").split()
+            if not words or words[0] in ("comment", "obj_info"):
+                continue
+            if words[0] == "end_header":
+                break
+            if words[0] == "format":
+                fmt = words[1]
+            elif words[0] == "element":
+                elements.append((words[1], int(words[2]), []))
+            elif words[0] == "property" and elements:
+                if words[1] == "list":
+                    elements[-1][2].append((words[-1], None))
+                else:
+                    elements[-1][2].append((words[2], words[1]))
+        if fmt not in PLY_FORMATS:
+            raise ValueError(f"format {fmt!r} is not one of {', '.join(PLY_FORMATS)}")
+        if not elements or elements[0][0] != "vertex":
+            raise ValueError("its first element must be vertex")
+        _, count, properties = elements[0]
+        names = [name for name, _ in properties]
+        if not {"x", "y", "z"} <= set(names) or any(kind is None for _, kind in properties):
+            raise ValueError(
+                f"its vertices must have scalar properties x, y, z, got {', '.join(names)}"
+            )
+        if fmt == "ascii":
+            rows = [file.readline().split() for _ in range(count)]
+            if any(len(row) < len(names) for row in rows):
+                raise ValueError(f"fewer than {count} vertex lines of {len(names)} values")
+            table = np.array([r[: len(names)] for r in rows], dtype=np.float64).reshape(count, -1)
+            return table[:, [names.index(axis) for axis in "xyz"]]
+        unknown = sorted({kind for _, kind in properties} - set(PLY_TYPES))
+        if unknown:
+            raise ValueError(f"unknown property type {', '.join(unknown)}")
+        order = PLY_FORMATS[fmt]
+        dtype = np.dtype([(name, order + PLY_TYPES[kind]) for name, kind in properties])
+        data = file.read(dtype.itemsize * count)
+        if len(data) != dtype.itemsize * count:
+            raise ValueError(f"the file ends before its {count} vertices")
+        vertices = np.frombuffer(data, dtype=dtype)
+        return np.stack([vertices[axis].astype(np.float64) for axis in "xyz"], axis=1)
+
+
 def _load_json(path: str | Path, what: str) -> Any:
     path = Path(path)
     try:
@@ -87,25 +174,33 @@ def _load_json(path: str | Path, what: str) -> Any:
         raise ValueError(f"{what}: cannot read JSON from {path}: {error}") from error
 
 
-def load_intrinsic(path: str | Path, shape: tuple[int, int]) -> CameraIntrinsic:
-    """The camera intrinsic of images of ``shape`` (H, W) from a JSON file."""
-    data = _load_json(path, "intrinsic")
+def load_intrinsic(path: str | Path, shape: tuple[int, int] | None) -> CameraIntrinsic:
+    """The camera intrinsic of images of ``shape`` (H, W) from a JSON file (None: the file
+    must say the size)."""
+    return intrinsic_from_json(_load_json(path, "intrinsic"), shape, f"intrinsic {path}")
+
+
+def intrinsic_from_json(data: Any, shape: tuple[int, int] | None, what: str) -> CameraIntrinsic:
+    """The camera intrinsic in JSON data ``data``: ``{"fx", "fy", "cx", "cy"[, "width",
+    "height"]}`` or a 3×3 matrix, bare or under ``"K"``, of images of ``shape`` (H, W) (None:
+    the size must be in ``data``). ValueError starting with ``what`` otherwise."""
+    expected = (
+        'expected {"fx", "fy", "cx", "cy"[, "width", "height"]} or a 3×3 matrix (bare or under "K")'
+    )
     try:
         if isinstance(data, dict) and "K" not in data:
+            size = shape or (data["height"], data["width"])
             return CameraIntrinsic(
-                int(data.get("width", shape[1])),
-                int(data.get("height", shape[0])),
+                int(data.get("width", size[1])),
+                int(data.get("height", size[0])),
                 *(float(data[k]) for k in ("fx", "fy", "cx", "cy")),
             )
+        if shape is None:
+            raise ValueError("a 3×3 matrix does not say the image size: give width and height")
         K = np.asarray(data["K"] if isinstance(data, dict) else data, dtype=float)
-        if K.shape != (3, 3):
-            raise ValueError(f"a 3×3 matrix is needed, got shape {K.shape}")
-        return CameraIntrinsic(shape[1], shape[0], K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+        return CameraIntrinsic.from_matrix(K, shape[1], shape[0])
     except (KeyError, TypeError, ValueError) as err:
-        raise ValueError(
-            f'intrinsic {path}: expected {{"fx", "fy", "cx", "cy"[, "width", "height"]}} or a '
-            f'3×3 matrix (bare or under "K"); {type(err).__name__}: {err}'
-        ) from None
+        raise ValueError(f"{what}: {expected}; {type(err).__name__}: {err}") from None
 
 
 def load_extrinsic(path: str | Path) -> np.ndarray:
@@ -121,17 +216,6 @@ def load_extrinsic(path: str | Path) -> np.ndarray:
     if T.shape != (4, 4):
         raise ValueError(f"extrinsic {path}: expected a 4×4 matrix, got shape {T.shape}")
     return T
-
-
-def grasp_record(grasp: Grasp) -> dict[str, Any]:
-    """A grasp as plain JSON data."""
-    return {
-        "T_world_tcp": np.round(grasp.pose, 6).tolist(),
-        "score": round(grasp.score, 4),
-        "validity": round(grasp.validity, 4),
-        "confidence": None if grasp.confidence is None else round(grasp.confidence, 2),
-        "voxel": list(grasp.voxel),
-    }
 
 
 def write_detection(
@@ -151,7 +235,7 @@ def write_detection(
         "representation": detector.representation.name,
         "gripper": detector.gripper.name,
         "timing_ms": detector.timing,
-        "grasps": [grasp_record(g) for g in grasps],
+        "grasps": [g.record() for g in grasps],
     }
     paths = {"json": out / "grasps.json", "png": out / "grasps.png", "html": out / "grasps.html"}
     paths["json"].write_text(json.dumps(meta, indent=1))

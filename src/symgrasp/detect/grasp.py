@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -43,6 +44,26 @@ class Grasp:
     def closing_axis(self) -> np.ndarray:
         """The closing axis e_z (3,) (its sign is arbitrary: the gripper is symmetric)."""
         return self.pose[:3, 2]
+
+    def record(self) -> dict[str, Any]:
+        """The grasp as plain JSON data (``grasps.json``, the grasp server's answers): the pose
+        to the µm, scores to 4 decimals, the confidence to 2."""
+        return {
+            "T_world_tcp": np.round(self.pose, 6).tolist(),
+            "score": round(self.score, 4),
+            "validity": round(self.validity, 4),
+            "confidence": None if self.confidence is None else round(self.confidence, 2),
+            "voxel": list(self.voxel),
+        }
+
+    def transformed(self, T_frame_world: np.ndarray) -> Grasp:
+        """The same grasp with its pose in another frame: ``T_frame_world @ pose``, e.g.
+        ``T_base_workspace`` to take a grasp detected on a fitted table
+        (`symgrasp.perception.fit_table`) to the robot's base. Scores and the voxel stay."""
+        T = np.asarray(T_frame_world, dtype=float)
+        if T.shape != (4, 4):
+            raise ValueError(f"T_frame_world must be 4×4, got shape {T.shape}")
+        return replace(self, pose=T @ self.pose)
 
     def approach_trajectory(
         self, pregrasp_distance: float = PREGRASP_DISTANCE, lift_height: float = LIFT_HEIGHT

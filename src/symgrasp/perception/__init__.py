@@ -1,4 +1,5 @@
-"""Perception on the robot's side: pinhole camera, depth noise, TSDF fusion.
+"""Perception on the robot's side: pinhole camera, depth noise, TSDF fusion, point clouds as
+depth images.
 
 Nothing here knows the simulator: depth images of the simulated world come from
 `symgrasp.sim.render`.
@@ -11,13 +12,19 @@ from symgrasp.perception.camera import (
     look_at,
 )
 from symgrasp.perception.noise import add_depth_noise
+from symgrasp.perception.points import fill_holes, points_view
+from symgrasp.perception.table import TableFit, fit_table
 from symgrasp.perception.tsdf import TSDFVolume
 
 __all__ = [
     "CameraIntrinsic",
     "TSDFVolume",
+    "TableFit",
     "add_depth_noise",
     "default_extrinsic",
     "depth_to_points",
+    "fill_holes",
+    "fit_table",
     "look_at",
+    "points_view",
 ]

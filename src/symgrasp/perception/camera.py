@@ -37,6 +37,15 @@ class CameraIntrinsic:
         if not np.isfinite([self.cx, self.cy]).all():
             raise ValueError(f"cx and cy must be finite, got {self.cx}, {self.cy}")
 
+    @classmethod
+    def from_matrix(cls, K: np.ndarray, width: int, height: int) -> CameraIntrinsic:
+        """The camera of images ``width`` × ``height`` [px] with calibration matrix ``K``
+        (3, 3) (OpenCV's: fx, fy on the diagonal, cx, cy in the last column)."""
+        K = np.asarray(K, dtype=float)
+        if K.shape != (3, 3):
+            raise ValueError(f"a camera matrix must be 3×3, got shape {K.shape}")
+        return cls(int(width), int(height), K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+
     @property
     def K(self) -> np.ndarray:
         """The 3×3 calibration matrix."""
@@ -79,6 +88,27 @@ def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray = (0.0, 0.0, 1.0
     T[:3, :3] = np.c_[x, np.cross(z, x), z]
     T[:3, 3] = eye
     return T
+
+
+def vector3(value: np.ndarray, name: str) -> np.ndarray:
+    """``value`` as 3 finite floats; ValueError naming the argument ``name`` otherwise."""
+    vector = np.asarray(value, dtype=float)
+    if vector.shape != (3,) or not np.isfinite(vector).all():
+        raise ValueError(f"{name} must be 3 finite numbers, got {value!r}")
+    return vector
+
+
+def is_rigid(T: np.ndarray, tolerance: float = 1e-4) -> bool:
+    """Whether every transform of ``T`` (..., 4, 4) is rigid: finite, its rotation block
+    orthonormal with det +1 (within ``tolerance``) and its last row (0, 0, 0, 1)."""
+    T = np.asarray(T, dtype=float)
+    R = T[..., :3, :3]
+    return bool(
+        np.isfinite(T).all()
+        and np.allclose(R @ np.swapaxes(R, -1, -2), np.eye(3), atol=tolerance)
+        and np.allclose(np.linalg.det(R), 1.0, atol=tolerance)
+        and np.allclose(T[..., 3, :], [0, 0, 0, 1])
+    )
 
 
 def default_extrinsic(offset: np.ndarray = DEFAULT_EYE_OFFSET) -> np.ndarray:

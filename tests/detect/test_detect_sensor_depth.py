@@ -1,0 +1,94 @@
+"""Depth as real sensors give it, through the detection path: 16-bit PNGs in millimetres or
+other units of a depth scale, invalid zeros, holes at object edges (and ``fill_holes``)."""
+
+import numpy as np
+import pytest
+from scipy.ndimage import binary_dilation
+
+from symgrasp.detect import GraspDetector
+from symgrasp.detect.files import load_depth, save_png_depth
+from symgrasp.perception import CameraIntrinsic, default_extrinsic
+from symgrasp.sim.objects import object_set
+from symgrasp.sim.render import make_renderer
+from symgrasp.sim.world import pile_scene
+
+SMALL = CameraIntrinsic().scaled(0.5)  # 320 × 240
+T = default_extrinsic()
+
+
+@pytest.fixture(scope="module")
+def detector():
+    return GraspDetector.from_pretrained("bingham2d-robotiq-2f85", device="cpu")
+
+
+@pytest.fixture(scope="module")
+def depth(detector):
+    world = pile_scene(object_set("household-test", 5, seed=0), seed=0, gripper=detector.gripper)
+    return make_renderer(SMALL).render(world, T)
+
+
+def _near(grasp, grasps, voxels=1, degrees=25.0) -> bool:
+    return any(
+        max(abs(np.subtract(grasp.voxel, other.voxel))) <= voxels
+        and grasp.approach @ other.approach >= np.cos(np.radians(degrees))
+        for other in grasps
+    )
+
+
+@pytest.mark.parametrize("scale", [0.001, 0.0001])  # millimetres; 0.1 mm (e.g. RealSense D405)
+def test_a_16_bit_png_with_its_depth_scale_gives_the_metres_grasps(
+    detector, depth, scale, tmp_path
+):
+    path = save_png_depth(tmp_path / "depth.png", depth, png_scale=scale)
+    read = load_depth(path, png_scale=scale)
+    assert np.abs(read - depth).max() <= scale / 2 + 1e-6  # rounding to the unit, no more
+    expected = detector.detect(depth, SMALL, T)
+    got = detector.detect(read, SMALL, T)
+    assert len(got) == len(expected) >= 2
+    assert all(_near(g, expected) for g in got)
+
+
+def test_zeros_in_a_png_are_missing_pixels_like_nan(detector, depth, tmp_path):
+    holed = depth.copy()
+    holed[60:120, 100:200] = 0.0  # a patch the sensor did not measure, on the pile
+    path = save_png_depth(tmp_path / "depth.png", holed)
+    read = load_depth(path)
+    assert (read[60:120, 100:200] == 0).all()
+    as_nan = np.where(holed > 0, np.round(depth * 1000) / 1000, np.nan).astype(np.float32)
+    assert np.array_equal(
+        detector.fuse(read, SMALL, T).grid(), detector.fuse(as_nan, SMALL, T).grid()
+    )
+    got = [g.voxel for g in detector.detect(read, SMALL, T)]
+    assert got == [g.voxel for g in detector.detect(as_nan, SMALL, T)]
+    # a voxel whose only view is a missing pixel is unobserved: weight 0, read as free (1)
+    volume = detector.fuse(read, SMALL, T)
+    seen_before = detector.fuse(depth, SMALL, T).weight > 0
+    lost = seen_before & (volume.weight == 0)
+    assert lost.any() and (volume.tsdf[lost] == 1).all()
+
+
+def edge_holes(depth: np.ndarray, jump: float = 0.02, width: int = 2) -> np.ndarray:
+    """``depth`` with the pixels within ``width`` of a depth jump over ``jump`` [m] between
+    neighbours dropped (0), as a stereo or structured-light sensor drops them."""
+    edge = np.zeros(depth.shape, dtype=bool)
+    rows, cols = np.abs(np.diff(depth, axis=0)) > jump, np.abs(np.diff(depth, axis=1)) > jump
+    edge[1:] |= rows
+    edge[:-1] |= rows
+    edge[:, 1:] |= cols
+    edge[:, :-1] |= cols
+    return np.where(binary_dilation(edge, iterations=width), 0.0, depth).astype(np.float32)
+
+
+def test_filling_edge_holes_brings_the_tsdf_back_towards_the_whole_images(detector, depth):
+    """Against the TSDF of the image without holes, filling them (farthest neighbour first)
+    at least halves the voxels that are off by more than half the truncation."""
+    holed = edge_holes(depth)
+    assert 0.02 < np.mean((holed == 0) & (depth > 0)) < 0.2
+    whole = detector.fuse(depth, SMALL, T).grid()
+    off = {}
+    for pixels in (0, 2):
+        filling = GraspDetector(detector.model, detector.gripper, fill_holes=pixels, device="cpu")
+        off[pixels] = int(((filling.fuse(holed, SMALL, T).grid() - whole).abs() > 0.5).sum())
+    assert off[2] < off[0] / 2
+    with pytest.raises(ValueError, match="fill_holes"):
+        GraspDetector(detector.model, detector.gripper, fill_holes=-1)
