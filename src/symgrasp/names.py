@@ -50,6 +50,10 @@ PRETRAINED = (
 """Models shipped with the package (`symgrasp.detect.pretrained`): the paper's detector for
 each built-in hand, then seed 0 of each baseline cell of Table 1 (`docs/models.md`)."""
 
+PEERS = ("vgn",)
+"""Other people's detectors that symgrasp runs from their published weights in the data folder
+(`symgrasp.peers`): VGN's network (Breyer et al., CoRL 2020)."""
+
 BACKENDS = ("process", "ray")
 """Where the tasks of data generation and benchmarks run (`symgrasp.parallel`): a pool of
 local processes, or a Ray cluster (the optional extra ``cluster``)."""

@@ -5,9 +5,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
+import sys
 
 from symgrasp.cli.fields import add_config_options, config_from_args
+from symgrasp.arguments import sentence
 from symgrasp.cli.options import (
+    PLANNER_METAVAR,
     PROBABILITY,
     add_confidence_options,
     add_shared,
@@ -15,6 +19,7 @@ from symgrasp.cli.options import (
     output_path,
 )
 from symgrasp.config import DEFAULT_VALIDITY, BenchmarkConfig
+from symgrasp.fields import field_docs
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 
@@ -50,7 +55,16 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "(refused if --out holds a run of another configuration)",
     )
     add_parallel_options(declutter, "rounds")
-    add_config_options(declutter, BenchmarkConfig, skip=("options",))
+    declutter.add_argument(
+        "--model",
+        "--planner",
+        dest="model",
+        default=BenchmarkConfig.model,
+        metavar=PLANNER_METAVAR,
+        help=sentence(field_docs(BenchmarkConfig)["model"])
+        + f" (default: {BenchmarkConfig.model})",
+    )
+    add_config_options(declutter, BenchmarkConfig, skip=("model", "options"))
     add_confidence_options(declutter)
     declutter.add_argument(
         "--validity",
@@ -67,8 +81,9 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     add_shared(
         declutter,
         "gripper",
-        "refuse to run unless --model was trained for this gripper, a built-in's name or a spec "
-        "file (the model's gripper, stored in it, is the one simulated)",
+        "the hand, a built-in's name or a spec file: for vgn (default: franka) and your own "
+        "planner function, the hand simulated; for a model, a guard: refuse to run unless "
+        "--model was trained for it (its gripper, stored in it, is the one simulated)",
     )
     declutter.set_defaults(run=_run_declutter)
     compare = actions.add_parser(
@@ -93,15 +108,26 @@ def _run_compare(args: argparse.Namespace) -> None:
 
 def _run_declutter(args: argparse.Namespace) -> None:
     from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark
+    from symgrasp.peers.planners import planner_kind
 
+    kind = planner_kind(args.model)
     threshold = confidence_threshold(args)
     options = () if threshold is None else (("confidence_threshold", threshold),)
     if args.validity is not None:
         options += (("validity_threshold", args.validity),)
+    if kind != "model":
+        if options or args.representation is not None:
+            raise SystemExit(
+                f"error: --validity, --confidence, --no-confidence and --rep are a trained "
+                f"model's; --model {args.model} takes none of them"
+            )
+        options = () if args.gripper is None else (("gripper", args.gripper),)
+    if kind == "plugin" and os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())  # the planner's module, found as `python -m` finds it
     config = dataclasses.replace(config_from_args(BenchmarkConfig, args), options=options)
     parallel = parallel_from_args(args)
     check_out(config, args.out, args.resume)  # before the model loads
-    if args.representation is not None or args.gripper is not None:
+    if kind == "model" and (args.representation is not None or args.gripper is not None):
         from symgrasp.detect.pretrained import trained_for
         from symgrasp.sim.grippers import get_gripper, same_name_note
 

@@ -9,9 +9,10 @@ import warnings
 
 from symgrasp.arguments import integer, number
 from symgrasp.cli.options import (
-    MODEL_METAVAR,
+    PLANNER_METAVAR,
     PROBABILITY,
     add_confidence_options,
+    add_shared,
     confidence_threshold,
     output_path,
 )
@@ -51,9 +52,19 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--model",
+        "--planner",
+        dest="model",
         default="bingham2d-robotiq-2f85",
-        metavar=MODEL_METAVAR,
-        help="shipped model name or checkpoint path (default: bingham2d-robotiq-2f85)",
+        metavar=PLANNER_METAVAR,
+        help="shipped model name, checkpoint path, vgn (VGN's network, its weights in the data "
+        "folder: docs/peers.md) or your own planner as package.module:NAME (docs/benchmark.md) "
+        "(default: bingham2d-robotiq-2f85)",
+    )
+    add_shared(
+        parser,
+        "gripper",
+        "the hand the grasps are for, a built-in's name or a spec file: for vgn (default: "
+        "franka) and your own planner function; a model decides its own",
     )
     parser.add_argument("--out", type=output_path, required=True, help="output folder")
     parser.add_argument(
@@ -98,32 +109,88 @@ def _run_detect(args: argparse.Namespace) -> None:
 
 
 def _detect(args: argparse.Namespace) -> None:
-    from symgrasp.detect import GraspDetector
+    from symgrasp.detect.detector import check_views
     from symgrasp.detect.files import load_depth, load_extrinsic, load_intrinsic, write_detection
+    from symgrasp.detect.planner import Observation
     from symgrasp.perception import depth_to_points
 
     depth = load_depth(args.depth, args.png_scale)
     intrinsic = load_intrinsic(args.intrinsic, depth.shape)
     extrinsic = load_extrinsic(args.extrinsic)
-    detector = GraspDetector.from_pretrained(
-        args.model,
-        device=args.device,
-        validity_threshold=args.validity,
-        confidence_threshold=confidence_threshold(args),
-        top_k=args.top_k,
-        samples_per_voxel=args.samples_per_voxel,
-        workspace_origin=tuple(args.workspace_origin),
-    )
+    planner = _planner(args)
     with warnings.catch_warnings(record=True) as caught:  # one line each, as errors are
         warnings.simplefilter("always")
-        grasps = detector.detect(depth, intrinsic, extrinsic)
+        if hasattr(planner, "detect"):  # a detector, VGN: their own input checks and timing
+            grasps = planner.detect(depth, intrinsic, extrinsic)
+        else:
+            grasps = list(planner.plan(Observation(*check_views(depth, intrinsic, extrinsic))))
     for warning in caught:
         print(f"warning: {warning.message}", file=sys.stderr)
-    volume = detector.fuse(depth, intrinsic, extrinsic)  # again, for the pictures
-    points = depth_to_points(depth, intrinsic, extrinsic, origin=detector.origin)
-    paths = write_detection(args.out, detector, volume, grasps, points)
+    grasps = grasps[: args.top_k]
+    origin = getattr(planner, "origin", (0.0, 0.0, 0.0))
+    volume = _fused(planner, depth, intrinsic, extrinsic, origin)  # again, for the pictures
+    points = depth_to_points(depth, intrinsic, extrinsic, origin=origin)
+    paths = write_detection(args.out, planner, volume, grasps, points)
     found = f"{len(grasps)} grasps" if grasps else "no grasp found (the scene is drawn)"
     print(f"{found}; " + ", ".join(str(p) for p in paths.values()))
+
+
+def _planner(args: argparse.Namespace):
+    """The planner ``--model`` names with the options given (those that do not apply to it
+    refused)."""
+    from symgrasp.detect import GraspDetector
+    from symgrasp.peers.planners import load_planner, planner_kind
+
+    kind = planner_kind(args.model)
+    if kind == "model":
+        if args.gripper is not None:
+            raise SystemExit(
+                f"error: --gripper is for vgn and your own planner; --model {args.model} "
+                "decides its own hand"
+            )
+        return GraspDetector.from_pretrained(
+            args.model,
+            device=args.device,
+            validity_threshold=args.validity,
+            confidence_threshold=confidence_threshold(args),
+            top_k=args.top_k,
+            samples_per_voxel=args.samples_per_voxel,
+            workspace_origin=tuple(args.workspace_origin),
+        )
+    model_only = {
+        "--validity": args.validity != DEFAULT_VALIDITY,
+        "--confidence": args.confidence is not None,
+        "--no-confidence": args.no_confidence,
+        "--samples-per-voxel": args.samples_per_voxel != 0,
+    }
+    if kind == "plugin":
+        model_only["--workspace-origin"] = any(args.workspace_origin)
+        model_only["--device"] = args.device != "auto"
+    given = [flag for flag, used in model_only.items() if used]
+    if given:
+        raise SystemExit(f"error: --model {args.model} takes no {', '.join(given)}")
+    if kind == "plugin":
+        import os
+
+        if os.getcwd() not in sys.path:  # the planner's module, found as `python -m` finds it
+            sys.path.insert(0, os.getcwd())
+        return load_planner(args.model, args.gripper)
+    from symgrasp.device import resolve_device
+
+    return load_planner(
+        args.model, args.gripper, str(resolve_device(args.device)),
+        workspace_origin=tuple(args.workspace_origin),
+    )  # fmt: skip
+
+
+def _fused(planner, depth, intrinsic, extrinsic, origin):
+    """The TSDF the pictures draw: the planner's own fusion where it has one, else
+    symgrasp's."""
+    from symgrasp.detect.detector import fuse
+
+    if hasattr(planner, "fuse"):
+        return planner.fuse(depth, intrinsic, extrinsic)
+    return fuse(depth, intrinsic, extrinsic, origin)
 
 
 def _add_export(subparsers: argparse._SubParsersAction) -> None:

@@ -18,6 +18,7 @@ from symgrasp.names import (
     MESH_OBJECT_SETS,
     MESH_UNITS,
     OBJECT_SETS,
+    PEERS,
     PRETRAINED,
     REPRESENTATIONS,
     SCENES,
@@ -74,12 +75,17 @@ GRIPPER_METAVAR = "{" + ",".join(GRIPPERS) + "}|SPEC" + GRIPPER_SPEC_SUFFIX
 MODEL_METAVAR = "{" + ",".join(PRETRAINED) + "}|CHECKPOINT"
 """How ``--model``'s value is shown in every help: a shipped model's name or a file."""
 
+PLANNER_METAVAR = "{" + ",".join((*PRETRAINED, *PEERS)) + "}|CHECKPOINT|MODULE:NAME"
+"""How a planner is shown where any may play (``detect``, ``bench declutter``): a shipped
+model, a peer detector (VGN's network), a checkpoint file or a user's planner
+(`symgrasp.peers.planners`)."""
+
 SHARED = {
     "objects": ("--objects", {"type": parse_object_set, "metavar": "SET|FOLDER"}),
     "object_set": ("--objects", {"type": parse_object_set, "metavar": "SET|FOLDER"}),
     "scene": ("--scene", {"choices": SCENES}),
     "gripper": ("--gripper", {"type": parse_gripper, "metavar": GRIPPER_METAVAR}),
-    "model": ("--model", {"metavar": MODEL_METAVAR}),
+    "model": ("--model", {"metavar": PLANNER_METAVAR}),
     "representation": ("--rep", {"choices": REPRESENTATIONS}),
     "kinds": ("--kinds", {"choices": SCENES}),
     "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),
