@@ -8,8 +8,8 @@ import dataclasses
 import os
 import sys
 
-from symgrasp.cli.fields import add_config_options, config_from_args
 from symgrasp.arguments import sentence
+from symgrasp.cli.fields import add_config_options, config_from_args
 from symgrasp.cli.options import (
     PLANNER_METAVAR,
     PROBABILITY,

@@ -21,6 +21,7 @@ from symgrasp.peers.plugin import is_plugin_name, load_plugin
 from symgrasp.peers.vgn import VGN, check_weights
 from symgrasp.sim.grippers import GripperSpec, get_gripper
 
+
 def planner_kind(name: str) -> str:
     """``"model"`` (a shipped model or checkpoint), ``"vgn"`` or ``"plugin"``."""
     if str(name) in PEERS:

@@ -78,8 +78,7 @@ def load_plugin(name: str, gripper: GripperSpec | None = None) -> GraspPlanner:
     if isinstance(found, GraspPlanner):
         if gripper is not None and found.gripper != gripper:
             raise ValueError(
-                f"planner {name} plans for the {found.gripper.name!r} gripper, not "
-                f"{gripper.name!r}"
+                f"planner {name} plans for the {found.gripper.name!r} gripper, not {gripper.name!r}"
             )
         return found
     if not callable(found):
@@ -89,8 +88,7 @@ def load_plugin(name: str, gripper: GripperSpec | None = None) -> GraspPlanner:
         )
     if gripper is None:
         raise ValueError(
-            f"planner {name} is a function: name the hand its grasps are for (gripper, "
-            "--gripper)"
+            f"planner {name} is a function: name the hand its grasps are for (gripper, --gripper)"
         )
     return FunctionPlanner(found, gripper, name, source_sha256(found))
 

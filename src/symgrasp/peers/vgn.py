@@ -260,9 +260,7 @@ def decode(
     return Decoded(index, quality[at], rotation[at], width[at])
 
 
-def to_symgrasp(
-    position: np.ndarray, quaternion: np.ndarray, gripper: GripperSpec
-) -> np.ndarray:
+def to_symgrasp(position: np.ndarray, quaternion: np.ndarray, gripper: GripperSpec) -> np.ndarray:
     """``T_world_tcp`` (M, 4, 4) in symgrasp's grasp frame for ``gripper`` of VGN's grasps with
     TCPs ``position`` (M, 3) [m] and rotations ``quaternion`` (M, 4) (x, y, z, w): e_x = VGN's
     z (approach), e_y = its x, e_z = its y (closing); the TCP moved `FINGER_REACH` −
@@ -310,7 +308,9 @@ class VGN:
             raise ValueError(f"order must be one of {ORDERS}, got {order!r}")
         origin = np.asarray(workspace_origin, dtype=float)
         if origin.shape != (3,) or not np.isfinite(origin).all():
-            raise ValueError(f"workspace_origin must be 3 finite numbers [m], got {workspace_origin}")
+            raise ValueError(
+                f"workspace_origin must be 3 finite numbers [m], got {workspace_origin}"
+            )
         self.gripper = gripper if isinstance(gripper, GripperSpec) else get_gripper(gripper)
         path = check_weights(weights)
         self.version = hashlib.sha256(path.read_bytes()).hexdigest()
@@ -371,8 +371,7 @@ class VGN:
         positions = self.origin + index * VOXEL_SIZE
         poses = to_symgrasp(positions, found.quaternion, self.gripper)
         grasps = [
-            Grasp(poses[m], float(quality[m]), voxel=tuple(int(i) for i in index[m]))
-            for m in order
+            Grasp(poses[m], float(quality[m]), voxel=tuple(int(i) for i in index[m])) for m in order
         ]
         self.timing = {
             "tsdf": tsdf_ms,

@@ -99,7 +99,9 @@ class TSDFVolume:
         sdf = d - z
         if self.along_ray:
             sdf = sdf * torch.sqrt(
-                1 + ((u - intrinsic.cx) / intrinsic.fx) ** 2 + ((v - intrinsic.cy) / intrinsic.fy) ** 2
+                1
+                + ((u - intrinsic.cx) / intrinsic.fx) ** 2
+                + ((v - intrinsic.cy) / intrinsic.fy) ** 2
             )
         # seen, and not hidden deeper than the truncation band behind the surface
         valid = inside & (d > 0) & (sdf >= -self.truncation)
