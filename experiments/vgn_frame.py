@@ -1,6 +1,6 @@
 """Where VGN's grasps belong on symgrasp's hands → experiments/results/vgn_frame.{json,md}.
 
-    SYMGRASP_DATA=DIR PYTHONPATH=src python experiments/vgn_frame.py [--scenes 40] [--quick [DIR]]
+    SYMGRASP_DATA=DIR PYTHONPATH=src python experiments/vgn_frame.py [--scenes 100] [--quick [DIR]]
 
 The evidence for the frame mapping of `symgrasp.peers.vgn.to_symgrasp`. VGN's network (its
 public weights, VGN's input and decoding) looks at one object of VGN's *training* meshes
@@ -107,7 +107,7 @@ def summary(trials: list[dict[str, str]]) -> dict[str, Any]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", type=int, default=40,
+    parser.add_argument("--scenes", type=int, default=100,
                         help="one-object scenes (seeds 0…) per hand (default: %(default)s)")  # fmt: skip
     add_result_option(parser, "vgn_frame")
     args = parse_args(parser, outputs=("result",), quick={"scenes": 2})
