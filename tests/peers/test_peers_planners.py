@@ -109,3 +109,52 @@ def test_bench_refuses_a_detectors_thresholds_for_another_planner(tmp_path):
     with pytest.raises(SystemExit, match="is a function: name the hand"):
         main(["bench", "declutter", "--planner", PLUGIN, "--objects", "large-box",
               "--out", str(tmp_path / "c")])  # fmt: skip
+
+
+def _depth_files(folder: Path) -> list[str]:
+    """A rendered pile of household-train objects as `symgrasp detect`'s input files."""
+    from symgrasp.objects.sets import make_scene
+    from symgrasp.sim.render import make_renderer
+
+    intrinsic, T = CameraIntrinsic(), default_extrinsic()
+    world = make_scene("pile", "household-train", 5, 0, get_gripper("franka"))
+    np.save(folder / "depth.npy", make_renderer(intrinsic).render(world, T))
+    (folder / "K.json").write_text(json.dumps({"fx": 540, "fy": 540, "cx": 320, "cy": 240}))
+    (folder / "T.json").write_text(json.dumps(T.tolist()))
+    return ["--depth", str(folder / "depth.npy"), "--intrinsic", str(folder / "K.json"),
+            "--extrinsic", str(folder / "T.json")]  # fmt: skip
+
+
+def test_detect_runs_vgn_from_the_data_folder(vgn_weights, monkeypatch, tmp_path):
+    from symgrasp.objects.folder import DATA_ENV
+    from symgrasp.peers.vgn import WEIGHTS
+
+    monkeypatch.setenv(DATA_ENV, str(vgn_weights))
+    inputs = _depth_files(tmp_path)
+    main(["detect", "--model", "vgn", *inputs, "--out", str(tmp_path / "out")])
+    found = json.loads((tmp_path / "out" / "grasps.json").read_text())
+    assert found["planner"] == "vgn" and found["gripper"] == "franka"
+    assert found["version"] == file_sha256(vgn_weights / WEIGHTS)
+    assert found["grasps"] and found["grasps"][0]["validity"] is None
+    assert (tmp_path / "out" / "grasps.png").stat().st_size > 0
+    with pytest.raises(SystemExit, match="takes no --validity"):
+        main(
+            ["detect", "--model", "vgn", *inputs, "--validity", "0.5", "--out", str(tmp_path / "v")]
+        )
+
+
+def test_without_vgns_weights_detect_and_bench_stop_with_one_line_and_status_66(
+    monkeypatch, tmp_path, capsys
+):
+    from symgrasp.objects.folder import DATA_ENV, EX_NOINPUT
+
+    monkeypatch.setenv(DATA_ENV, str(tmp_path / "no-data"))
+    inputs = _depth_files(tmp_path)
+    for argv in (["detect", "--model", "vgn", *inputs, "--out", str(tmp_path / "d")],
+                 ["bench", "declutter", "--model", "vgn", "--objects", "large-box",
+                  "--out", str(tmp_path / "b")]):  # fmt: skip
+        with pytest.raises(SystemExit) as exit_:
+            main(argv)
+        err = capsys.readouterr().err.strip()
+        assert exit_.value.code == EX_NOINPUT and len(err.splitlines()) == 1
+        assert "VGN's weights are not in the data folder" in err and "peers/vgn/vgn_conv.pth" in err
