@@ -398,8 +398,8 @@ class BenchmarkConfig:
 
     model: str = "bingham2d-robotiq-2f85"
     """The planner played: a shipped model name, a checkpoint path, vgn (VGN's network, its
-    weights in the data folder: docs/peers.md), or your own as package.module:NAME (docs/benchmark.md,
-    "Your own planner")."""
+    weights in the data folder: docs/peers.md), or your own as package.module:NAME
+    (docs/benchmark.md, "Any planner")."""
     objects: str = "household-test"
     """Object set the rounds draw from: a name, a folder of URDF files or bare meshes, or mesh
     sets and folders joined by commas (`symgrasp.objects.sets.resolve`)."""

@@ -1,5 +1,5 @@
 """A planner defined outside the package, as a user writes one: grasp the highest point seen,
-straight down, closing along world x (docs/benchmark.md, "Your own planner")."""
+straight down, closing along world x (docs/benchmark.md, "Any planner")."""
 
 import numpy as np
 

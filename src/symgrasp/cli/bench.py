@@ -26,8 +26,9 @@ from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 def add(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "bench",
-        help="benchmarks of trained detectors",
-        description="Benchmarks of trained detectors (symgrasp.benchmark).",
+        help="benchmarks of grasp detectors",
+        description="Benchmarks of grasp detectors: trained models, VGN's network, your own "
+        "planner (symgrasp.benchmark).",
     )
     actions = parser.add_subparsers(
         dest="action", required=True, metavar="ACTION", help="what to run (declutter, compare)"
@@ -36,8 +37,9 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "declutter",
         help="simulated decluttering: success and clear ratios",
         description="VGN's and the paper's declutter protocol: each round drops --num-objects "
-        "objects as a pile; before every attempt one depth image is fused, and the detector's "
-        "best grasp whose approach misses the observed scene is executed; a round ends when "
+        "objects as a pile; before every attempt one depth image is handed to the planner "
+        "(--model: a trained model, vgn or your own, docs/benchmark.md), and its best grasp "
+        "whose approach misses the observed scene is executed; a round ends when "
         "the table is clear, no grasp is found or two attempts in a row fail. Round r uses seed "
         "--seed + r. Writes config.json, rounds.jsonl (each round as it finishes, so "
         "--resume can finish an interrupted run), then results.json (SR, CR with bootstrap "
