@@ -220,3 +220,23 @@ def test_the_network_sees_grasps_on_objects_and_none_on_the_empty_table(vgn_weig
         else:
             assert quality[near].max() < 0.5
             assert grasps == []
+
+
+def test_vgns_random_order_permutes_the_best_order_reproducibly(vgn_weights, monkeypatch):
+    """VGN's own evaluation executes a random grasp above the threshold: the same grasps,
+    permuted by a seed drawn from the observation, so a round replays."""
+    monkeypatch.setenv(DATA_ENV, str(vgn_weights))
+    from symgrasp.objects.sets import make_scene
+    from symgrasp.sim.render import make_renderer
+
+    intrinsic, T = CameraIntrinsic(), default_extrinsic()
+    world = make_scene("pile", "household-train", 5, 3, get_gripper("franka"))
+    observation = Observation(make_renderer(intrinsic).render(world, T), intrinsic, T)
+    best = VGN().plan(observation)
+    shuffled = VGN(order="random").plan(observation)
+    assert len(best) >= 2
+    assert sorted(g.voxel for g in shuffled) == sorted(g.voxel for g in best)
+    assert [g.voxel for g in VGN(order="random").plan(observation)] == [g.voxel for g in shuffled]
+    assert [g.score for g in best] == sorted((g.score for g in best), reverse=True)
+    with pytest.raises(ValueError, match="order must be one of"):
+        VGN(order="worst")
