@@ -1,5 +1,5 @@
 """VGN's network in symgrasp's declutter benchmark, paired with symgrasp's detectors on the same
-rounds → experiments/results/peers.{json,md}.
+rounds → experiments/results/peers_declutter.{json,md} and docs/peers.md.
 
     SYMGRASP_DATA=DIR PYTHONPATH=src python experiments/peers_table.py [--out out/bench/peers] \\
         [--baselines out/bench/table] [--rounds 100] [--workers 1] [--cells HAND/OBJECTS ...] \\
@@ -23,14 +23,18 @@ rounds → experiments/results/peers.{json,md}.
   the Franka pile and packed cells the single-view VGN that GIGA published (``PUBLISHED`` of
   declutter_table.py; another simulator and protocol, docs/benchmark.md).
 
-A campaign plays each cell in a step of its own (``--play-only --cells HAND/OBJECTS``) and
-collates at the end (``--collate-only``). ``--quick``: one round of 2 objects on the large box
-with the Franka hand, its baselines played.
+The table also replaces the text between the ``peers-table`` markers of ``--docs``
+(docs/peers.md). A campaign plays each cell in a step of its own (``--play-only --cells
+HAND/OBJECTS``) and collates at the end (``--collate-only``; experiments/campaigns/peers.toml).
+``--quick``: one round of 2 objects on the large box with the Franka hand, its baselines
+played, a copy of the page updated.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +55,7 @@ from symgrasp.config import BenchmarkConfig
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.model.checkpoint import load_checkpoint
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import cpu_model, parse_args, run_main, write_result
 
 CELLS = (
     ("franka", "vgn-pile-test", "pile"),
@@ -64,6 +68,9 @@ CELLS = (
 
 BASELINES = ("bingham2d", "rotmat6d")
 """symgrasp's detectors VGN is paired with: the shipped models REP-HAND."""
+
+BEGIN, END = "<!-- peers-table: begin -->", "<!-- peers-table: end -->"
+"""The markers of ``--docs`` between which the table goes."""
 
 
 def cell_name(cell: tuple[str, str, str]) -> str:
@@ -191,6 +198,15 @@ def table(cells: list[dict[str, Any]]) -> str:
     return "\n".join(lines + modes) + "\n"
 
 
+def update_page(page: Path, text: str) -> None:
+    """Replace what stands between ``page``'s `BEGIN` and `END` markers by ``text``."""
+    content = page.read_text()
+    if BEGIN not in content or END not in content:
+        raise SystemExit(f"error: --docs {page} has no {BEGIN} … {END} markers")
+    head, rest = content.split(BEGIN, 1)
+    page.write_text(f"{head}{BEGIN}\n{text}{END}{rest.split(END, 1)[1]}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/bench/peers"),
@@ -210,10 +226,16 @@ def main() -> None:
                       help="play the cells and their baselines, write no result")  # fmt: skip
     mode.add_argument("--collate-only", action="store_true",
                       help="play nothing: collate what is there, list what is missing")  # fmt: skip
+    parser.add_argument("--docs", type=Path, default=Path("docs/peers.md"),
+                        help="page whose text between the peers-table markers is replaced "
+                        "(default: %(default)s)")  # fmt: skip
     add_parallel_options(parser, "rounds")
-    add_result_option(parser, "peers")
-    args = parse_args(parser, outputs=("out", "baselines", "result"),
-                      quick={"rounds": 1, "num_objects": 2, "cells": ["franka/large-box"]})  # fmt: skip
+    add_result_option(parser, "peers_declutter")
+    args = parse_args(parser, outputs=("out", "baselines", "result", "docs"),
+                      quick={"rounds": 1, "num_objects": 2, "cells": ["franka/large-box"]},
+                      also="a copy of the page")  # fmt: skip
+    if args.quick:  # the page's copy, so that its markers are still checked
+        shutil.copyfile(parser.get_default("docs"), args.docs)
     cells = [c for c in CELLS if args.cells is None or cell_name(c) in args.cells]
 
     if not args.collate_only:
@@ -229,6 +251,11 @@ def main() -> None:
     collated = collate(args, cells)
     text = table(collated)
     print(text)
+    load = os.getloadavg()[0]
+    update_page(args.docs, f"{args.rounds} rounds a cell, collated by `SYMGRASP_DATA=../shared "
+                f"PYTHONPATH=src python experiments/peers_table.py` ({cpu_model()}, load {load:.1f}; "
+                "a round's outcomes do not depend on the load: each is a pure function of its "
+                "seed):\n\n" + text)  # fmt: skip
     write_result(
         args.result,
         "VGN's network in symgrasp's declutter benchmark, paired with symgrasp's detectors",
