@@ -1,11 +1,12 @@
 """Fixtures shared by the test folders.
 
-The data a user downloads (VGN's object sets, MuJoCo Menagerie's hands) is optional: a test that
-needs it asks for the `vgn_data` or `menagerie` fixture, or calls `missing_data` when a script
-it runs reports the data missing, and is marked ``data`` (automatically for the fixtures). Without
-the data such a test skips, naming what is missing, so a newcomer's ``make test`` passes on a
-fresh clone; with ``SYMGRASP_REQUIRE_DATA=1`` it fails instead, so that a run meant to cover the
-data (``pytest -m data`` in .ci/run) cannot pass by skipping.
+The data a user downloads (VGN's object sets and weights, MuJoCo Menagerie's hands) is optional:
+a test that needs it asks for the `vgn_data`, `vgn_weights` or `menagerie` fixture, or calls
+`missing_data` when a script it runs reports the data missing, and is marked ``data``
+(automatically for the fixtures). Without the data such a test skips, naming what is missing, so
+a newcomer's ``make test`` passes on a fresh clone; with ``SYMGRASP_REQUIRE_DATA=1`` it fails
+instead, so that a run meant to cover the data (``pytest -m data`` in .ci/run) cannot pass by
+skipping.
 """
 
 import os
@@ -23,7 +24,7 @@ else ../shared beside the checkout."""
 REQUIRE_DATA = os.environ.get("SYMGRASP_REQUIRE_DATA") == "1"
 """Missing data fails a test instead of skipping it."""
 
-DATA_FIXTURES = {"vgn_data", "menagerie"}
+DATA_FIXTURES = {"vgn_data", "vgn_weights", "menagerie"}
 """The fixtures that hand a test the downloaded data; a test using one is marked ``data``."""
 
 
@@ -69,6 +70,17 @@ def vgn_data() -> Path:
     """The data folder holding VGN's object sets (``objects/vgn``); skips the test without one."""
     if not (SHARED / VGN_ROOT).is_dir():
         missing_data(f"VGN's object sets are not in {SHARED / VGN_ROOT}")
+    return SHARED
+
+
+@pytest.fixture(scope="session")
+def vgn_weights() -> Path:
+    """The data folder holding VGN's network weights (``peers/vgn/vgn_conv.pth``); skips the
+    test without them."""
+    from symgrasp.peers.vgn import WEIGHTS
+
+    if not (SHARED / WEIGHTS).is_file():
+        missing_data(f"VGN's weights are not in {SHARED / WEIGHTS}")
     return SHARED
 
 

@@ -48,6 +48,8 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "experiments/learning_curve": ("learning_curve.json", "cells"),
     "experiments/recipe": ("recipe.json", "verdicts"),
     "experiments/seed_spread": ("seed_spread.json", "pairings"),
+    "experiments/peers_table": ("peers_declutter.json", "cells"),
+    "experiments/vgn_frame": ("vgn_frame.json", "cells"),
 }
 SHARED_MODULES = {"experiments/common"}
 """Modules of the folders that are not scripts."""

@@ -406,7 +406,9 @@ class BenchmarkConfig:
     rounds − 1``. Keyword-only, so a field added later cannot shift a caller's arguments."""
 
     model: str = "bingham2d-robotiq-2f85"
-    """Shipped model name or checkpoint path."""
+    """The planner played: a shipped model name, a checkpoint path, vgn (VGN's network, its
+    weights in the data folder: docs/peers.md), or your own as package.module:NAME
+    (docs/benchmark.md, "Any planner")."""
     objects: str = "household-test"
     """Object set the rounds draw from: a name, a folder of URDF files or bare meshes, or mesh
     sets and folders joined by commas (`symgrasp.objects.sets.resolve`)."""
@@ -422,7 +424,9 @@ class BenchmarkConfig:
     seed: int = 0
     """Seed of round 0; round r uses seed + r."""
     options: tuple[tuple[str, Any], ...] = ()
-    """Keyword arguments of `GraspDetector.from_pretrained`, as (name, value) pairs."""
+    """Keyword arguments of the planner (`symgrasp.peers.planners.load_planner`: a detector's
+    thresholds, VGN's options, the gripper of a planner that takes any hand), as (name, value)
+    pairs."""
     diagnose: bool = True
     """Replay each failed grasp turned about its approach axis to name its failure mode."""
     pictures: bool = False

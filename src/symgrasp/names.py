@@ -6,6 +6,8 @@ answers without torch or MuJoCo); each package resolves a name once, at the edge
 implements exactly these (tests check it).
 """
 
+from pathlib import Path
+
 REPRESENTATIONS = ("bingham2d", "rotmat6d", "rotmat6d_naive", "quaternion", "bingham3d")
 """Rotation representations (`symgrasp.rotation`)."""
 
@@ -50,6 +52,10 @@ PRETRAINED = (
 """Models shipped with the package (`symgrasp.detect.pretrained`): the paper's detector for
 each built-in hand, then seed 0 of each baseline cell of Table 1 (`docs/models.md`)."""
 
+PEERS = ("vgn",)
+"""Other people's detectors that symgrasp runs from their published weights in the data folder
+(`symgrasp.peers`): VGN's network (Breyer et al., CoRL 2020)."""
+
 BACKENDS = ("process", "ray")
 """Where the tasks of data generation and benchmarks run (`symgrasp.parallel`): a pool of
 local processes, or a Ray cluster (the optional extra ``cluster``)."""
@@ -65,3 +71,22 @@ def demo_model(gripper: str) -> str:
             "trained for it (--model)"
         )
     return f"bingham2d-{gripper}"
+
+
+PLUGIN_SEPARATOR = ":"
+"""Between a user's planner's module and its name: ``package.module:NAME``."""
+
+
+def is_plugin_name(name: str) -> bool:
+    """Whether ``name`` has the form ``package.module:NAME`` (and is no file)."""
+    module, sep, attribute = str(name).partition(PLUGIN_SEPARATOR)
+    return bool(sep and module and attribute.isidentifier()) and not Path(name).exists()
+
+
+def planner_kind(name: str) -> str:
+    """What plays for the planner name ``name`` (`symgrasp.peers.planners` loads it):
+    ``"model"`` (a shipped model or a checkpoint file), a peer's name (`PEERS`) or
+    ``"plugin"`` (a user's ``package.module:NAME``)."""
+    if str(name) in PEERS:
+        return str(name)
+    return "plugin" if is_plugin_name(str(name)) else "model"

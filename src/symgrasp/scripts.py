@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from symgrasp.atomic import write_atomic
-from symgrasp.objects.folder import MissingData
+from symgrasp.objects.folder import EX_NOINPUT, MissingData
 from symgrasp.parallel import TasksFailed
 
 QUICK_DIR = Path("out/bench-quick")
@@ -30,10 +30,6 @@ QUICK_DIR = Path("out/bench-quick")
 
 LOAD_AT_START = os.getloadavg()
 """The 1/5/15-minute load averages when the script started (it imports this module first)."""
-
-EX_NOINPUT = 66
-"""The exit status of a script whose input data is missing (sysexits.h: "cannot open input"),
-so that a caller (the tests) tells missing data from a failure."""
 
 
 def run_main(main: Callable[[], None]) -> None:

@@ -36,7 +36,7 @@ def played(monkeypatch):
 
     monkeypatch.setattr(runner, "run_round", fake_round)
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, detector=Detector(), objects=None, out=out))  # fmt: skip
+        config=config, planner=Detector(), objects=None, out=out))  # fmt: skip
     return seeds
 
 

@@ -109,7 +109,7 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
 
     monkeypatch.setattr(runner, "run_round", fake_round)
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, detector=Detector(), out=out, objects=None))  # fmt: skip
+        config=config, planner=Detector(), out=out, objects=None))  # fmt: skip
     config = BenchmarkConfig(rounds=3, seed=10)
     expected = "1 of the 3 rounds in .* failed; the first \\(seed 11\\): RuntimeError: simulation"
     with pytest.raises(TasksFailed, match=expected):
@@ -151,7 +151,7 @@ def test_resume_plays_failed_rounds_again_and_keeps_one_record_per_seed(monkeypa
 
     monkeypatch.setattr(runner, "run_round", fake_round)
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, detector=Detector(), out=out, objects=None))  # fmt: skip
+        config=config, planner=Detector(), out=out, objects=None))  # fmt: skip
     config = BenchmarkConfig(rounds=4, seed=10)
     with pytest.raises(TasksFailed, match=r"2 of the 4 rounds .* \(seed 11\): RuntimeError"):
         runner.run_benchmark(config, tmp_path)
@@ -177,7 +177,7 @@ def test_a_benchmark_whose_every_round_failed_stops_naming_the_first_error(monke
 
     monkeypatch.setattr(runner, "run_round", failing_round)
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, detector=None, out=out, objects=None))  # fmt: skip
+        config=config, planner=None, out=out, objects=None))  # fmt: skip
     config = BenchmarkConfig(rounds=2, seed=10)
     expected = "every one of the 2 rounds in .* failed; the first \\(seed 10\\): RuntimeError: no object in round 10"
     with pytest.raises(TasksFailed, match=expected):
@@ -208,7 +208,7 @@ def test_rounds_in_process_use_no_more_torch_threads_than_the_process_was_given(
     monkeypatch.setattr(runner, "run_round", lambda detector, objects, num_objects, seed, scene,
                         observer, diagnose: Round(seed, num_objects, "gl"))  # fmt: skip
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: (
-        seen.append(threads), runner._WORKER.update(config=config, detector=None, out=out, objects=None)))  # fmt: skip
+        seen.append(threads), runner._WORKER.update(config=config, planner=None, out=out, objects=None)))  # fmt: skip
     monkeypatch.setattr(runner.os, "cpu_count", lambda: 16)
     before = torch.get_num_threads()
     torch.set_num_threads(given)
@@ -253,7 +253,7 @@ def test_cli_thresholds_reach_the_detector(tmp_path):
     assert options == [["confidence_threshold", 0.0], ["validity_threshold", 0.3]]
     config = BenchmarkConfig(options=tuple(map(tuple, options)))
     runner._init_worker(config, torch.get_num_threads(), tmp_path)
-    detector = runner._WORKER["detector"]
+    detector = runner._WORKER["planner"]
     assert detector.validity_threshold == 0.3 and detector.confidence_threshold == 0.0
 
 
@@ -271,7 +271,7 @@ def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(mon
 
     monkeypatch.setattr(runner, "run_round", fake_round)
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, detector=Detector(), out=out, objects=None))  # fmt: skip
+        config=config, planner=Detector(), out=out, objects=None))  # fmt: skip
     config = BenchmarkConfig(rounds=2, seed=5)
     assert runner.saved_rounds(config, tmp_path) is None
     first = runner.run_or_reuse(config, tmp_path)

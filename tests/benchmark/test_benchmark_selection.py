@@ -316,11 +316,15 @@ def test_failed_validation_rounds_name_their_cause_and_are_not_cached(run, monke
     assert [r["declutter_sr"] for r in selection["checkpoints"]] == [1.0, 1.0, 1.0]
 
 
-def test_select_without_the_object_set_names_it_and_caches_nothing(run, monkeypatch, tmp_path):
-    from symgrasp.objects.folder import DATA_ENV
+def test_select_without_the_object_set_names_it_and_caches_nothing(
+    run, monkeypatch, tmp_path, capsys
+):
+    from symgrasp.objects.folder import DATA_ENV, EX_NOINPUT
 
     monkeypatch.setenv(DATA_ENV, str(tmp_path / "no-data"))
-    with pytest.raises(SystemExit, match="is not in the data folder"):
+    with pytest.raises(SystemExit) as exit_:
         main(["select", str(run), "--by", "declutter", "--rounds", "2"])
+    assert exit_.value.code == EX_NOINPUT
+    assert "is not in the data folder" in capsys.readouterr().err
     cached = [json.loads(p.read_text()) for p in (run / "selection").glob("*.json")]
     assert not any("declutter" in c for c in cached)

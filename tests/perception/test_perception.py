@@ -131,6 +131,35 @@ def test_tsdf_of_a_plane_is_the_clipped_signed_distance():
     torch.testing.assert_close(points[:, 2], torch.full_like(points[:, 2], 0.1), atol=1e-4, rtol=0)
 
 
+def test_tsdf_along_the_ray_scales_the_depth_difference_by_the_pixels_ray_length():
+    """Open3D's convention (VGN's fusion): the same plane, the distance measured along each
+    pixel's ray, √(1 + x̄² + ȳ²) times the depth difference at normalised pixel (x̄, ȳ): a
+    column near the optical axis barely changes, one off it stretches."""
+    eye_height = 0.6
+    T = look_at((0.15, 0.15, eye_height), (0.15, 0.15, 0.0), up=(1.0, 0.0, 0.0))
+    wide = CameraIntrinsic(160, 120, 40.0, 40.0, 79.5, 59.5)
+    depth = np.full((120, 160), eye_height - 0.1, dtype=np.float32)
+    along_z, along_ray = TSDFVolume(), TSDFVolume(along_ray=True)
+    along_z.integrate(depth, wide, T)
+    along_ray.integrate(depth, wide, T)
+    z = (torch.arange(40) + 0.5) * along_ray.voxel_size
+    for i, j in ((20, 20), (2, 35)):
+        centres = np.stack([np.full(40, (i + 0.5) * 0.0075), np.full(40, (j + 0.5) * 0.0075),
+                            z.numpy(), np.ones(40)])  # fmt: skip
+        x, y, depth_z = (np.linalg.inv(T) @ centres)[:3]
+        u, v = np.round(wide.fx * x / depth_z + wide.cx), np.round(wide.fy * y / depth_z + wide.cy)
+        stretch = np.sqrt(1 + ((u - wide.cx) / wide.fx) ** 2 + ((v - wide.cy) / wide.fy) ** 2)
+        expected = ((z - 0.1) * torch.as_tensor(stretch) / along_ray.truncation).clamp(max=1.0)
+        seen = along_ray.weight[i, j] > 0
+        assert seen.sum() >= 8
+        torch.testing.assert_close(
+            along_ray.grid()[i, j][seen], expected[seen].float(), atol=1e-5, rtol=0
+        )
+    near_axis = (along_ray.grid()[20, 20] - along_z.grid()[20, 20]).abs().max()
+    off_axis = (along_ray.grid()[2, 35] - along_z.grid()[2, 35]).abs().max()
+    assert near_axis < 0.01 < 0.1 < off_axis
+
+
 def test_tsdf_from_rendered_views_has_the_box_inside_and_free_space_outside():
     world = _box_world()
     volume = TSDFVolume()

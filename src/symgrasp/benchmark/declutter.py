@@ -1,12 +1,15 @@
 """One round of simulated decluttering: the protocol of VGN and the paper (Sec. 4.3).
 
 A round drops ``N`` objects of a set as a pile on the table. Before every attempt one depth
-image is rendered from a fixed camera and fused; the detector's grasps are tried in
-gravity-rejection-score order and the first whose open hand, from the pre-grasp along the
-approach to the grasp, misses the *observed* surface and the table
-(`symgrasp.sim.collision.hand_collides`, what a robot can check) is executed
-(`symgrasp.sim.execute.execute_grasp`); a successful grasp removes its object. The round ends
-when the table is clear, no grasp is found, or ``max_failures`` attempts in a row fail.
+image is rendered from a fixed camera and handed to the planner (any
+`symgrasp.detect.planner.GraspPlanner`: a `GraspDetector`, VGN's network, a user's
+function); its grasps are tried in its order (a detector's: gravity-rejection score) and the
+first whose open hand, from the pre-grasp along the approach to the grasp, misses the
+*observed* surface and the table (`symgrasp.sim.collision.hand_collides`, what a robot can
+check; the surface is the zero crossings of the image fused into the workspace TSDF, the same
+for every planner) is executed (`symgrasp.sim.execute.execute_grasp`); a successful grasp
+removes its object. The round ends when the table is clear, no grasp is found, or
+``max_failures`` attempts in a row fail.
 
 A round is a pure function of its seed: the same seed gives the same round.
 """
@@ -21,7 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from symgrasp.benchmark.failures import aimed_object, failure_mode
-from symgrasp.detect import Grasp, GraspDetector
+from symgrasp.detect import Grasp
+from symgrasp.detect.detector import fuse
+from symgrasp.detect.planner import GraspPlanner, Observation
 from symgrasp.objects.sets import ObjectSource, make_scene
 from symgrasp.perception import CameraIntrinsic, depth_to_points
 from symgrasp.perception.camera import default_extrinsic
@@ -32,7 +37,7 @@ from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import World
 
 NONE_FOUND = "none_found"
-"""The outcome of an attempt for which the detector proposed no executable grasp."""
+"""The outcome of an attempt for which the planner proposed no executable grasp."""
 
 
 @dataclass(frozen=True)
@@ -42,10 +47,10 @@ class Attempt:
     Attributes:
         outcome: an `symgrasp.sim.execute.Outcome` value, or `NONE_FOUND`.
         grasp: the executed grasp (None when none was found).
-        candidates: grasps the detector proposed.
+        candidates: grasps the planner proposed.
         rejected: of those, skipped because their approach hit the observed scene.
-        planning_s: seconds from the depth image to the chosen grasp (fusion, network,
-            decoding, collision checks).
+        planning_s: seconds from rendering the depth image to the chosen grasp (rendering,
+            the planner, the collision checks).
         objects_before: objects on the table before the attempt.
         mode: why it failed or ``"success"`` (`symgrasp.benchmark.failures.MODES`); None
             when the round was played without diagnosis.
@@ -105,7 +110,7 @@ attempt."""
 
 
 def run_round(
-    detector: GraspDetector,
+    planner: GraspPlanner,
     objects: ObjectSource,
     num_objects: int = 5,
     seed: int = 0,
@@ -117,7 +122,7 @@ def run_round(
     observer: Observer | None = None,
     diagnose: bool = True,
 ) -> Round:
-    """Play one declutter round with ``detector`` (its gripper) on ``num_objects`` objects of
+    """Play one declutter round with ``planner`` (its gripper) on ``num_objects`` objects of
     the set ``objects`` (resolved once by `symgrasp.objects.sets.resolve`, for all the rounds
     it plays) in a ``scene`` ("pile" or "packed"); the scene and its objects are drawn from
     ``seed``.
@@ -134,17 +139,16 @@ def run_round(
     intrinsic = intrinsic or CameraIntrinsic()
     T_world_camera = default_extrinsic() if T_world_camera is None else T_world_camera
     renderer = make_renderer(intrinsic)
-    world = make_scene(scene, objects, num_objects, seed, gripper=detector.gripper)
+    world = make_scene(scene, objects, num_objects, seed, gripper=planner.gripper)
     record = Round(seed, len(world.objects), renderer.name)
     max_attempts = 2 * num_objects if max_attempts is None else max_attempts
     failures = 0
     while world.objects and failures < max_failures and len(record.attempts) < max_attempts:
         start = time.perf_counter()
         depth = renderer.render(world, T_world_camera)
-        volume = detector.fuse(depth, intrinsic, T_world_camera)
-        candidates = detector.detect_tsdf(volume.grid())
-        points = volume.point_cloud().cpu().numpy()
-        chosen, rejected = first_free(candidates, detector.gripper, points)
+        candidates = list(planner.plan(Observation(depth, intrinsic, T_world_camera, world)))
+        points = fuse(depth, intrinsic, T_world_camera).point_cloud().cpu().numpy()
+        chosen, rejected = first_free(candidates, planner.gripper, points)
         planning = time.perf_counter() - start
         before = len(world.objects)
         mode: str | None = NONE_FOUND if diagnose else None

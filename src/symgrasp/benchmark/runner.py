@@ -14,8 +14,9 @@ the independent units; attempts within a round are not).
 Layout of a benchmark folder (`run_benchmark`)::
 
     config.json     the configuration, written (atomically) before any round runs
-    model.sha256    the SHA-256 of the model file it plays: a file of the same name with other
-                    weights (a run selected again) is refused, not taken for the old one
+    model.sha256    the SHA-256 of what it plays (`planner_version`: the model file, VGN's weights,
+                    a user's planner's source file): a file of the same name with other weights
+                    (a run selected again) is refused, not taken for the old one
     rounds.jsonl    one line per round, appended as each finishes; in seed order at the end
     results.json    configuration and summary, derived from rounds.jsonl at the end
     results.md      the summary as a Markdown table row
@@ -43,14 +44,14 @@ from symgrasp.atomic import check_json, read_json, write_atomic
 from symgrasp.benchmark.declutter import Round, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES
 from symgrasp.config import BenchmarkConfig, ParallelConfig
-from symgrasp.detect.pretrained import resolve_model
 from symgrasp.folders import Outputs, check_folder, check_owned, writes_folder
-from symgrasp.model.checkpoint import file_sha256
 from symgrasp.objects.sets import resolve
 from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor
+from symgrasp.peers.planners import load_planner, planner_version
 
 MODEL_SHA = "model.sha256"
-"""The file of a benchmark folder that records the SHA-256 of the model file it plays."""
+"""The file of a benchmark folder that records the SHA-256 of what it plays: the model file, VGN's
+weights, or a user's planner's source (`symgrasp.peers.planners.planner_version`)."""
 
 BENCHMARK = Outputs("a benchmark", record=("config.json", "rounds.jsonl", "results.json"))
 """A benchmark folder (`symgrasp.folders`): its record is written before any round, so a
@@ -113,26 +114,22 @@ _WORKER: dict[str, Any] = {}
 def _init_worker(config: BenchmarkConfig, threads: int, out: Path) -> None:
     import torch
 
-    from symgrasp.detect import GraspDetector
-
     torch.set_num_threads(threads)
     _WORKER["config"] = config
     _WORKER["out"] = out
     _WORKER["objects"] = resolve(config.objects, config.mesh_unit)  # once for all its rounds
-    _WORKER["detector"] = GraspDetector.from_pretrained(
-        config.model, device="cpu", **dict(config.options)
-    )
+    _WORKER["planner"] = load_planner(config.model, device="cpu", **dict(config.options))
 
 
 def _round_task(seed: int) -> dict[str, Any]:
     config: BenchmarkConfig = _WORKER["config"]
-    detector = _WORKER["detector"]
+    planner = _WORKER["planner"]
     observer = None
     if config.pictures:
         folder = _WORKER["out"] / "pictures" / f"seed_{seed:04d}"
-        observer = picture_observer(folder, detector.gripper, f"seed {seed}, ")
+        observer = picture_observer(folder, planner.gripper, f"seed {seed}, ")
     record = run_round(
-        detector, _WORKER["objects"], config.num_objects, seed, scene=config.scene,
+        planner, _WORKER["objects"], config.num_objects, seed, scene=config.scene,
         observer=observer, diagnose=config.diagnose,
     )  # fmt: skip
     return round_record(record)
@@ -297,17 +294,24 @@ def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) ->
 
 
 def _check_model(config: BenchmarkConfig, out: Path) -> None:
-    """ValueError when ``out`` recorded another model file's SHA-256 than ``config.model``'s
-    now (folders from before the record are taken as they are)."""
+    """ValueError when ``out`` recorded another SHA-256 than ``config.model``'s now (its model
+    file's, VGN's weights', a user's planner's source's; folders from before the record are
+    taken as they are)."""
     if not (out / MODEL_SHA).exists():
         return
-    played, now = (out / MODEL_SHA).read_text().strip(), file_sha256(resolve_model(config.model))
+    played, now = (out / MODEL_SHA).read_text().strip(), _version(config)
     if played != now:
         raise ValueError(
             f"out {out} holds rounds of another model file: {config.model} has changed since "
             f"they were played (SHA-256 {played[:12]}…, now {now[:12]}…); choose another out "
             "(--out) or delete it to play them again"
         )
+
+
+def _version(config: BenchmarkConfig) -> str:
+    """The SHA-256 of what ``config`` plays (`planner_version`: the model file, VGN's weights,
+    a user's planner's source)."""
+    return planner_version(config.model, dict(config.options).get("gripper"))
 
 
 def read_rounds(path: str | Path) -> dict[int, dict[str, Any]]:
@@ -381,7 +385,7 @@ def run_benchmark(
     # a cluster is joined (or refused) before anything is written, and not at all for no rounds
     with open_executor(parallel if missing else ParallelConfig()) as executor:
         if not (out / "config.json").exists():
-            _write_text(out / MODEL_SHA, file_sha256(resolve_model(config.model)) + "\n")
+            _write_text(out / MODEL_SHA, _version(config) + "\n")
             _write_text(out / "config.json", json.dumps(asdict(config), indent=1) + "\n")
         _write_rounds(path, done.values())  # without failed rounds or a torn last line
         if missing:

@@ -21,6 +21,7 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import NoReturn
 
 from symgrasp.cli import bench, data, demo, detect, figures, model, objects, serve, sim
+from symgrasp.objects.folder import EX_NOINPUT, MissingData
 from symgrasp.parallel import TasksFailed
 
 COMMANDS = (demo, objects, sim, data, figures, model, detect, serve, bench)
@@ -82,6 +83,9 @@ def main(argv: Sequence[str] | None = None) -> None:
             "error: a worker process died (killed, or out of memory?); what finished is "
             f"kept{_continue(args)}"
         ) from error
+    except MissingData as error:  # downloaded data not there: what, where, how to get it
+        print(f"error: {error}", file=sys.stderr)
+        raise SystemExit(EX_NOINPUT) from error
     except ValueError as error:  # bad input: the message names the argument, no traceback needed
         raise SystemExit(f"error: {error}") from error
     except TasksFailed as error:  # the message says which tasks failed and where the tracebacks are

@@ -5,25 +5,33 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
+import sys
 
+from symgrasp.arguments import sentence
 from symgrasp.cli.fields import add_config_options, config_from_args
 from symgrasp.cli.options import (
+    PLANNER_METAVAR,
     PROBABILITY,
     add_confidence_options,
     add_shared,
     confidence_threshold,
     input_folder,
     output_folder_path,
+    parse_planner,
 )
 from symgrasp.config import DEFAULT_VALIDITY, BenchmarkConfig
+from symgrasp.fields import field_docs
+from symgrasp.names import planner_kind
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 
 def add(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "bench",
-        help="benchmarks of trained detectors",
-        description="Benchmarks of trained detectors (symgrasp.benchmark).",
+        help="benchmarks of grasp detectors",
+        description="Benchmarks of grasp detectors: trained models, VGN's network, your own "
+        "planner (symgrasp.benchmark).",
     )
     actions = parser.add_subparsers(
         dest="action", required=True, metavar="ACTION", help="what to run (declutter, compare)"
@@ -32,8 +40,9 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "declutter",
         help="simulated decluttering: success and clear ratios",
         description="VGN's and the paper's declutter protocol: each round drops --num-objects "
-        "objects as a pile; before every attempt one depth image is fused, and the detector's "
-        "best grasp whose approach misses the observed scene is executed; a round ends when "
+        "objects as a pile; before every attempt one depth image is handed to the planner "
+        "(--model: a trained model, vgn or your own, docs/benchmark.md), and its best grasp "
+        "whose approach misses the observed scene is executed; a round ends when "
         "the table is clear, no grasp is found or two attempts in a row fail. Round r uses seed "
         "--seed + r. Writes config.json, rounds.jsonl (each round as it finishes, so "
         "--resume can finish an interrupted run), then results.json (SR, CR with bootstrap "
@@ -51,7 +60,17 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "(refused if --out holds a run of another configuration)",
     )
     add_parallel_options(declutter, "rounds")
-    add_config_options(declutter, BenchmarkConfig, skip=("options",))
+    declutter.add_argument(
+        "--model",
+        "--planner",
+        dest="model",
+        type=parse_planner,
+        default=BenchmarkConfig.model,
+        metavar=PLANNER_METAVAR,
+        help=sentence(field_docs(BenchmarkConfig)["model"])
+        + f" (default: {BenchmarkConfig.model})",
+    )
+    add_config_options(declutter, BenchmarkConfig, skip=("model", "options"))
     add_confidence_options(declutter)
     declutter.add_argument(
         "--validity",
@@ -68,8 +87,9 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     add_shared(
         declutter,
         "gripper",
-        "refuse to run unless --model was trained for this gripper, a built-in's name or a spec "
-        "file (the model's gripper, stored in it, is the one simulated)",
+        "the hand, a built-in's name or a spec file: for vgn (default: franka) and your own "
+        "planner function, the hand simulated; for a model, a guard: refuse to run unless "
+        "--model was trained for it (its gripper, stored in it, is the one simulated)",
     )
     declutter.set_defaults(run=_run_declutter)
     compare = actions.add_parser(
@@ -93,17 +113,27 @@ def _run_compare(args: argparse.Namespace) -> None:
 
 
 def _run_declutter(args: argparse.Namespace) -> None:
+    kind = planner_kind(args.model)
     threshold = confidence_threshold(args)
     options = () if threshold is None else (("confidence_threshold", threshold),)
     if args.validity is not None:
         options += (("validity_threshold", args.validity),)
+    if kind != "model":
+        if options or args.representation is not None:
+            raise SystemExit(
+                f"error: --validity, --confidence, --no-confidence and --rep are a trained "
+                f"model's; --model {args.model} takes none of them"
+            )
+        options = () if args.gripper is None else (("gripper", args.gripper),)
+    if kind == "plugin" and os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())  # the planner's module, found as `python -m` finds it
     config = dataclasses.replace(config_from_args(BenchmarkConfig, args), options=options)
     parallel = parallel_from_args(args)
 
     from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark
 
     check_out(config, args.out, args.resume)  # before the model loads
-    if args.representation is not None or args.gripper is not None:
+    if kind == "model" and (args.representation is not None or args.gripper is not None):
         from symgrasp.detect.pretrained import trained_for
         from symgrasp.sim.grippers import get_gripper, same_name_note
 

@@ -11,15 +11,19 @@ import warnings
 from symgrasp.arguments import integer, number
 from symgrasp.cli.options import (
     MODEL_METAVAR,
+    PLANNER_METAVAR,
     PROBABILITY,
     add_confidence_options,
+    add_shared,
     confidence_threshold,
     input_file,
     output_folder_path,
     output_path,
     parse_model,
+    parse_planner,
 )
 from symgrasp.config import DEFAULT_VALIDITY
+from symgrasp.names import planner_kind
 
 
 def add(subparsers: argparse._SubParsersAction) -> None:
@@ -88,20 +92,40 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
         "0.001, millimetres)",
     )
     parser.add_argument("--out", type=output_folder_path, required=True, help="output folder")
-    add_detector_options(parser)
+    add_detector_options(parser, planners=True)
+    add_shared(
+        parser,
+        "gripper",
+        "the hand the grasps are for, a built-in's name or a spec file: for vgn (default: "
+        "franka) and your own planner function; a model decides its own",
+    )
     parser.set_defaults(run=_run_detect)
 
 
-def add_detector_options(parser: argparse.ArgumentParser) -> None:
+def add_detector_options(parser: argparse.ArgumentParser, planners: bool = False) -> None:
     """The options of the detector a command loads (`symgrasp detect`, `symgrasp serve`):
-    the model and how its output is decoded; `detector_options` reads them."""
-    parser.add_argument(
-        "--model",
-        type=parse_model,
-        default="bingham2d-robotiq-2f85",
-        metavar=MODEL_METAVAR,
-        help="shipped model name or checkpoint path (default: bingham2d-robotiq-2f85)",
-    )
+    the model and how its output is decoded (`load_detector` reads them); ``planners``:
+    ``--model`` (alias ``--planner``) may also name VGN's network or a user's planner."""
+    if planners:
+        parser.add_argument(
+            "--model",
+            "--planner",
+            dest="model",
+            type=parse_planner,
+            default="bingham2d-robotiq-2f85",
+            metavar=PLANNER_METAVAR,
+            help="shipped model name, checkpoint path, vgn (VGN's network, its weights in the "
+            "data folder: docs/peers.md) or your own planner as package.module:NAME "
+            "(docs/benchmark.md) (default: bingham2d-robotiq-2f85)",
+        )
+    else:
+        parser.add_argument(
+            "--model",
+            type=parse_model,
+            default="bingham2d-robotiq-2f85",
+            metavar=MODEL_METAVAR,
+            help="shipped model name or checkpoint path (default: bingham2d-robotiq-2f85)",
+        )
     parser.add_argument(
         "--workspace-origin",
         type=number(-1e3, 1e3),
@@ -172,6 +196,7 @@ def _run_detect(args: argparse.Namespace) -> None:
 
 
 def _detect(args: argparse.Namespace) -> None:
+    from symgrasp.detect.detector import check_views
     from symgrasp.detect.files import (
         load_depth,
         load_extrinsic,
@@ -179,40 +204,95 @@ def _detect(args: argparse.Namespace) -> None:
         load_points,
         write_detection,
     )
+    from symgrasp.detect.planner import Observation
     from symgrasp.perception import depth_to_points, points_view
 
+    planner = _planner(args)
+    origin = getattr(planner, "origin", (0.0, 0.0, 0.0))
     extrinsic = None if args.extrinsic is None else load_extrinsic(args.extrinsic)
+    cloud = None
     if args.depth is not None:
         depth = load_depth(args.depth, args.png_scale)
-        intrinsic = load_intrinsic(args.intrinsic, depth.shape)
+        intrinsic, pose = load_intrinsic(args.intrinsic, depth.shape), extrinsic
     else:
-        points = load_points(args.points)
-        intrinsic = None
+        cloud = load_points(args.points)
+        given = None
         if args.intrinsic is not None:
-            intrinsic = load_intrinsic(
-                args.intrinsic, points.shape[:2] if points.ndim == 3 else None
-            )
-    detector = load_detector(args)
+            given = load_intrinsic(args.intrinsic, cloud.shape[:2] if cloud.ndim == 3 else None)
+        # the image its camera would take: what every planner and the pictures read
+        depth, intrinsic, pose = points_view(
+            cloud, extrinsic, viewpoint=args.viewpoint, intrinsic=given,
+            frame=args.points_frame, origin=origin,
+        )  # fmt: skip
     with warnings.catch_warnings(record=True) as caught:  # one line each, as errors are
         warnings.simplefilter("always")
-        if args.depth is not None:
-            grasps = detector.detect(depth, intrinsic, extrinsic)
-        else:
-            grasps = detector.detect_points(
-                points, extrinsic, viewpoint=args.viewpoint, intrinsic=intrinsic,
+        if cloud is not None and hasattr(planner, "detect_points"):  # a cloud's own warnings
+            grasps = planner.detect_points(
+                cloud, extrinsic, viewpoint=args.viewpoint, intrinsic=given,
                 frame=args.points_frame,
             )  # fmt: skip
-            depth, intrinsic, extrinsic = points_view(
-                points, extrinsic, viewpoint=args.viewpoint, intrinsic=intrinsic,
-                frame=args.points_frame, origin=detector.origin,
-            )  # fmt: skip
+        elif hasattr(planner, "detect"):  # a detector, VGN: their own input checks and timing
+            grasps = planner.detect(depth, intrinsic, pose)
+        else:
+            grasps = list(planner.plan(Observation(*check_views(depth, intrinsic, pose))))
     for warning in caught:
         print(f"warning: {warning.message}", file=sys.stderr)
-    volume = detector.fuse(depth, intrinsic, extrinsic)  # again, for the pictures
-    points = depth_to_points(depth, intrinsic, extrinsic, origin=detector.origin)
-    paths = write_detection(args.out, detector, volume, grasps, points)
+    grasps = grasps[: args.top_k]
+    volume = _fused(planner, depth, intrinsic, pose, origin)  # again, for the pictures
+    points = depth_to_points(depth, intrinsic, pose, origin=origin)
+    paths = write_detection(args.out, planner, volume, grasps, points)
     found = f"{len(grasps)} grasps" if grasps else "no grasp found (the scene is drawn)"
     print(f"{found}; " + ", ".join(str(p) for p in paths.values()))
+
+
+def _planner(args: argparse.Namespace):
+    """The planner ``--model`` names with the options given (those that do not apply to it
+    refused)."""
+    from symgrasp.peers.planners import load_planner
+
+    kind = planner_kind(args.model)
+    if kind == "model":
+        if args.gripper is not None:
+            raise SystemExit(
+                f"error: --gripper is for vgn and your own planner; --model {args.model} "
+                "decides its own hand"
+            )
+        return load_detector(args)
+    model_only = {
+        "--validity": args.validity != DEFAULT_VALIDITY,
+        "--confidence": args.confidence is not None,
+        "--no-confidence": args.no_confidence,
+        "--samples-per-voxel": args.samples_per_voxel != 0,
+        "--fill-holes": args.fill_holes != 0,
+    }
+    if kind == "plugin":
+        model_only["--workspace-origin"] = any(args.workspace_origin)
+        model_only["--device"] = args.device != "auto"
+    given = [flag for flag, used in model_only.items() if used]
+    if given:
+        raise SystemExit(f"error: --model {args.model} takes no {', '.join(given)}")
+    if kind == "plugin":
+        import os
+
+        if os.getcwd() not in sys.path:  # the planner's module, found as `python -m` finds it
+            sys.path.insert(0, os.getcwd())
+        return load_planner(args.model, args.gripper)
+    from symgrasp.device import resolve_device
+
+    return load_planner(
+        args.model, args.gripper, str(resolve_device(args.device)),
+        workspace_origin=tuple(args.workspace_origin),
+    )  # fmt: skip
+
+
+def _fused(planner, depth, intrinsic, extrinsic, origin):
+    """The TSDF the pictures draw: the planner's own fusion where it has one, else
+    symgrasp's."""
+    from symgrasp.detect.detector import fuse
+
+    if hasattr(planner, "fuse"):
+        return planner.fuse(depth, intrinsic, extrinsic)
+    return fuse(depth, intrinsic, extrinsic, origin)
 
 
 def _add_export(subparsers: argparse._SubParsersAction) -> None:

@@ -18,11 +18,13 @@ from symgrasp.names import (
     MESH_OBJECT_SETS,
     MESH_UNITS,
     OBJECT_SETS,
+    PEERS,
     PRETRAINED,
     REPRESENTATIONS,
     SCENES,
     SCHEDULES,
     VALIDITY_LOSSES,
+    planner_kind,
 )
 from symgrasp.objects.folder import data_folder
 
@@ -86,6 +88,13 @@ def input_file(value: str) -> str:
     return value
 
 
+def parse_planner(value: str) -> str:
+    """What may plan grasps where any planner plays (``detect``, ``bench declutter``): a model
+    (`parse_model`), a peer's name (``vgn``: its weights are looked for when the command runs)
+    or a user's ``package.module:NAME`` (imported when the command runs)."""
+    return parse_model(value) if planner_kind(value) == "model" else value
+
+
 def input_folder(value: str) -> str:
     """An argparse type: an existing folder the command reads (and may write its reports
     into), not a blank path (``''`` would be the current folder)."""
@@ -132,12 +141,17 @@ GRIPPER_METAVAR = "{" + ",".join(GRIPPERS) + "}|SPEC" + GRIPPER_SPEC_SUFFIX
 MODEL_METAVAR = "{" + ",".join(PRETRAINED) + "}|CHECKPOINT"
 """How ``--model``'s value is shown in every help: a shipped model's name or a file."""
 
+PLANNER_METAVAR = "{" + ",".join((*PRETRAINED, *PEERS)) + "}|CHECKPOINT|MODULE:NAME"
+"""How a planner is shown where any may play (``detect``, ``bench declutter``): a shipped
+model, a peer detector (VGN's network), a checkpoint file or a user's planner
+(`symgrasp.peers.planners`)."""
+
 SHARED = {
     "objects": ("--objects", {"type": parse_object_set, "metavar": "SET|FOLDER"}),
     "object_set": ("--objects", {"type": parse_object_set, "metavar": "SET|FOLDER"}),
     "scene": ("--scene", {"choices": SCENES}),
     "gripper": ("--gripper", {"type": parse_gripper, "metavar": GRIPPER_METAVAR}),
-    "model": ("--model", {"type": parse_model, "metavar": MODEL_METAVAR}),
+    "model": ("--model", {"type": parse_planner, "metavar": PLANNER_METAVAR}),
     "representation": ("--rep", {"choices": REPRESENTATIONS}),
     "kinds": ("--kinds", {"choices": SCENES}),
     "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),

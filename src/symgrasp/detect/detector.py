@@ -17,6 +17,7 @@ surface, a non-finite output), the detector says which with a `NoGraspWarning`.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import time
 import warnings
@@ -28,9 +29,10 @@ import torch
 
 from symgrasp.config import DEFAULT_VALIDITY, SEED_MAX, check_range
 from symgrasp.detect.grasp import Grasp
+from symgrasp.detect.planner import Observation
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.device import resolve_device
-from symgrasp.model.checkpoint import load_model, trained_gripper
+from symgrasp.model.checkpoint import file_sha256, load_model, trained_gripper
 from symgrasp.model.network import GraspNet
 from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, rank_voxels
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, depth_to_points
@@ -96,6 +98,10 @@ class GraspDetector:
         seed: seed of ``samples_per_voxel``'s draws.
         device: ``"auto"``, ``"cpu"``, ``"cuda"``, … where TSDF and network run.
         info: the checkpoint's metadata (shown by `repr`, kept for model cards).
+        name: what a benchmark records as the planner (`from_pretrained`: the name or path
+            it was given; default: representation and gripper).
+        version: the SHA-256 of the checkpoint file (`from_pretrained`; default: of the
+            weights, computed when first asked).
     """
 
     def __init__(
@@ -114,6 +120,8 @@ class GraspDetector:
         seed: int = 0,
         device: str | torch.device = "auto",
         info: dict[str, Any] | None = None,
+        name: str | None = None,
+        version: str | None = None,
     ) -> None:
         self.representation = model.representation
         check_range("validity_threshold", validity_threshold, 0.0, 1.0, integer=False)
@@ -168,6 +176,8 @@ class GraspDetector:
             )
         self.seed = seed
         self.info = info or {}
+        self.name = name or f"{self.representation.name}-{self.gripper.name}"
+        self._version = version
         self.timing: dict[str, float] = {}
         """Milliseconds per stage of the last call (``tsdf``, ``network``, ``decode``)."""
 
@@ -195,7 +205,10 @@ class GraspDetector:
                 stacklevel=2,
             )
         info = {k: v for k, v in state.items() if k not in ("model", "model_raw", "optimizer")}
-        return cls(model, trained_for, device=device, info=info, **options)
+        return cls(
+            model, trained_for, device=device, info=info, name=str(name_or_path),
+            version=file_sha256(path), **options,
+        )  # fmt: skip
 
     def __repr__(self) -> str:
         return (
@@ -215,16 +228,30 @@ class GraspDetector:
         cameras ``intrinsic`` (a `CameraIntrinsic` or a 3×3 matrix) at ``extrinsic``
         ``T_world_camera`` (4, 4) or (V, 4, 4). NaN, inf and non-positive pixels count as
         missing (their holes filled first with ``fill_holes``)."""
-        return self._fuse(*_views(depth, intrinsic, extrinsic))
+        return self._fuse(*check_views(depth, intrinsic, extrinsic))
 
     def _fuse(self, views: np.ndarray, intrinsic: CameraIntrinsic, T: np.ndarray) -> TSDFVolume:
         if self.fill_holes:
             views = np.stack([fill_holes(view, self.fill_holes) for view in views])
-        volume = TSDFVolume(resolution=RESOLUTION, origin=tuple(self.origin), device=self.device)
-        volume.integrate(views, intrinsic, T)
-        return volume
+        return _fuse_views(views, intrinsic, T, self.origin, self.device)
 
     # -- detection ---------------------------------------------------------------------
+
+    def plan(self, observation: Observation) -> list[Grasp]:
+        """`detect` on an `Observation`: what makes a detector a `GraspPlanner`."""
+        return self.detect(observation.depth, observation.intrinsic, observation.T_world_camera)
+
+    @property
+    def version(self) -> str:
+        """The SHA-256 of the checkpoint file it was loaded from (`from_pretrained`), else of
+        its weights' bytes."""
+        if self._version is None:
+            digest = hashlib.sha256()
+            for name, tensor in self.model.state_dict().items():
+                digest.update(name.encode())
+                digest.update(tensor.detach().cpu().contiguous().numpy().tobytes())
+            self._version = digest.hexdigest()
+        return self._version
 
     def detect(
         self,
@@ -237,7 +264,7 @@ class GraspDetector:
         a visible cause (no depth point inside the workspace, a median depth under
         `MIN_MEDIAN_DEPTH`, a non-finite network output) comes with a `NoGraspWarning`."""
         start = time.perf_counter()
-        views = _views(depth, intrinsic, extrinsic)
+        views = check_views(depth, intrinsic, extrinsic)
         grasps, out = self._detect_views(views, start)
         if not grasps:
             _warn_no_grasp(_output_cause(out), self._depth_cause(*views))
@@ -267,7 +294,7 @@ class GraspDetector:
             points, T_world_camera, viewpoint=viewpoint, intrinsic=intrinsic, frame=frame,
             origin=self.origin, pixel_size=pixel_size,
         )  # fmt: skip
-        views = _views(depth, camera, T)
+        views = check_views(depth, camera, T)
         grasps, out = self._detect_views(views, start)
         if not grasps:
             seen = _points_cause(points, depth) or self._depth_cause(*views, POINTS_HINT)
@@ -277,7 +304,7 @@ class GraspDetector:
     def _detect_views(
         self, views: tuple[np.ndarray, CameraIntrinsic, np.ndarray], start: float
     ) -> tuple[list[Grasp], dict[str, Tensor]]:
-        """The grasps of checked ``views`` (`_views`) and the network's outputs; `timing`
+        """The grasps of checked ``views`` (`check_views`) and the network's outputs; `timing`
         counts the TSDF stage from ``start`` (`time.perf_counter`)."""
         volume = self._fuse(*views)
         tsdf_ms = _ms_since(start, self.device)
@@ -395,6 +422,33 @@ class GraspDetector:
         return grasps
 
 
+def fuse(
+    depth: np.ndarray | Tensor,
+    intrinsic: CameraIntrinsic | np.ndarray,
+    extrinsic: np.ndarray | Tensor,
+    origin: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 0.0),
+    device: str | torch.device = "cpu",
+) -> TSDFVolume:
+    """The 40³ TSDF of the workspace cube from ``origin`` fused from depth images ``depth``
+    (H, W) or (V, H, W) [m] taken by cameras ``intrinsic`` (a `CameraIntrinsic` or a 3×3
+    matrix) at ``extrinsic`` ``T_world_camera`` (4, 4) or (V, 4, 4), on ``device``; NaN, inf
+    and non-positive pixels count as missing. What `GraspDetector.fuse` runs, and the surface
+    the declutter benchmark checks every planner's approach against."""
+    return _fuse_views(*check_views(depth, intrinsic, extrinsic), origin, torch.device(device))
+
+
+def _fuse_views(
+    views: np.ndarray,
+    intrinsic: CameraIntrinsic,
+    T: np.ndarray,
+    origin: np.ndarray | tuple[float, float, float],
+    device: torch.device,
+) -> TSDFVolume:
+    volume = TSDFVolume(resolution=RESOLUTION, origin=tuple(origin), device=device)
+    volume.integrate(views, intrinsic, T)
+    return volume
+
+
 def _warn_no_grasp(*causes: str | None) -> None:
     """Warn that no grasp was found, naming the visible ``causes`` (None: not seen)."""
     seen = [cause for cause in causes if cause]
@@ -477,13 +531,14 @@ def _check_tsdf(tsdf: np.ndarray | Tensor, device: torch.device) -> Tensor:
     return grid
 
 
-def _views(
+def check_views(
     depth: np.ndarray | Tensor,
     intrinsic: CameraIntrinsic | np.ndarray,
     extrinsic: np.ndarray | Tensor,
 ) -> tuple[np.ndarray, CameraIntrinsic, np.ndarray]:
-    """The inputs of `GraspDetector.fuse` checked: depth (V, H, W) [m, 0 = missing], the
-    `CameraIntrinsic` and ``T_world_camera`` (V, 4, 4)."""
+    """The inputs of `GraspDetector.fuse` checked (ValueError naming what is wrong): depth
+    (V, H, W) [m, 0 = missing], the `CameraIntrinsic` and ``T_world_camera`` (V, 4, 4), rigid.
+    What any planner's input passes through on the command line."""
     depth = _depth_in_metres(depth)
     views = depth.reshape(-1, *depth.shape[-2:])
     return views, _as_intrinsic(intrinsic, views.shape[1:]), _check_extrinsic(extrinsic, len(views))

@@ -19,6 +19,7 @@ from PIL import Image  # matplotlib's own dependency; keeps 16-bit PNGs exact
 
 from symgrasp.detect.detector import GraspDetector
 from symgrasp.detect.grasp import Grasp
+from symgrasp.detect.planner import GraspPlanner
 from symgrasp.detect.show import save_grasps_html, save_grasps_png
 from symgrasp.perception import CameraIntrinsic, TSDFVolume
 
@@ -220,21 +221,25 @@ def load_extrinsic(path: str | Path) -> np.ndarray:
 
 def write_detection(
     out: str | Path,
-    detector: GraspDetector,
+    planner: GraspPlanner,
     volume: TSDFVolume,
     grasps: list[Grasp],
     points: np.ndarray | None = None,
 ) -> dict[str, Path]:
-    """Write ``grasps.json``, ``grasps.png`` and ``grasps.html`` for ``grasps`` detected in
+    """Write ``grasps.json``, ``grasps.png`` and ``grasps.html`` for ``grasps`` that
+    ``planner`` (a `GraspDetector` or any `GraspPlanner`) found in the scene fused into
     ``volume``, drawn over ``points`` (N, 3) (the depth image's, `depth_to_points`; default:
     the volume's surface points); the HTML view shows closing-axis samples of the best
     voxels when the model predicts a distribution."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    representation = getattr(getattr(planner, "representation", None), "name", None)
     meta = {
-        "representation": detector.representation.name,
-        "gripper": detector.gripper.name,
-        "timing_ms": detector.timing,
+        "planner": planner.name,
+        "version": planner.version,
+        "representation": representation,
+        "gripper": planner.gripper.name,
+        "timing_ms": getattr(planner, "timing", {}),
         "grasps": [g.record() for g in grasps],
     }
     paths = {"json": out / "grasps.json", "png": out / "grasps.png", "html": out / "grasps.html"}
@@ -244,19 +249,14 @@ def write_detection(
     shown = grasps[:DRAWN]
     poses = np.array([g.pose for g in shown]).reshape(-1, 4, 4)
     scores = np.array([g.score for g in shown])
-    title = f"{len(grasps)} grasps ({detector.representation.name}, {detector.gripper.name})"
+    title = f"{len(grasps)} grasps ({representation or planner.name}, {planner.gripper.name})"
     best = 0 if grasps else None
     png = paths["png"]
-    save_grasps_png(png, points, poses, scores, detector.gripper, title=title, highlight=best)
-    save_grasps_html(
-        paths["html"],
-        points,
-        poses,
-        scores,
-        detector.gripper,
-        _closing_samples(detector, volume, shown),
-        title,
+    save_grasps_png(png, points, poses, scores, planner.gripper, title=title, highlight=best)
+    samples = (
+        _closing_samples(planner, volume, shown) if isinstance(planner, GraspDetector) else None
     )
+    save_grasps_html(paths["html"], points, poses, scores, planner.gripper, samples, title)
     return paths
 
 

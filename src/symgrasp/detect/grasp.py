@@ -12,23 +12,26 @@ from symgrasp.sim.protocol import LIFT_HEIGHT, PREGRASP_DISTANCE
 
 @dataclass(frozen=True)
 class Grasp:
-    """One 6-DoF grasp proposed by `GraspDetector`.
+    """One 6-DoF grasp proposed by a planner (`symgrasp.detect.planner`).
 
     Attributes:
         pose: ``T_world_tcp`` (4, 4), rotation [e_x approach, e_y, e_z closing axis]
-            (docs/conventions.md); the TCP sits at the centre of its voxel.
-        score: predicted gravity-rejection score (label units, ≈ [0, 1]; docs/data.md).
-        validity: predicted probability that the voxel holds a valid grasp.
+            (docs/conventions.md); `GraspDetector` puts the TCP at the centre of its voxel.
+        score: the planner's ranking score, higher is better (`GraspDetector`: predicted
+            gravity-rejection score, label units ≈ [0, 1], docs/data.md; VGN: its quality).
+        validity: `GraspDetector`: predicted probability that the voxel holds a valid grasp;
+            None for planners without one.
         confidence: Bingham confidence (λ₃ − λ₂) + (λ₃ − λ₁) of the closing axis for the
             Bingham representations, None for the others.
-        voxel: index ``(i, j, k)`` of the voxel in the 40³ grid.
+        voxel: index ``(i, j, k)`` of the voxel in the 40³ grid it was read from, None for
+            planners without a grid.
     """
 
     pose: np.ndarray
     score: float
-    validity: float
-    confidence: float | None
-    voxel: tuple[int, int, int]
+    validity: float | None = None
+    confidence: float | None = None
+    voxel: tuple[int, int, int] | None = None
 
     @property
     def position(self) -> np.ndarray:
@@ -51,9 +54,9 @@ class Grasp:
         return {
             "T_world_tcp": np.round(self.pose, 6).tolist(),
             "score": round(self.score, 4),
-            "validity": round(self.validity, 4),
+            "validity": None if self.validity is None else round(self.validity, 4),
             "confidence": None if self.confidence is None else round(self.confidence, 2),
-            "voxel": list(self.voxel),
+            "voxel": None if self.voxel is None else list(self.voxel),
         }
 
     def transformed(self, T_frame_world: np.ndarray) -> Grasp:

@@ -21,9 +21,16 @@ VGN_ROOT = Path("objects") / "vgn"
 
 
 class MissingData(FileNotFoundError):
-    """Data a user downloads (an object set) is not in the data folder; the message names what,
-    where it was looked for and how to get it. Scripts and tests tell it from other errors:
-    a script stops with its one line, a test skips with it."""
+    """Data a user downloads (an object set, VGN's weights) is not in the data folder; the
+    message names what, where it was looked for and how to get it. Commands, scripts and tests
+    tell it from other errors: a command or script stops with its one line and exit status
+    `EX_NOINPUT`, a test skips with it."""
+
+
+EX_NOINPUT = 66
+"""The exit status of a command or script whose input data is missing (`MissingData`;
+sysexits.h: "cannot open input"), so that a caller (the tests) tells missing data from a
+failure."""
 
 
 def user_folder() -> Path:

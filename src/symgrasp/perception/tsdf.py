@@ -4,7 +4,10 @@ The grid covers the cube ``origin + [0, size]³`` with ``resolution³`` voxels; 
 ``[i, j, k]`` has its centre at ``origin + (i + ½, j + ½, k + ½) · voxel_size`` (``i`` along
 world x). Values are the signed distance to the nearest surface along the viewing ray divided
 by the truncation distance and clipped to [-1, 1]: positive in front of the surface (free
-space seen by a camera), negative behind it. Unobserved voxels have weight 0.
+space seen by a camera), negative behind it. Unobserved voxels have weight 0. The distance is
+the depth difference along the optical axis, or with ``along_ray`` the distance along the
+pixel's viewing ray, as Open3D's ``UniformTSDFVolume`` measures it (VGN's fusion,
+`symgrasp.peers.vgn`).
 """
 
 from __future__ import annotations
@@ -28,6 +31,9 @@ class TSDFVolume:
         truncation_voxels: truncation distance in voxels.
         origin: (3,) world position of the cube's corner [m].
         device: torch device of the grid (fusion runs there).
+        along_ray: measure the signed distance along each pixel's viewing ray (the depth
+            difference times ``√(1 + ((u − cx)/fx)² + ((v − cy)/fy)²)`` at pixel (u, v), Open3D's
+            convention) instead of along the optical axis.
     """
 
     def __init__(
@@ -37,6 +43,7 @@ class TSDFVolume:
         truncation_voxels: float = TRUNCATION_VOXELS,
         origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
         device: str | torch.device = "cpu",
+        along_ray: bool = False,
     ) -> None:
         if size <= 0 or resolution <= 0 or truncation_voxels <= 0:
             raise ValueError(
@@ -47,6 +54,7 @@ class TSDFVolume:
         self.voxel_size = self.size / self.resolution
         self.truncation = truncation_voxels * self.voxel_size
         self.device = torch.device(device)
+        self.along_ray = bool(along_ray)
         self.origin = torch.tensor(origin, dtype=torch.float32, device=self.device)
         shape = (self.resolution,) * 3
         self.tsdf = torch.ones(shape, device=self.device)
@@ -89,6 +97,12 @@ class TSDFVolume:
         views = torch.arange(depth.shape[0], device=self.device)[:, None].expand_as(u)
         d = depth[views, v.clamp(0, intrinsic.height - 1), u.clamp(0, intrinsic.width - 1)]
         sdf = d - z
+        if self.along_ray:
+            sdf = sdf * torch.sqrt(
+                1
+                + ((u - intrinsic.cx) / intrinsic.fx) ** 2
+                + ((v - intrinsic.cy) / intrinsic.fy) ** 2
+            )
         # seen, and not hidden deeper than the truncation band behind the surface
         valid = inside & (d > 0) & (sdf >= -self.truncation)
         observed = (sdf / self.truncation).clamp(max=1.0) * valid

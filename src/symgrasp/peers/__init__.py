@@ -1,0 +1,1 @@
+"""Detectors other than symgrasp's own, behind the planner interface."""
