@@ -82,8 +82,12 @@ def test_different_worlds_are_refused(tmp_path, capsys):
         SystemExit, match=r"different rounds \(objects: 'household-test' vs 'large-box'"
     ):
         main(["bench", "compare", str(a), str(b)])
+    (tmp_path / "empty").mkdir()
     with pytest.raises(SystemExit, match="holds no benchmark"):
+        main(["bench", "compare", str(a), str(tmp_path / "empty")])
+    with pytest.raises(SystemExit):
         main(["bench", "compare", str(a), str(tmp_path / "none")])
+    assert "argument b: expected an existing folder" in capsys.readouterr().err
     c = _bench(tmp_path / "c", {7: (1, 1, 5)})
     with pytest.raises(SystemExit, match="share no finished round"):
         main(["bench", "compare", str(a), str(c)])
