@@ -336,8 +336,8 @@ class World:
 
         The start is where MuJoCo last computed the positions (the current state after
         `restore`, as for `hand_pose`). A few operations on 3-vectors per step, read from
-        MuJoCo's own buffers: a force ramp costs little more than its steps (4–5× less than
-        one through `apply_force`, `step` and `hand_pose`, docs/data.md).
+        MuJoCo's own buffers: a force ramp costs little more than its MuJoCo steps, where one
+        through `apply_force`, `step` and `hand_pose` spent more in Python (docs/data.md).
         """
         self._require_hand()
         if not 0 <= index < len(self.objects):
