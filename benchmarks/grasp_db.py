@@ -16,11 +16,13 @@ change of the shared machine's load falls on both:
   `World.push_until_slip`;
 - **after**: the code as it is.
 
-The fastest of the repeats counts. One more build (after) measures the share of its time
-spent inside MuJoCo (`mj_step`, `mj_forward`, through a timing wrapper); that share of the
-fastest after is what the same steps cost with no Python at all, so ``before / MuJoCo`` bounds
-any speed-up that leaves the physics, and so the database, as it is. (A share, not seconds:
-a load that changes between builds slows MuJoCo and Python alike.) Reports seconds per held grasp, the ratio before/after
+The fastest of the repeats counts. One more build (after) measures the shares of its time
+spent inside MuJoCo (`mj_step`, `mj_forward`, through a timing wrapper) and in the force ramps
+(`pull_out_forces`). The MuJoCo share of the fastest after is what the same steps cost with no
+Python at all, so ``before / MuJoCo`` bounds any speed-up that leaves the physics, and so the
+database, as it is; the rest without the ramps' share is what a database would cost that
+scored nothing (closures, sampling, bookkeeping). (Shares, not seconds: a load that changes
+between builds slows MuJoCo and Python alike.) Reports seconds per held grasp, the ratio before/after
 per cell and over the cells (total seconds, bootstrap 95 % interval over cells), and whether the
 two databases are equal bit for bit. One process, one core: MuJoCo steps on the calling thread.
 Needs VGN's object sets (``symgrasp objects fetch vgn``); stops with exit status 66 without them.
@@ -50,6 +52,7 @@ from symgrasp.sim.objects import ObjectSpec, Part
 OBJECTS = "vgn-pile-train,vgn-packed-train"
 BOX_HALF = (0.02, 0.03, 0.045)
 BOOTSTRAP = 2000
+FAST_RAMPS = grasp_db.pull_out_forces
 
 
 def stepwise_pull_out_forces(world, index, directions, max_force, rate, slip) -> np.ndarray:
@@ -102,17 +105,15 @@ class MujocoClock:
             setattr(mujoco, name, function)
 
 
-def _build(obj: ObjectSpec, hand, cfg: DatabaseConfig, seed: int, stepwise: bool):
-    """The database and the seconds it took, with the ramps of before or after."""
-    fast = grasp_db.pull_out_forces
-    if stepwise:
-        grasp_db.pull_out_forces = stepwise_pull_out_forces
+def _build(obj: ObjectSpec, hand, cfg: DatabaseConfig, seed: int, ramps):
+    """The database and the seconds it took, its force ramps run by ``ramps``."""
+    grasp_db.pull_out_forces = ramps
     try:
         start = time.perf_counter()
         db = build_database(obj, hand, cfg, seed)
         return db, time.perf_counter() - start
     finally:
-        grasp_db.pull_out_forces = fast
+        grasp_db.pull_out_forces = FAST_RAMPS
 
 
 def _same(a: GraspDatabase, b: GraspDatabase) -> bool:
@@ -125,18 +126,29 @@ def measure_cell(
     obj: ObjectSpec, kind: str, gripper: str, seed: int, cfg: DatabaseConfig, repeats: int
 ) -> dict:
     hand = get_gripper(gripper)
+    ramps = {"before": stepwise_pull_out_forces, "after": FAST_RAMPS}
     seconds: dict[str, list[float]] = {"before": [], "after": []}
     built: dict[str, GraspDatabase] = {}
     for r in range(repeats):
         order = ("before", "after") if (seed + r) % 2 == 0 else ("after", "before")
         for variant in order:
-            built[variant], elapsed = _build(obj, hand, cfg, seed, variant == "before")
+            built[variant], elapsed = _build(obj, hand, cfg, seed, ramps[variant])
             seconds[variant].append(elapsed)
+    in_ramps = 0.0
+
+    def timed_ramps(*args):
+        nonlocal in_ramps
+        start = time.perf_counter()
+        forces = FAST_RAMPS(*args)
+        in_ramps += time.perf_counter() - start
+        return forces
+
     with MujocoClock() as clock:
-        _, clocked = _build(obj, hand, cfg, seed, stepwise=False)
+        _, clocked = _build(obj, hand, cfg, seed, timed_ramps)
     held = int(built["after"].held.sum())
     before, after = min(seconds["before"]), min(seconds["after"])
     in_mujoco = after * clock.seconds / clocked
+    without_ramps = after * (1 - in_ramps / clocked)
     cell = {
         "object": obj.name,
         "kind": kind,
@@ -148,10 +160,13 @@ def measure_cell(
         "seconds_before": round(before, 3),
         "seconds_after": round(after, 3),
         "share_in_mujoco": round(clock.seconds / clocked, 3),
+        "share_in_ramps": round(in_ramps / clocked, 3),
+        "seconds_without_ramps": round(without_ramps, 3),
         "seconds_in_mujoco": round(in_mujoco, 3),
         "ms_per_grasp_before": round(1e3 * before / held, 2),
         "ms_per_grasp_after": round(1e3 * after / held, 2),
         "ms_per_grasp_in_mujoco": round(1e3 * in_mujoco / held, 2),
+        "ms_per_grasp_without_ramps": round(1e3 * without_ramps / held, 2),
         "ratio": round(before / after, 2),
         "ratio_bound_same_physics": round(before / in_mujoco, 2),
         "identical": _same(built["before"], built["after"]),
@@ -167,6 +182,7 @@ def summary(cells: list[dict], rng: np.random.Generator) -> dict:
     before = np.array([c["seconds_before"] for c in cells])
     after = np.array([c["seconds_after"] for c in cells])
     mujoco_s = np.array([c["seconds_in_mujoco"] for c in cells])
+    unscored = np.array([c["seconds_without_ramps"] for c in cells])
     held = np.array([c["held"] for c in cells])
     picks = rng.integers(len(cells), size=(BOOTSTRAP, len(cells)))
     ratios = before[picks].sum(axis=1) / after[picks].sum(axis=1)
@@ -175,25 +191,28 @@ def summary(cells: list[dict], rng: np.random.Generator) -> dict:
         "ms_per_grasp_before": round(1e3 * before.sum() / held.sum(), 2),
         "ms_per_grasp_after": round(1e3 * after.sum() / held.sum(), 2),
         "ms_per_grasp_in_mujoco": round(1e3 * mujoco_s.sum() / held.sum(), 2),
+        "ms_per_grasp_without_ramps": round(1e3 * unscored.sum() / held.sum(), 2),
         "ratio": round(before.sum() / after.sum(), 2),
         "ratio_interval_95": [round(float(q), 2) for q in np.quantile(ratios, [0.025, 0.975])],
         "ratio_bound_same_physics": round(before.sum() / mujoco_s.sum(), 2),
         "share_of_after_in_mujoco": round(mujoco_s.sum() / after.sum(), 3),
+        "ratio_before_to_without_ramps": round(before.sum() / unscored.sum(), 2),
         "identical": all(c["identical"] for c in cells),
     }
 
 
 def table(result: dict) -> str:
     rows = [
-        "| cells | ms per grasp, before | after | in MuJoCo | before / after [95 %] "
-        "| before / MuJoCo | databases equal |",
-        "|---|---|---|---|---|---|---|",
+        "| cells | ms per grasp, before | after | in MuJoCo | without ramps "
+        "| before / after [95 %] | before / MuJoCo | databases equal |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for name, s in result.items():
         lo, hi = s["ratio_interval_95"]
         rows.append(
             f"| {name} ({s['cells']}) | {s['ms_per_grasp_before']} | {s['ms_per_grasp_after']} "
-            f"| {s['ms_per_grasp_in_mujoco']} | {s['ratio']} [{lo}, {hi}] "
+            f"| {s['ms_per_grasp_in_mujoco']} | {s['ms_per_grasp_without_ramps']} "
+            f"| {s['ratio']} [{lo}, {hi}] "
             f"| {s['ratio_bound_same_physics']} | {s['identical']} |"
         )
     return "\n".join(rows) + "\n"
