@@ -11,7 +11,7 @@ For the first ``--objects`` objects of the training pool of ``vgn-pile-train,vgn
   on the number of score directions K (the ramps draw no random numbers), and a database of
   ``n`` grasps is the first ``n`` held grasps of a larger one with the same seed. So one
   build with ``--grasps`` and K = 4 gives the yield (held / closed), the closures' cost
-  and every smaller database; ramps are timed apart (a wrapper around `pull_out_force`).
+  and every smaller database; ramps are timed apart (a wrapper around `pull_out_forces`).
 - **Directions.** The first ``--direction-grasps`` held grasps are scored with K = 8, 16, 32
   and 64 (`fibonacci_directions`); each smaller K is read at the 64 directions by the
   interpolation the scene labels use (`interpolate`) and compared with the score measured
@@ -54,26 +54,26 @@ class RampClock:
 
     def __init__(self) -> None:
         self.calls, self.seconds = 0, 0.0
-        self._ramp = grasp_db.pull_out_force
+        self._ramps = grasp_db.pull_out_forces
 
-    def __call__(self, *args, **kwargs) -> float:
+    def __call__(self, world, index, directions, *args) -> np.ndarray:
         start = time.perf_counter()
-        force = self._ramp(*args, **kwargs)
+        forces = self._ramps(world, index, directions, *args)
         self.seconds += time.perf_counter() - start
-        self.calls += 1
-        return force
+        self.calls += len(directions)
+        return forces
 
 
 def timed_build(obj, gripper, cfg: DatabaseConfig, seed: int) -> tuple[GraspDatabase, dict]:
     """The database and what it cost: seconds in all, in ramps, ramps run."""
     clock = RampClock()
-    grasp_db.pull_out_force = clock
+    grasp_db.pull_out_forces = clock
     try:
         start = time.perf_counter()
         db = build_database(obj, gripper, cfg, seed)
         seconds = time.perf_counter() - start
     finally:
-        grasp_db.pull_out_force = clock._ramp
+        grasp_db.pull_out_forces = clock._ramps
     return db, {"seconds": seconds, "ramp_seconds": clock.seconds, "ramps": clock.calls}
 
 

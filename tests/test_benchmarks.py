@@ -31,6 +31,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "benchmarks/model": ("model.json", "representations"),
     "benchmarks/detect": ("detect.json", "median_ms"),
     "benchmarks/serve": ("serve.json", "cells"),
+    "benchmarks/grasp_db": ("grasp_db.json", "summary"),
     "experiments/declutter_table": ("declutter.json", "cells"),
     "experiments/validity_sweep": ("validity_sweep.json", "cells"),
     "experiments/validity_calibration": ("validity_calibration.json", "cells"),

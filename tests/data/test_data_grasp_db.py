@@ -5,6 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from symgrasp.data import grasp_db
 from symgrasp.data.grasp_db import (
     GRAVITY,
     DatabaseConfig,
@@ -16,6 +17,8 @@ from symgrasp.data.grasp_db import (
     rejection_score,
     side_normals,
 )
+from symgrasp.objects.folder import DATA_ENV
+from symgrasp.objects.sets import resolve
 from symgrasp.sim import FRANKA, get_gripper
 from symgrasp.sim.objects import ObjectSpec, Part, surface_samples
 
@@ -125,6 +128,32 @@ def test_same_seed_same_database_and_the_cache_is_keyed_by_object(database, tmp_
     small = dataclasses.replace(CFG, grasps=1, max_candidates=5)
     cached_database(heavier, FRANKA, tmp_path, small, seed=3)
     assert len(list(tmp_path.glob("*.npz"))) == 2
+
+
+def _assert_same(a: GraspDatabase, b: GraspDatabase) -> None:
+    for field in dataclasses.fields(GraspDatabase):
+        assert np.array_equal(getattr(a, field.name), getattr(b, field.name)), field.name
+
+
+def test_the_database_is_the_one_of_ramps_stepped_through_the_world(
+    database, stepwise_pull_out_forces, monkeypatch
+):
+    """The fast ramps change no bit of a database, so a cached one (its key unchanged) is
+    what this code builds."""
+    monkeypatch.setattr(grasp_db, "pull_out_forces", stepwise_pull_out_forces)
+    _assert_same(build_database(_box(), FRANKA, CFG, seed=3), database)
+
+
+@pytest.mark.parametrize("gripper", ["franka", "robotiq-2f85"])
+def test_so_is_a_database_on_a_vgn_mesh(gripper, vgn_data, stepwise_pull_out_forces, monkeypatch):
+    monkeypatch.setenv(DATA_ENV, str(vgn_data))
+    obj = resolve("vgn-pile-train,vgn-packed-train").pool(2, 0)[1]
+    assert len(obj.parts) == 3  # a mesh of several convex parts
+    hand, cfg = get_gripper(gripper), DatabaseConfig(grasps=3, surface_points=400, directions=8)
+    fast = build_database(obj, hand, cfg, seed=1)
+    monkeypatch.setattr(grasp_db, "pull_out_forces", stepwise_pull_out_forces)
+    _assert_same(build_database(obj, hand, cfg, seed=1), fast)
+    assert fast.held.sum() == 3 and 0 < fast.score[fast.held].mean() < 1
 
 
 def test_bad_gripper_lists_the_known_ones():

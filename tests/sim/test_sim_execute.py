@@ -12,7 +12,7 @@ from symgrasp.sim import (
     large_box,
     make_scene,
 )
-from symgrasp.sim.execute import Outcome, pull_out_force, top_grasp
+from symgrasp.sim.execute import Outcome, pull_out_force, pull_out_forces, ramp, top_grasp
 from symgrasp.sim.objects import ObjectSpec, Part
 from symgrasp.workspace import TABLE_HEIGHT
 
@@ -206,3 +206,61 @@ def test_flipped_grasp_is_the_same_grasp(gripper):
         assert execute_grasp(world, T, remove=False).outcome is Outcome.SUCCESS
         lifted.append(world.object_positions()[0])
     np.testing.assert_allclose(lifted[0], lifted[1], atol=2e-3)
+
+
+def _held_box(gripper: str) -> World:
+    """A 4 × 6 × 9 cm box of 0.2 kg floating without gravity, squeezed across its 4 cm side."""
+    half = (0.02, 0.03, 0.045)
+    T = np.eye(4)
+    T[:3, 3] = (0.15, 0.15, 0.6)
+    world = World([_box(half, friction=0.5)], T[None], gripper=get_gripper(gripper))
+    world.set_gravity(np.zeros(3))
+    world.set_hand_pose(top_grasp(T[:3, 3] + (0.0, 0.0, half[2])))
+    world.actuate(close=True)
+    assert world.objects_in_hand() == [0]
+    return world
+
+
+@pytest.mark.parametrize("gripper", GRIPPERS)
+def test_pull_out_forces_equal_the_ramp_stepped_through_the_world(
+    gripper, stepwise_pull_out_forces
+):
+    """Bit for bit, ramps that slip and ramps that hold to the end alike; the world is left as
+    it was."""
+    world = _held_box(gripper)
+    directions = np.random.default_rng(0).normal(size=(12, 3))
+    before = world.snapshot()
+    fast = pull_out_forces(world, 0, directions, max_force=100.0, rate=1000.0, slip=0.005)
+    assert np.array_equal(world.snapshot().state, before.state)
+    reference = stepwise_pull_out_forces(world, 0, directions, 100.0, 1000.0, 0.005)
+    assert np.array_equal(fast, reference)
+    assert 0 < np.sum(fast == 100.0) < len(fast)  # both endings were compared
+    single = pull_out_force(world, 0, directions[1], max_force=100.0, rate=1000.0, slip=0.005)
+    assert single == fast[1]
+
+
+def test_a_ramp_adds_its_step_until_it_reaches_the_maximum():
+    forces = ramp(1.0, 0.3)
+    total, expected = 0.0, []
+    for _ in range(4):
+        total += 0.3
+        expected.append(total)
+    assert forces.tolist() == expected  # summed step by step: 0.8999… before 1.2
+    assert forces[-2] < 1.0 <= forces[-1]
+    assert len(ramp(300.0, 2.0)) == 150
+    with pytest.raises(ValueError, match="positive"):
+        ramp(1.0, 0.0)
+
+
+def test_pushing_refuses_bad_arguments_and_leaves_no_force_behind():
+    world = _held_box("franka")
+    assert world.push_until_slip(0, np.full((5, 3), 0.1), slip=0.005) is None
+    assert not world.data.xfrc_applied.any()
+    with pytest.raises(ValueError, match=r"shape \(n, 3\)"):
+        world.push_until_slip(0, np.zeros(3), slip=0.005)
+    with pytest.raises(ValueError, match="index"):
+        world.push_until_slip(1, np.zeros((5, 3)), slip=0.005)
+    with pytest.raises(ValueError, match="non-zero"):
+        pull_out_forces(world, 0, np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="gripper"):
+        World([_box((0.02, 0.02, 0.02))]).push_until_slip(0, np.zeros((5, 3)), slip=0.005)

@@ -28,7 +28,7 @@ from scipy.spatial.transform import Rotation
 from symgrasp.atomic import write_atomic
 from symgrasp.config import DatabaseConfig
 from symgrasp.data.directions import fibonacci_directions
-from symgrasp.sim.execute import pull_out_force
+from symgrasp.sim.execute import pull_out_forces
 from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.objects import ObjectSpec, surface_samples
 from symgrasp.sim.world import World
@@ -231,16 +231,13 @@ def build_database(
             widths.append(world.finger_opening())
             forces.append(world.hand_contact_force())
             held.append(bool(world.objects_in_hand()))
-            row = np.zeros(len(dirs))
-            resisted.append(row)
             if not held[-1]:
+                resisted.append(np.zeros(len(dirs)))
                 continue
-            closed = world.snapshot()
-            for k, u in enumerate(dirs):
-                world.restore(closed)
-                row[k] = pull_out_force(
-                    world, 0, T_wo[:3, :3] @ u, max_force, max_force / cfg.ramp_time, cfg.slip
-                )
+            pulls = np.array([T_wo[:3, :3] @ u for u in dirs])  # object frame → world
+            resisted.append(
+                pull_out_forces(world, 0, pulls, max_force, max_force / cfg.ramp_time, cfg.slip)
+            )
     n = len(poses)
     resisted_arr = np.asarray(resisted, dtype=float).reshape(n, cfg.directions)
     return GraspDatabase(

@@ -115,6 +115,51 @@ def _trial(world: World, T: np.ndarray, hold_time: float) -> GraspResult:
     return GraspResult(Outcome.SLIPPED)
 
 
+def ramp(max_force: float, step: float) -> np.ndarray:
+    """The force of a ramp at each step [N]: ``step`` more at every step, summed step by step,
+    up to the first value that reaches ``max_force`` (which ends the ramp), shape (n,)."""
+    if not max_force > 0 or not step > 0:
+        raise ValueError(f"max_force and the ramp's step must be positive, got {max_force}, {step}")
+    forces, force = [], 0.0
+    while force < max_force:
+        force += step
+        forces.append(force)
+    return np.array(forces)
+
+
+def pull_out_forces(
+    world: World,
+    object_index: int,
+    directions: np.ndarray,
+    max_force: float = 300.0,
+    rate: float = 600.0,
+    slip: float = 0.01,
+) -> np.ndarray:
+    """Forces [N] at which a held object is pulled ``slip`` metres out of the hand, one per
+    direction (K, 3) (world frame; any length but zero), each ramp from the world's current
+    state, to which the world returns.
+
+    A force along the direction on the object's centre of mass ramps up at ``rate`` N/s while
+    the hand holds still (`World.push_until_slip`); the result is the force being applied when
+    the object is seen ``slip`` out of place, ``max_force`` if it never is. Returns (K,).
+    """
+    dirs = np.asarray(directions, dtype=float)
+    if dirs.ndim != 2 or dirs.shape[1] != 3 or np.any(np.linalg.norm(dirs, axis=1) == 0):
+        raise ValueError(f"directions must be non-zero 3-vectors, shape (K, 3), got {dirs.shape}")
+    magnitude = ramp(max_force, rate * world.timestep)
+    start = world.snapshot()
+    resisted = np.full(len(dirs), float(max_force))
+    for k, u in enumerate(dirs):
+        world.restore(start)
+        slipped = world.push_until_slip(
+            object_index, magnitude[:, None] * (u / np.linalg.norm(u)), slip
+        )
+        if slipped is not None:
+            resisted[k] = min(magnitude[slipped], max_force)
+    world.restore(start)
+    return resisted
+
+
 def pull_out_force(
     world: World,
     object_index: int,
@@ -123,25 +168,8 @@ def pull_out_force(
     rate: float = 600.0,
     slip: float = 0.01,
 ) -> float:
-    """Force [N] at which a held object is pulled ``slip`` metres out of the hand.
-
-    A force along ``direction`` (world frame) on the object's centre of mass ramps up at
-    ``rate`` N/s while the hand holds still; returns ``max_force`` if the object never moves.
-    """
+    """`pull_out_forces` along one ``direction`` (3,)."""
     u = np.asarray(direction, dtype=float)
     if u.shape != (3,) or np.linalg.norm(u) == 0:
         raise ValueError("direction must be a non-zero 3-vector")
-    u = u / np.linalg.norm(u)
-    T_hand = world.hand_pose()
-    start = np.linalg.inv(T_hand) @ np.r_[world.object_positions()[object_index], 1.0]
-    dt = world.timestep
-    force = 0.0
-    while force < max_force:
-        force += rate * dt
-        world.apply_force(object_index, force * u)
-        world.step(dt)
-        now = np.linalg.inv(world.hand_pose()) @ np.r_[world.object_positions()[object_index], 1.0]
-        if np.linalg.norm(now[:3] - start[:3]) > slip:
-            break
-    world.apply_force(object_index, np.zeros(3))
-    return min(force, max_force)
+    return float(pull_out_forces(world, object_index, u[None], max_force, rate, slip)[0])

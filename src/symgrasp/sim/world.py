@@ -11,6 +11,7 @@ objects' poses and velocities over.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -168,6 +169,7 @@ class World:
         for i, b in enumerate(self._obj_body):
             self._geom_object[m.geom_bodyid == b] = i
         self._hand_geom = m.geom_group == HAND_GROUP
+        self._hand_body = m.body(f"{PREFIX}base").id if self.gripper is not None else -1
         for i in range(len(self.objects)):
             self.data.qpos[self._obj_qadr[i] : self._obj_qadr[i] + 7] = obj_qpos[i]
             self.data.qvel[self._obj_vadr[i] : self._obj_vadr[i] + 6] = obj_qvel[i]
@@ -308,7 +310,7 @@ class World:
         d.qpos[m.jnt_qposadr[free.id] : m.jnt_qposadr[free.id] + 7] = q
         for name, value in gripper.open_joint_positions().items():
             d.qpos[m.jnt_qposadr[m.joint(name).id]] = value
-        hand_dofs = m.body_rootid[m.dof_bodyid] == m.body(f"{PREFIX}base").id
+        hand_dofs = m.body_rootid[m.dof_bodyid] == self._hand_body
         d.qvel[hand_dofs] = 0.0
         d.act[:] = 0.0
         d.ctrl[:] = -gripper.close_ctrl
@@ -317,11 +319,50 @@ class World:
     def hand_pose(self) -> np.ndarray:
         """Current ``T_world_tcp`` of the hand, 4×4."""
         self._require_hand()
-        b = self.model.body(f"{PREFIX}base").id
         T = np.eye(4)
-        T[:3, :3] = self.data.xmat[b].reshape(3, 3)
-        T[:3, 3] = self.data.xpos[b]
+        T[:3, :3] = self.data.xmat[self._hand_body].reshape(3, 3)
+        T[:3, 3] = self.data.xpos[self._hand_body]
         return T
+
+    def push_until_slip(self, index: int, forces: np.ndarray, slip: float) -> int | None:
+        """Push object ``index`` with ``forces[k]`` (world frame [N], at its centre of mass)
+        during step ``k``, the hand's set-point unchanged, until the object's origin has moved
+        more than ``slip`` [m] in the hand's TCP frame from where it was at the call.
+
+        Returns the first ``k`` whose step starts with the object that far (MuJoCo computes
+        positions at the start of a step, so step ``k`` sees the state after ``k`` steps: the
+        force being applied when the slip shows is ``forces[k]``), or None if no step of the
+        ``len(forces)`` does. The force is removed at the end.
+
+        The start is where MuJoCo last computed the positions (the current state after
+        `restore`, as for `hand_pose`). A few operations on 3-vectors per step, read from
+        MuJoCo's own buffers: a force ramp costs little more than its MuJoCo steps, where one
+        through `apply_force`, `step` and `hand_pose` spent more in Python (docs/data.md).
+        """
+        self._require_hand()
+        if not 0 <= index < len(self.objects):
+            raise ValueError(f"index must be in [0, {len(self.objects)}), got {index}")
+        forces = np.asarray(forces, dtype=float)
+        if forces.ndim != 2 or forces.shape[1] != 3:
+            raise ValueError(f"forces must have shape (n, 3), got {forces.shape}")
+        m, d = self.model, self.data
+        body = self._obj_body[index]
+        # views into MuJoCo's buffers: they follow every step
+        wrench = d.xfrc_applied[body]
+        wrench[3:] = 0.0
+        p_object, p_hand = d.xpos[body], d.xpos[self._hand_body]
+        R_hand = d.xmat[self._hand_body].reshape(3, 3)
+        start = (p_object - p_hand) @ R_hand
+        try:
+            for k, force in enumerate(forces):
+                wrench[:3] = force
+                mujoco.mj_step(m, d)
+                moved = (p_object - p_hand) @ R_hand - start
+                if math.sqrt(moved @ moved) > slip:
+                    return k
+            return None
+        finally:
+            wrench[:] = 0.0
 
     def hand_boxes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The hand's box geoms in its TCP frame, as they are now: centres (B, 3), rotations
