@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import os
 import shutil
 from pathlib import Path
@@ -116,7 +117,7 @@ def table1_rounds(model: str, objects: str, scene: str, args: argparse.Namespace
     seed = load_checkpoint(resolve_model(model))["config"]["seed"]
     cell = Cell(hand.name, rep, seed, objects, scene).folder(args.baselines)
     recorded = recorded_config(cell)
-    wanted = dataclasses.asdict(config(model, objects, scene, CLEAN, args))
+    wanted = json.loads(json.dumps(dataclasses.asdict(config(model, objects, scene, CLEAN, args))))
     ignored = ("model", "rounds", "pictures")
     if recorded is None or any(recorded[k] != v for k, v in wanted.items() if k not in ignored):
         return None, cell
