@@ -14,7 +14,7 @@ al., RSS 2017), as its code applies it to each rendered image (``UT-Austin-RPL/G
    3/8, 5/8, 7/8 and the root mean square over the image's pixels is ``σ × 0.65625`` (3.3 mm).
 
 What differs from GIGA's code: a pixel without return (0) stays 0 (a sensor reports no depth
-there; GIGA's PyBullet images see the ground plane everywhere); the image's border pixels take
+there; GIGA's code adds the noise to every pixel); the image's border pixels take
 the nearest grid values (GIGA's resize pads with zeros there, damping the field on the border's
 two pixels); the draws come from a seeded generator of their own, not NumPy's global stream.
 """
