@@ -11,8 +11,10 @@ from symgrasp.benchmark import declutter
 from symgrasp.benchmark.declutter import run_round
 from symgrasp.benchmark.sensing import Sensor
 from symgrasp.detect import Grasp
+from symgrasp.names import NOISES, VIEWS
 from symgrasp.objects.sets import make_scene, resolve
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
+from symgrasp.perception.camera import is_rigid
 from symgrasp.sim import FRANKA
 from symgrasp.sim.render import make_renderer
 
@@ -65,6 +67,13 @@ def test_the_fixed_view_is_todays_camera_and_one_camera_views_take_one_image():
         Sensor(noise="gaussian")
     with pytest.raises(ValueError, match="views must be an integer"):
         Sensor(view="circle", views=0)
+
+
+def test_every_name_the_command_line_offers_is_a_sensor():
+    for noise in NOISES:
+        for view in VIEWS:
+            cameras = Sensor(noise, view).cameras(seed=3, attempt=1)
+            assert cameras.shape == (1, 4, 4) and is_rigid(cameras)
 
 
 def test_random_views_are_the_training_distribution_drawn_from_round_attempt_and_view():
