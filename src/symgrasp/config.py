@@ -21,10 +21,12 @@ from typing import Any
 from symgrasp.names import (
     BACKENDS,
     MESH_UNITS,
+    NOISES,
     REPRESENTATIONS,
     SCENES,
     SCHEDULES,
     VALIDITY_LOSSES,
+    VIEWS,
 )
 
 SEED_MAX = 2**32 - 1
@@ -32,6 +34,12 @@ SEED_MAX = 2**32 - 1
 
 MAX_OBJECTS = 20
 """Most objects a benchmark round drops into the 30 cm workspace (VGN drops 5)."""
+
+MAX_VIEWS = 36
+"""Most depth images a benchmark attempt renders (VGN renders 6)."""
+
+ONE_VIEW = ("fixed", "side")
+"""The views of `VIEWS` that are one camera: their ``views`` is 1."""
 
 
 def check_global_batch(batch_size: int, world: int) -> None:
@@ -400,6 +408,18 @@ _STORED_AS = {"kind": "validity_loss"}
 """Their fields that checkpoints store under another name."""
 
 
+def check_sensing(noise: str, view: str, views: int) -> None:
+    """Raise ValueError naming the argument unless ``noise`` is one of `NOISES`, ``view`` one of
+    `VIEWS` and ``views`` a number of images it takes (1 for the `ONE_VIEW` cameras)."""
+    if noise not in NOISES:
+        raise ValueError(f"noise must be one of {NOISES}, got {noise!r}")
+    if view not in VIEWS:
+        raise ValueError(f"view must be one of {VIEWS}, got {view!r}")
+    check_range("views", views, 1, MAX_VIEWS)
+    if view in ONE_VIEW and views != 1:
+        raise ValueError(f"views must be 1 with view {view!r} (one camera), got {views}")
+
+
 @dataclass(frozen=True, kw_only=True)
 class BenchmarkConfig:
     """What a declutter benchmark runs (`symgrasp.benchmark.runner`): seeds ``seed … seed +
@@ -431,6 +451,18 @@ class BenchmarkConfig:
     """Replay each failed grasp turned about its approach axis to name its failure mode."""
     pictures: bool = False
     """Draw every attempt into pictures/seed_NNNN/ of the output folder."""
+    noise: str = "none"
+    """Depth noise of every image: none, or dex (GIGA's, after Dex-Net: the image times
+    Gamma(k = 1000, θ = 0.001), and with probability 0.5 plus a 5 mm Gaussian field drawn on a
+    4× coarser grid, upsampled), drawn from the round's seed, the attempt and the view, the same
+    for every planner (docs/benchmark.md, "Sensing")."""
+    view: str = "fixed"
+    """Where the cameras look from: fixed (symgrasp's camera, 45° below horizontal), side (GIGA's,
+    30° below horizontal from one side), circle (VGN's: --views cameras around the workspace, 60°
+    below horizontal), random (--views cameras drawn each attempt from the training data's
+    distribution)."""
+    views: int = 1
+    """Depth images per attempt, fused: 1 for fixed and side; VGN renders 6 (circle)."""
 
     def __post_init__(self) -> None:
         if self.scene not in SCENES:
@@ -439,6 +471,7 @@ class BenchmarkConfig:
         check_range("num_objects", self.num_objects, 1, MAX_OBJECTS)
         check_range("rounds", self.rounds, 1, 100_000)
         check_range("seed", self.seed, 0, SEED_MAX - self.rounds)
+        check_sensing(self.noise, self.view, self.views)
 
 
 MAX_WORKERS = 4096

@@ -33,6 +33,15 @@ millimetres from each mesh's size."""
 SCENES = ("pile", "packed")
 """Scene kinds (`symgrasp.sim.world`)."""
 
+NOISES = ("none", "dex")
+"""Depth noise of the declutter benchmark's images (`symgrasp.benchmark.sensing`): none, or the
+field's ``dex`` model (GIGA's, after Dex-Net: `symgrasp.perception.noise`)."""
+
+VIEWS = ("fixed", "side", "circle", "random")
+"""Where the declutter benchmark's cameras look from (`symgrasp.benchmark.sensing`): symgrasp's
+fixed camera, GIGA's side view, VGN's circle of views, or random views from the training
+distribution."""
+
 SCHEDULES = ("constant", "cosine", "onecycle")
 """Learning-rate schedules of training (`symgrasp.model.schedule`)."""
 

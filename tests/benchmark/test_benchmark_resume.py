@@ -29,7 +29,7 @@ def played(monkeypatch):
     class Detector:
         gripper = "franka"
 
-    def fake_round(detector, objects, num_objects, seed, scene, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
         seeds.append(seed)
         outcome = "success" if seed % 2 else "slipped"
         return Round(seed, num_objects, "gl", [Attempt(outcome, None, 1, 0, 0.1, num_objects)])

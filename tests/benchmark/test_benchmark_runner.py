@@ -100,7 +100,7 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
     class Detector:
         gripper = "franka"
 
-    def fake_round(detector, objects, num_objects, seed, scene, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
         if seed == 11:
             raise RuntimeError("simulation unstable")
         from symgrasp.benchmark.declutter import Round
@@ -142,7 +142,7 @@ def test_resume_plays_failed_rounds_again_and_keeps_one_record_per_seed(monkeypa
 
     broken = {11, 12}
 
-    def fake_round(detector, objects, num_objects, seed, scene, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
         if seed in broken:
             raise RuntimeError(f"object set incomplete in round {seed}")
         from symgrasp.benchmark.declutter import Attempt, Round
@@ -172,7 +172,7 @@ def test_a_later_finished_record_of_a_seed_wins_over_a_failed_one(tmp_path):
 
 
 def test_a_benchmark_whose_every_round_failed_stops_naming_the_first_error(monkeypatch, tmp_path):
-    def failing_round(detector, objects, num_objects, seed, scene, observer, diagnose):
+    def failing_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
         raise RuntimeError(f"no object in round {seed}")
 
     monkeypatch.setattr(runner, "run_round", failing_round)
@@ -206,7 +206,7 @@ def test_rounds_in_process_use_no_more_torch_threads_than_the_process_was_given(
 
     seen = []
     monkeypatch.setattr(runner, "run_round", lambda detector, objects, num_objects, seed, scene,
-                        observer, diagnose: Round(seed, num_objects, "gl"))  # fmt: skip
+                        sensor, observer, diagnose: Round(seed, num_objects, "gl"))  # fmt: skip
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: (
         seen.append(threads), runner._WORKER.update(config=config, planner=None, out=out, objects=None)))  # fmt: skip
     monkeypatch.setattr(runner.os, "cpu_count", lambda: 16)
@@ -263,7 +263,7 @@ def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(mon
 
     played = []
 
-    def fake_round(detector, objects, num_objects, seed, scene, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
         from symgrasp.benchmark.declutter import Round
 
         played.append(seed)
@@ -283,3 +283,43 @@ def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(mon
         runner.run_or_reuse(other, tmp_path)
     runner.run_or_reuse(other, tmp_path / "other")
     assert played == [5, 6, 5, 6]
+
+
+def test_the_sensing_reaches_the_rounds_is_recorded_and_resume_refuses_another(
+    monkeypatch, tmp_path
+):
+    from dataclasses import replace
+
+    from symgrasp.benchmark.declutter import Round
+    from symgrasp.benchmark.sensing import Sensor
+
+    class Detector:
+        gripper = "franka"
+
+    sensors = []
+
+    def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
+        sensors.append(sensor)
+        return Round(seed, num_objects, "gl")
+
+    monkeypatch.setattr(runner, "run_round", fake_round)
+    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
+        config=config, planner=Detector(), out=out, objects=None))  # fmt: skip
+    config = BenchmarkConfig(rounds=2, noise="dex", view="circle", views=6)
+    runner.run_benchmark(config, tmp_path)
+    assert sensors == [Sensor("dex", "circle", 6)] * 2
+    recorded = json.loads((tmp_path / "config.json").read_text())
+    assert (recorded["noise"], recorded["view"], recorded["views"]) == ("dex", "circle", 6)
+    runner.check_out(config, tmp_path, resume=True)  # the same: resumes
+    with pytest.raises(ValueError, match=r"its noise, views differ"):
+        runner.check_out(replace(config, noise="none", views=3), tmp_path, resume=True)
+    # a folder from before the sensing was recorded played the defaults: it resumes as theirs
+    old = tmp_path / "old"
+    runner.run_benchmark(BenchmarkConfig(rounds=2), old)
+    stored = json.loads((old / "config.json").read_text())
+    for key in ("noise", "view", "views"):
+        del stored[key]
+    (old / "config.json").write_text(json.dumps(stored))
+    assert runner.saved_rounds(BenchmarkConfig(rounds=2), old, check_model=False) is not None
+    with pytest.raises(ValueError, match=r"its noise differ"):
+        runner.check_out(BenchmarkConfig(rounds=2, noise="dex"), old, resume=True)

@@ -297,7 +297,7 @@ def test_failed_validation_rounds_name_their_cause_and_are_not_cached(run, monke
 
     broken = [True]
 
-    def fake_round(detector, objects, num_objects, seed, scene, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
         if broken[0] and seed % 2:
             raise RuntimeError("mesh file unreadable")
         return Round(seed, num_objects, "gl", [Attempt("success", None, 1, 0, 0.1, 1)])

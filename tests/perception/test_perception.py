@@ -192,15 +192,53 @@ def test_tsdf_rejects_mismatched_inputs():
         TSDFVolume().integrate(np.zeros((10, 10)), SMALL, np.eye(4))
 
 
-def test_depth_noise_is_seeded_keeps_holes_and_has_the_requested_size():
+def test_depth_noise_is_seeded_and_keeps_holes():
     depth = _plane_depth(0.5)
     depth[:10] = 0
-    a, b = add_depth_noise(depth, seed=1), add_depth_noise(depth, seed=1)
+    a, b = add_depth_noise(depth, seed=[1, 2]), add_depth_noise(depth, seed=[1, 2])
     np.testing.assert_array_equal(a, b)
-    assert np.all(a[:10] == 0)
-    residual = a[10:] - 0.5
-    assert 0.001 < residual.std() < 0.02
-    assert not np.array_equal(a, add_depth_noise(depth, seed=2))
+    assert a.dtype == np.float32 and np.all(a[:10] == 0) and np.all(a[10:] > 0)
+    assert not np.array_equal(a, add_depth_noise(depth, seed=[1, 3]))
+
+
+def test_dex_noise_scale_factor_is_gammas_mean_one_and_sd_one_over_root_k():
+    # without the field every pixel is depth × g: g read off one pixel of each image
+    depth = np.full((4, 4), 0.6, dtype=np.float32)
+    g = np.array([add_depth_noise(depth, s, field_probability=0)[0, 0] / 0.6 for s in range(4000)])
+    # Gamma(1000, 0.001): mean 1, SD 1/√1000 = 3.16 %; 4 000 draws: SE of the mean 0.05 %
+    assert g.mean() == pytest.approx(1.0, abs=0.002)
+    assert g.std() == pytest.approx(1 / np.sqrt(1000), rel=0.05)
+
+
+def test_dex_noise_adds_its_field_to_half_the_images():
+    depth = np.full((8, 8), 0.6, dtype=np.float32)
+    with_field = [np.ptp(add_depth_noise(depth, seed)) > 0 for seed in range(2000)]
+    assert np.mean(with_field) == pytest.approx(0.5, abs=0.045)  # 4 SE of 2 000 draws
+    always = [np.ptp(add_depth_noise(depth, s, field_probability=1)) > 0 for s in range(20)]
+    assert all(always)
+
+
+def test_dex_noise_field_has_the_bilinear_closed_form_sd_and_is_smooth():
+    """On a 4× grid a pixel's offsets from the grid nodes are 1/8, 3/8, 5/8, 7/8 of a cell, so
+    the field's mean square is σ² (mean of (1 − t)² + t² over them)² = (0.65625 σ)². Between
+    neighbouring pixels of a row it changes, in three steps of four, by a quarter of the
+    difference of two independent grid values (variance σ²/8), in the fourth, across a node, by
+    an eighth of the difference of the grid values either side (σ²/32), times the column's
+    interpolation (0.65625): a mean square of σ² × 13/128 × 0.65625 (white noise: 2σ²)."""
+    depth = np.full((64, 64), 1.0, dtype=np.float32)
+    fields = np.stack([
+        add_depth_noise(depth, seed, gamma_shape=1e12, field_probability=1) - 1.0
+        for seed in range(300)
+    ])  # fmt: skip
+    interior = fields[:, 2:-2, 2:-2]  # the border's two pixels take the nearest grid value
+    assert np.sqrt((interior**2).mean()) == pytest.approx(0.65625 * 0.005, rel=0.03)
+    assert abs(interior.mean()) < 2e-4
+    step = np.sqrt((np.diff(interior, axis=2) ** 2).mean())
+    assert step == pytest.approx(0.005 * np.sqrt(13 / 128 * 0.65625), rel=0.03)
+    with pytest.raises(ValueError, match="field_probability"):
+        add_depth_noise(depth, field_probability=1.5)
+    with pytest.raises(ValueError, match="grid_step"):
+        add_depth_noise(depth, grid_step=0)
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here")

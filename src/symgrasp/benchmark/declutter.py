@@ -1,13 +1,14 @@
 """One round of simulated decluttering: the protocol of VGN and the paper (Sec. 4.3).
 
-A round drops ``N`` objects of a set as a pile on the table. Before every attempt one depth
-image is rendered from a fixed camera and handed to the planner (any
+A round drops ``N`` objects of a set as a pile on the table. Before every attempt the cameras'
+depth images (by default one, from a fixed camera, noiseless: `symgrasp.benchmark.sensing`)
+are handed to the planner (any
 `symgrasp.detect.planner.GraspPlanner`: a `GraspDetector`, VGN's network, a user's
 function); its grasps are tried in its order (a detector's: gravity-rejection score) and the
 first whose open hand, from the pre-grasp along the approach to the grasp, misses the
 *observed* surface and the table (`symgrasp.sim.collision.hand_collides`, what a robot can
-check; the surface is the zero crossings of the image fused into the workspace TSDF, the same
-for every planner) is executed (`symgrasp.sim.execute.execute_grasp`); a successful grasp
+check; the surface is the zero crossings of the images, noise and all, fused into the
+workspace TSDF, the same for every planner) is executed (`symgrasp.sim.execute.execute_grasp`); a successful grasp
 removes its object. The round ends when the table is clear, no grasp is found, or
 ``max_failures`` attempts in a row fail.
 
@@ -24,12 +25,11 @@ from pathlib import Path
 import numpy as np
 
 from symgrasp.benchmark.failures import aimed_object, failure_mode
+from symgrasp.benchmark.sensing import Sensor
 from symgrasp.detect import Grasp
 from symgrasp.detect.detector import fuse
-from symgrasp.detect.planner import GraspPlanner, Observation
+from symgrasp.detect.planner import GraspPlanner
 from symgrasp.objects.sets import ObjectSource, make_scene
-from symgrasp.perception import CameraIntrinsic, depth_to_points
-from symgrasp.perception.camera import default_extrinsic
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.grippers import GripperSpec
@@ -49,8 +49,8 @@ class Attempt:
         grasp: the executed grasp (None when none was found).
         candidates: grasps the planner proposed.
         rejected: of those, skipped because their approach hit the observed scene.
-        planning_s: seconds from rendering the depth image to the chosen grasp (rendering,
-            the planner, the collision checks).
+        planning_s: seconds from rendering the depth images to the chosen grasp (rendering,
+            noise, the planner, the collision checks).
         objects_before: objects on the table before the attempt.
         mode: why it failed or ``"success"`` (`symgrasp.benchmark.failures.MODES`); None
             when the round was played without diagnosis.
@@ -105,8 +105,8 @@ class Round:
 
 Observer = Callable[[World, np.ndarray, list[Grasp], Attempt], None]
 """Called after each attempt with the world (as the attempt left it), the points (P, 3) of
-the depth image taken before the attempt (`depth_to_points`), the candidate grasps and the
-attempt."""
+the depth images taken before the attempt (`symgrasp.detect.planner.Observation.points`), the
+candidate grasps and the attempt."""
 
 
 def run_round(
@@ -117,8 +117,7 @@ def run_round(
     scene: str = "pile",
     max_failures: int = 2,
     max_attempts: int | None = None,
-    intrinsic: CameraIntrinsic | None = None,
-    T_world_camera: np.ndarray | None = None,
+    sensor: Sensor | None = None,
     observer: Observer | None = None,
     diagnose: bool = True,
 ) -> Round:
@@ -127,8 +126,9 @@ def run_round(
     it plays) in a ``scene`` ("pile" or "packed"); the scene and its objects are drawn from
     ``seed``.
 
-    ``max_attempts`` defaults to twice the number of objects; the camera defaults to the
-    workspace's default view (`symgrasp.perception.camera.default_extrinsic`). With
+    ``max_attempts`` defaults to twice the number of objects; ``sensor`` (default: one
+    noiseless image from the fixed camera) says what the cameras see before each attempt,
+    drawn from ``seed`` and the attempt's index (`symgrasp.benchmark.sensing`). With
     ``diagnose``, each failed grasp is replayed at other yaws to name its failure mode
     (`symgrasp.benchmark.failures`); the round itself is the same either way.
     """
@@ -136,18 +136,18 @@ def run_round(
         raise ValueError(
             f"num_objects and max_failures must be ≥ 1, got {num_objects}, {max_failures}"
         )
-    intrinsic = intrinsic or CameraIntrinsic()
-    T_world_camera = default_extrinsic() if T_world_camera is None else T_world_camera
-    renderer = make_renderer(intrinsic)
+    sensor = sensor or Sensor()
+    renderer = make_renderer(sensor.intrinsic)
     world = make_scene(scene, objects, num_objects, seed, gripper=planner.gripper)
     record = Round(seed, len(world.objects), renderer.name)
     max_attempts = 2 * num_objects if max_attempts is None else max_attempts
     failures = 0
     while world.objects and failures < max_failures and len(record.attempts) < max_attempts:
         start = time.perf_counter()
-        depth = renderer.render(world, T_world_camera)
-        candidates = list(planner.plan(Observation(depth, intrinsic, T_world_camera, world)))
-        points = fuse(depth, intrinsic, T_world_camera).point_cloud().cpu().numpy()
+        observation = sensor.observe(renderer, world, seed, len(record.attempts))
+        candidates = list(planner.plan(observation))
+        seen = fuse(observation.depth, observation.intrinsic, observation.T_world_camera)
+        points = seen.point_cloud().cpu().numpy()
         chosen, rejected = first_free(candidates, planner.gripper, points)
         planning = time.perf_counter() - start
         before = len(world.objects)
@@ -169,7 +169,7 @@ def run_round(
         )
         record.attempts.append(attempt)
         if observer is not None:
-            observer(world, depth_to_points(depth, intrinsic, T_world_camera), candidates, attempt)
+            observer(world, observation.points(), candidates, attempt)
         if chosen is None:
             break
         failures = 0 if attempt.success else failures + 1

@@ -43,6 +43,7 @@ import numpy as np
 from symgrasp.atomic import check_json, read_json, write_atomic
 from symgrasp.benchmark.declutter import Round, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES
+from symgrasp.benchmark.sensing import Sensor
 from symgrasp.config import BenchmarkConfig, ParallelConfig
 from symgrasp.folders import Outputs, check_folder, check_owned, writes_folder
 from symgrasp.objects.sets import resolve
@@ -130,7 +131,8 @@ def _round_task(seed: int) -> dict[str, Any]:
         observer = picture_observer(folder, planner.gripper, f"seed {seed}, ")
     record = run_round(
         planner, _WORKER["objects"], config.num_objects, seed, scene=config.scene,
-        observer=observer, diagnose=config.diagnose,
+        sensor=Sensor(config.noise, config.view, config.views), observer=observer,
+        diagnose=config.diagnose,
     )  # fmt: skip
     return round_record(record)
 

@@ -40,9 +40,11 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "declutter",
         help="simulated decluttering: success and clear ratios",
         description="VGN's and the paper's declutter protocol: each round drops --num-objects "
-        "objects as a pile; before every attempt one depth image is handed to the planner "
+        "objects as a pile; before every attempt the cameras' depth images (--view, --views, "
+        "--noise; by default one noiseless image from a fixed camera) are handed to the planner "
         "(--model: a trained model, vgn or your own, docs/benchmark.md), and its best grasp "
-        "whose approach misses the observed scene is executed; a round ends when "
+        "whose approach misses the observed scene (those images fused) is executed; a round "
+        "ends when "
         "the table is clear, no grasp is found or two attempts in a row fail. Round r uses seed "
         "--seed + r. Writes config.json, rounds.jsonl (each round as it finishes, so "
         "--resume can finish an interrupted run), then results.json (SR, CR with bootstrap "

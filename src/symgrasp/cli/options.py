@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from symgrasp.arguments import integer, number, sentence
-from symgrasp.config import SEED_MAX, SceneConfig
+from symgrasp.config import MAX_VIEWS, SEED_MAX, SceneConfig
 from symgrasp.fields import field_docs
 from symgrasp.folders import check_folder, check_path
 from symgrasp.names import (
@@ -17,6 +17,7 @@ from symgrasp.names import (
     GRIPPERS,
     MESH_OBJECT_SETS,
     MESH_UNITS,
+    NOISES,
     OBJECT_SETS,
     PEERS,
     PRETRAINED,
@@ -24,6 +25,7 @@ from symgrasp.names import (
     SCENES,
     SCHEDULES,
     VALIDITY_LOSSES,
+    VIEWS,
     planner_kind,
 )
 from symgrasp.objects.folder import data_folder
@@ -158,6 +160,9 @@ SHARED = {
     "schedule": ("--schedule", {"choices": SCHEDULES}),
     "validity.kind": ("--validity-loss", {"choices": VALIDITY_LOSSES}),
     "out": ("--out", {"type": output_folder_path}),
+    "noise": ("--noise", {"choices": NOISES}),
+    "view": ("--view", {"choices": VIEWS}),
+    "views": ("--views", {"type": integer(1, MAX_VIEWS), "metavar": "N"}),
 }
 """How a field of these names (a nested one also by its path) appears on any command line: its
 flag and its choices."""

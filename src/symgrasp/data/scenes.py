@@ -28,7 +28,7 @@ from symgrasp.data.directions import interpolate
 from symgrasp.data.grasp_db import GraspDatabase
 from symgrasp.data.labels import voxelise
 from symgrasp.objects.sets import ObjectSource, resolve
-from symgrasp.perception import CameraIntrinsic, TSDFVolume, look_at
+from symgrasp.perception import CameraIntrinsic, TSDFVolume, orbit_extrinsic
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.objects import ObjectSpec, surface_samples
@@ -63,14 +63,10 @@ def scene_rng(seed: int, scene_id: int) -> np.random.Generator:
 
 def random_camera(cfg: SceneConfig, rng: np.random.Generator) -> np.ndarray:
     """``T_world_camera`` on a spherical cap above the workspace, looking at its centre."""
-    centre = np.full(3, WORKSPACE_SIZE / 2)
     r = rng.uniform(*cfg.camera_distance)
     polar = rng.uniform(*cfg.camera_polar)
     azimuth = rng.uniform(0, 2 * np.pi)
-    eye = centre + r * np.array(
-        [np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)]
-    )
-    return look_at(eye, centre)
+    return orbit_extrinsic(np.full(3, WORKSPACE_SIZE / 2), r, polar, azimuth)
 
 
 def scene_grasps(

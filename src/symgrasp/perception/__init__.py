@@ -10,6 +10,7 @@ from symgrasp.perception.camera import (
     default_extrinsic,
     depth_to_points,
     look_at,
+    orbit_extrinsic,
 )
 from symgrasp.perception.noise import add_depth_noise
 from symgrasp.perception.points import fill_holes, points_view
@@ -26,5 +27,6 @@ __all__ = [
     "fill_holes",
     "fit_table",
     "look_at",
+    "orbit_extrinsic",
     "points_view",
 ]

@@ -90,6 +90,19 @@ def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray = (0.0, 0.0, 1.0
     return T
 
 
+def orbit_extrinsic(
+    target: np.ndarray, distance: float, polar: float, azimuth: float
+) -> np.ndarray:
+    """``T_world_camera`` of a camera ``distance`` [m] from ``target`` looking at it, at the
+    spherical angles ``polar`` (from the vertical, rad) and ``azimuth`` (from world +x toward
+    +y, rad): its eye at ``target + distance (sin θ cos φ, sin θ sin φ, cos θ)``, image-up ≈
+    world +z (`look_at`), ``π/2 − polar`` below horizontal."""
+    eye = np.asarray(target, dtype=float) + distance * np.array(
+        [np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)]
+    )
+    return look_at(eye, target)
+
+
 def vector3(value: np.ndarray, name: str) -> np.ndarray:
     """``value`` as 3 finite floats; ValueError naming the argument ``name`` otherwise."""
     vector = np.asarray(value, dtype=float)
