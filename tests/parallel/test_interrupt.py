@@ -166,8 +166,11 @@ def test_sigterm_does_not_wait_for_the_tasks_in_flight(tmp_path):
         (["data", "inspect", "x"], "interrupted"),
     ],
 )
-def test_ctrl_c_hints_resume_only_where_a_command_has_it(argv, line, monkeypatch, capsys):
+def test_ctrl_c_hints_resume_only_where_a_command_has_it(argv, line, monkeypatch, capsys, tmp_path):
     import symgrasp.cli as cli
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "x").mkdir()  # data inspect reads an existing folder
 
     def interrupted(args):
         raise KeyboardInterrupt
