@@ -178,6 +178,12 @@ class SceneConfig:
     clearance: float = 0.001
     """Gap [m] the open hand must keep from objects and table (negative: allowed
     penetration)."""
+    label_spread: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    """How far [m] a surviving grasp's TCP may move and still hold: back and forward along
+    the approach e_x, then either way along e_y and along the closing axis e_z. Every voxel
+    whose centre such a move reaches, and where the open hand passes the collision check too,
+    is labelled with the grasp's rotation, score and width (0 0 0 0: only the voxel holding
+    the TCP)."""
     database: DatabaseConfig = field(default_factory=DatabaseConfig)
     """How the per-object grasp databases are built."""
 
@@ -195,6 +201,13 @@ class SceneConfig:
         _check_interval("camera_polar", self.camera_polar, 0.0, math.pi / 2)
         check_range("surface_spacing", self.surface_spacing, 5e-4, 0.05, integer=False)
         check_range("clearance", self.clearance, -0.01, 0.05, integer=False)
+        if len(self.label_spread) != 4:
+            raise ValueError(
+                f"label_spread must be four distances (back, forward, e_y, e_z), got "
+                f"{self.label_spread!r}"
+            )
+        for name, value in zip(("back", "forward", "e_y", "e_z"), self.label_spread, strict=True):
+            check_range(f"label_spread ({name})", value, 0, 0.05, integer=False)
 
 
 @dataclass(frozen=True)
