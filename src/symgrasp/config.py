@@ -269,12 +269,17 @@ class ValidityLoss:
     focal_alpha: float | None = None
     """Weight α of the valid voxels in the focal validity loss, 1 − α of the others (default:
     no weighting)."""
+    ignore_band: int = 0
+    """Invalid voxels within this many voxels (Chebyshev distance) of a valid voxel of their
+    scene are left out of the validity loss: a grasp that holds there may just not have been
+    sampled (0: every voxel counts)."""
 
     def __post_init__(self) -> None:
         _check_choice("validity_loss", self.kind, VALIDITY_LOSSES)
         check_range("focal_gamma", self.focal_gamma, 0, 10, integer=False)
         if self.focal_alpha is not None:
             check_range("focal_alpha", self.focal_alpha, 0, 1, integer=False)
+        check_range("ignore_band", self.ignore_band, 0, 8)
         if self.kind == "bce" and (self.focal_gamma != 2.0 or self.focal_alpha is not None):
             raise ValueError(
                 "focal_gamma and focal_alpha are options of the focal loss (validity_loss "
