@@ -1,15 +1,23 @@
 """What the experiments share beyond `symgrasp.scripts`: where their results go, the shipped
 model that stands in for every training run in ``--quick`` mode, the order their tables list
-the hands in, and which validation scenes a checkpoint is looked at on."""
+the hands in, which validation scenes a checkpoint is looked at on, the Wilson interval of a rate
+and a grasp database's prefix."""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import math
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from symgrasp.names import GRIPPERS as BUILT_IN
+
+if TYPE_CHECKING:
+    from symgrasp.data.grasp_db import GraspDatabase
 
 RESULTS = Path("experiments/results")
 """Where an experiment's result goes by default (`add_result_option`)."""
@@ -23,6 +31,33 @@ GRIPPERS = (PAPER_HAND, *(g for g in BUILT_IN if g != PAPER_HAND))
 SHIPPED = f"bingham2d-{PAPER_HAND}"
 """The paper's detector for that hand, shipped with the package: the checkpoint looked at by
 default, and what ``--quick`` plays in place of every training run."""
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> list[float]:
+    """Wilson score 95 % interval of the rate k / n, in percent (NaN for n = 0)."""
+    if n == 0:
+        return [float("nan"), float("nan")]
+    p, d = k / n, 1 + z * z / n
+    centre, half = (
+        (p + z * z / (2 * n)) / d,
+        z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d,
+    )
+    return [round(100 * (centre - half), 2), round(100 * (centre + half), 2)]
+
+
+def prefix(db: GraspDatabase, n: int) -> GraspDatabase:
+    """The database the same seed gives with ``grasps=n``: rows up to the n-th held grasp (a
+    database of n grasps is the first n held grasps of a larger one with the same seed)."""
+    from symgrasp.data.grasp_db import GraspDatabase
+
+    held = np.flatnonzero(db.held)
+    end = held[n - 1] + 1 if len(held) >= n else len(db)
+    rows = {
+        f.name: getattr(db, f.name)[:end]
+        for f in dataclasses.fields(db)
+        if f.name not in ("directions", "candidates")
+    }
+    return GraspDatabase(**rows, directions=db.directions, candidates=int(end))
 
 
 def add_result_option(parser: argparse.ArgumentParser, name: str) -> None:

@@ -27,10 +27,10 @@ For the first ``--objects`` objects of the training pool of ``vgn-pile-train,vgn
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import time
 
 import numpy as np
+from common import prefix
 from tqdm import tqdm
 
 from symgrasp.config import DatabaseConfig, SceneConfig
@@ -75,18 +75,6 @@ def timed_build(obj, gripper, cfg: DatabaseConfig, seed: int) -> tuple[GraspData
     finally:
         grasp_db.pull_out_forces = clock._ramps
     return db, {"seconds": seconds, "ramp_seconds": clock.seconds, "ramps": clock.calls}
-
-
-def prefix(db: GraspDatabase, n: int) -> GraspDatabase:
-    """The database the same seed gives with ``grasps=n``: rows up to the n-th held grasp."""
-    held = np.flatnonzero(db.held)
-    end = held[n - 1] + 1 if len(held) >= n else len(db)
-    rows = {
-        f.name: getattr(db, f.name)[:end]
-        for f in dataclasses.fields(db)
-        if f.name not in ("directions", "candidates")
-    }
-    return GraspDatabase(**rows, directions=db.directions, candidates=int(end))
 
 
 def direction_errors(scores: dict[int, np.ndarray], fast: np.ndarray) -> dict:

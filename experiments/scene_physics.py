@@ -15,10 +15,10 @@ those still moving (`World.moving_objects`). Rates carry Wilson 95 % intervals.
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 import numpy as np
+from common import wilson
 from tqdm import tqdm
 
 from symgrasp.objects.sets import resolve
@@ -29,18 +29,6 @@ PENETRATION = 0.002
 """Contact depth [m] beyond which two settled bodies count as interpenetrating."""
 
 SETS = {"pile": "vgn-pile-train", "packed": "vgn-packed-train"}
-
-
-def wilson(k: int, n: int, z: float = 1.96) -> list[float]:
-    """Wilson score 95 % interval of the rate k / n, in percent."""
-    if n == 0:
-        return [float("nan"), float("nan")]
-    p, d = k / n, 1 + z * z / n
-    centre, half = (
-        (p + z * z / (2 * n)) / d,
-        z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d,
-    )
-    return [round(100 * (centre - half), 2), round(100 * (centre + half), 2)]
 
 
 def penetrating(world: World) -> set[int]:

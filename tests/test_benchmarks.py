@@ -40,6 +40,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "experiments/scene_physics": ("scene_physics.json", "cells"),
     "experiments/decomposition": ("decomposition.json", "summary"),
     "experiments/grasp_db": ("grasp_db.json", "cells"),
+    "experiments/label_density": ("label_density.json", "cells"),
     "experiments/bad_input": ("bad_input.json", "counts"),
     "experiments/sensor_depth": ("sensor_depth.json", "cells"),
     "experiments/hands": ("hands.json", "cells"),

@@ -186,6 +186,12 @@ class SceneConfig:
     clearance: float = 0.001
     """Gap [m] the open hand must keep from objects and table (negative: allowed
     penetration)."""
+    label_spread: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    """How far [m] a surviving grasp's TCP may move and still hold: back and forward along
+    the approach e_x, then either way along e_y and along the closing axis e_z. Every voxel
+    whose centre such a move reaches, and where the open hand passes the collision check too,
+    is labelled with the grasp's rotation, score and width (0 0 0 0: only the voxel holding
+    the TCP)."""
     database: DatabaseConfig = field(default_factory=DatabaseConfig)
     """How the per-object grasp databases are built."""
 
@@ -203,6 +209,13 @@ class SceneConfig:
         _check_interval("camera_polar", self.camera_polar, 0.0, math.pi / 2)
         check_range("surface_spacing", self.surface_spacing, 5e-4, 0.05, integer=False)
         check_range("clearance", self.clearance, -0.01, 0.05, integer=False)
+        if len(self.label_spread) != 4:
+            raise ValueError(
+                f"label_spread must be four distances (back, forward, e_y, e_z), got "
+                f"{self.label_spread!r}"
+            )
+        for name, value in zip(("back", "forward", "e_y", "e_z"), self.label_spread, strict=True):
+            check_range(f"label_spread ({name})", value, 0, 0.05, integer=False)
 
 
 @dataclass(frozen=True)
@@ -264,12 +277,17 @@ class ValidityLoss:
     focal_alpha: float | None = None
     """Weight α of the valid voxels in the focal validity loss, 1 − α of the others (default:
     no weighting)."""
+    ignore_band: int = 0
+    """Invalid voxels within this many voxels (Chebyshev distance) of a valid voxel of their
+    scene are left out of the validity loss: a grasp that holds there may just not have been
+    sampled (0: every voxel counts)."""
 
     def __post_init__(self) -> None:
         _check_choice("validity_loss", self.kind, VALIDITY_LOSSES)
         check_range("focal_gamma", self.focal_gamma, 0, 10, integer=False)
         if self.focal_alpha is not None:
             check_range("focal_alpha", self.focal_alpha, 0, 1, integer=False)
+        check_range("ignore_band", self.ignore_band, 0, 8)
         if self.kind == "bce" and (self.focal_gamma != 2.0 or self.focal_alpha is not None):
             raise ValueError(
                 "focal_gamma and focal_alpha are options of the focal loss (validity_loss "

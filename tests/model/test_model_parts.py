@@ -7,8 +7,9 @@ import torch
 import torch.nn.functional as F
 
 from symgrasp import rotation
+from symgrasp.config import ValidityLoss
 from symgrasp.model import GraspOutput, grasp_losses
-from symgrasp.model.loss import at_voxels
+from symgrasp.model.loss import at_voxels, focal_loss, ignored_voxels
 from symgrasp.model.metrics import average_precision, rotation_errors
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 
@@ -73,6 +74,65 @@ def test_losses_against_their_definitions():
     assert losses["rotation"] == pytest.approx(rot.item(), rel=1e-5)
     assert losses["total"] == pytest.approx((bce + score + rot).item(), rel=1e-5)
     assert torch.equal(at_voxels(output.rotation, index), pred)
+
+
+def _two_scenes_one_valid_voxel_each() -> dict[str, torch.Tensor]:
+    """Scene 0 valid at (5, 6, 7), scene 1 at the corner (0, 0, 39)."""
+    valid = torch.zeros(2, 40, 40, 40)
+    valid[0, 5, 6, 7] = valid[1, 0, 0, 39] = 1
+    index = torch.tensor([[0, 5, 6, 7], [1, 0, 0, 39]])
+    return {"valid": valid, "score": valid * 0.5, "voxel_index": index,
+            "rotations": torch.eye(3).expand(2, 1, 3, 3), "rotation_mask": torch.ones(2, 1, dtype=torch.bool)}  # fmt: skip
+
+
+def test_the_ignore_band_leaves_out_the_invalid_cube_around_each_valid_voxel():
+    batch = _two_scenes_one_valid_voxel_each()
+    for band in (1, 2):
+        ignored = ignored_voxels(batch["valid"], band)
+        # oracle: the (2d + 1)³ cube about each valid voxel, clipped by the grid, less itself
+        cube = torch.zeros_like(ignored)
+        cube[0, 5 - band : 6 + band, 6 - band : 7 + band, 7 - band : 8 + band] = True
+        cube[1, : band + 1, : band + 1, 39 - band :] = True
+        cube[0, 5, 6, 7] = cube[1, 0, 0, 39] = False
+        assert torch.equal(ignored, cube)
+        assert (
+            ignored[0].sum() == (2 * band + 1) ** 3 - 1 and ignored[1].sum() == (band + 1) ** 3 - 1
+        )
+    assert not ignored_voxels(torch.zeros(1, 40, 40, 40), 3).any()
+
+
+@pytest.mark.parametrize("kind", ["bce", "focal"])
+def test_the_ignore_band_drops_exactly_those_voxels_from_the_validity_loss(kind):
+    batch = _two_scenes_one_valid_voxel_each()
+    generator = torch.Generator().manual_seed(1)
+    output = GraspOutput(
+        score=torch.randn(2, 40, 40, 40, generator=generator),
+        validity=torch.randn(2, 40, 40, 40, generator=generator),
+        rotation=torch.randn(2, 6, 40, 40, 40, generator=generator),
+    )
+    representation = rotation.get("rotmat6d")
+    plain = ValidityLoss(kind)
+    banded = ValidityLoss(kind, ignore_band=1)
+    keep = ~ignored_voxels(batch["valid"], 1)
+    logits, labels = output.validity[keep], batch["valid"][keep]
+    per_voxel = F.binary_cross_entropy_with_logits(logits, labels, reduction="none")
+    if kind == "focal":  # γ = 2: (1 − p_t)² CE
+        p = torch.sigmoid(logits)
+        per_voxel = per_voxel * (1 - torch.where(labels == 1, p, 1 - p)).square()
+    banded_loss = grasp_losses(output, batch, representation, validity_loss=banded)
+    assert banded_loss["validity"] == pytest.approx(per_voxel.sum().item() / 2, rel=1e-5)
+    # off, the loss is the one before the option existed, to the bit; score and rotation unchanged
+    off = grasp_losses(output, batch, representation, validity_loss=plain)
+    if kind == "bce":
+        before = F.binary_cross_entropy_with_logits(
+            output.validity, batch["valid"], reduction="sum"
+        )
+    else:
+        before = focal_loss(output.validity, batch["valid"], plain.focal_gamma, None).sum()
+    assert torch.equal(off["validity"], before / 2)
+    assert off["validity"] > banded_loss["validity"]
+    assert torch.equal(off["rotation"], banded_loss["rotation"])
+    assert torch.equal(off["score"], banded_loss["score"])
 
 
 def test_synthetic_scenes_follow_the_dataset_contract():

@@ -84,8 +84,8 @@ def test_training_writes_checkpoints_metrics_and_a_curve(tmp_path):
 
 def test_checkpoints_store_the_configuration_flat_as_the_shipped_models_hold_it():
     """The shipped models were written before ``network`` and ``validity`` were nested in
-    `TrainConfig`: their flat record reads back (``autocast``, newer, at its default) and is
-    written again key for key."""
+    `TrainConfig`: their flat record reads back (``autocast`` and ``ignore_band``, newer, at their
+    defaults) and is written again key for key."""
     from symgrasp.detect.pretrained import shipped_path
     from symgrasp.names import PRETRAINED
 
@@ -94,11 +94,13 @@ def test_checkpoints_store_the_configuration_flat_as_the_shipped_models_hold_it(
         config = TrainConfig.from_record(state["config"])
         assert config.network == NetworkConfig(**state["network"])
         assert config.validity == ValidityLoss()
-        assert config.record() == {**state["config"], "autocast": True}
-    focal = _config(Path("r"), validity=ValidityLoss("focal", 1.5, 0.25))
+        assert config.record() == {**state["config"], "autocast": True, "ignore_band": 0}
+    focal = _config(Path("r"), validity=ValidityLoss("focal", 1.5, 0.25, ignore_band=2))
     record = focal.record()
-    assert {k: record[k] for k in ("validity_loss", "focal_gamma", "focal_alpha", "widths")} == {
-        "validity_loss": "focal", "focal_gamma": 1.5, "focal_alpha": 0.25, "widths": SMALL,
+    keys = ("validity_loss", "focal_gamma", "focal_alpha", "ignore_band", "widths")
+    assert {k: record[k] for k in keys} == {
+        "validity_loss": "focal", "focal_gamma": 1.5, "focal_alpha": 0.25, "ignore_band": 2,
+        "widths": SMALL,
     }  # fmt: skip
     assert "network" not in record and "validity" not in record
     assert TrainConfig.from_record(record) == focal

@@ -156,6 +156,7 @@ SHARED = {
     "model": ("--model", {"type": parse_planner, "metavar": PLANNER_METAVAR}),
     "representation": ("--rep", {"choices": REPRESENTATIONS}),
     "kinds": ("--kinds", {"choices": SCENES}),
+    "label_spread": ("--label-spread", {"metavar": ("BACK", "FORWARD", "E_Y", "E_Z")}),
     "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),
     "schedule": ("--schedule", {"choices": SCHEDULES}),
     "validity.kind": ("--validity-loss", {"choices": VALIDITY_LOSSES}),

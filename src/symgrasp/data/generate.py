@@ -47,8 +47,9 @@ def config_from_dict(d: dict[str, Any]) -> SceneConfig:
     d = dict(d)
     db = d.pop("database")
     db["offset"] = tuple(db["offset"])
-    for key in ("kinds", "camera_distance", "camera_polar"):
-        d[key] = tuple(d[key])
+    for key in ("kinds", "camera_distance", "camera_polar", "label_spread"):
+        if key in d:  # a manifest from before a field was added: its default
+            d[key] = tuple(d[key])
     return SceneConfig(**d, database=DatabaseConfig(**db))
 
 

@@ -5,6 +5,12 @@ A grasp belongs to the voxel that contains its TCP; voxel ``[i, j, k]`` spans
 :class:`symgrasp.perception.TSDFVolume`. Per valid voxel: the best score, the width of the
 best-scoring grasp and up to ``k_max`` distinct rotations (best first; two rotations are the
 same when they differ by less than ``same_angle`` up to the 180° flip).
+
+A grasp that holds usually still holds with its TCP moved a little (along the approach, along
+e_y, along the closing axis within the fingers' clearance): `spread_poses` lists the other
+voxels whose centre such a move reaches, for the paper's "filling all voxels with a grasp"
+(Ko et al., CoRL 2024, Appx. C) and `symgrasp.data.scenes` keeps those where the open hand is
+free there too.
 """
 
 from __future__ import annotations
@@ -49,6 +55,46 @@ def rotation_angle_up_to_flip(R1: np.ndarray, R2: np.ndarray) -> np.ndarray:
 def voxel_of(positions: np.ndarray) -> np.ndarray:
     """Voxel index (N, 3) of world positions (N, 3) [m]; outside the grid gives −1 or 40+."""
     return np.floor(np.asarray(positions) / VOXEL_SIZE).astype(np.int64)
+
+
+def voxel_centre(index: np.ndarray) -> np.ndarray:
+    """World position (N, 3) [m] of the centres of voxels ``index`` (N, 3): where the detector
+    puts the TCP of a voxel's grasp."""
+    return (np.asarray(index) + 0.5) * VOXEL_SIZE
+
+
+def spread_poses(
+    T_world_tcp: np.ndarray, lower: np.ndarray, upper: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The grasps ``T_world_tcp`` (G, 4, 4) moved to every voxel centre they reach.
+
+    A voxel centre ``c`` is reached by grasp ``g`` when its offset in the grasp frame,
+    ``R_gᵀ (c − t_g)``, lies in the box ``lower ≤ · ≤ upper`` ((3,) each, [m], along e_x, e_y,
+    e_z; ``lower ≤ 0 ≤ upper``). The voxel holding ``t_g`` itself and voxels outside the grid
+    are left out.
+
+    Returns the poses (N, 4, 4): rotation ``R_g``, translation ``c``; and ``source`` (N,),
+    the index ``g`` of each pose's grasp, in the order of the grasps.
+    """
+    T = np.asarray(T_world_tcp, dtype=float).reshape(-1, 4, 4)
+    lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    if lower.shape != (3,) or upper.shape != (3,) or np.any(lower > 0) or np.any(upper < 0):
+        raise ValueError(
+            f"lower and upper must be (3,) with lower ≤ 0 ≤ upper, got {lower}, {upper}"
+        )
+    reach = int(np.ceil(np.max(np.maximum(-lower, upper)) * np.sqrt(3) / VOXEL_SIZE)) + 1
+    steps = np.arange(-reach, reach + 1)
+    offsets = np.stack(np.meshgrid(steps, steps, steps, indexing="ij"), -1).reshape(-1, 3)
+    own = voxel_of(T[:, :3, 3])  # (G, 3)
+    index = own[:, None, :] + offsets[None]  # (G, O, 3)
+    d = np.einsum("gji,goj->goi", T[:, :3, :3], voxel_centre(index) - T[:, None, :3, 3])
+    eps = 1e-9  # a centre exactly on the box's face is inside
+    keep = np.all((d >= lower - eps) & (d <= upper + eps), axis=-1)
+    keep &= np.any(offsets != 0, axis=-1)[None] & np.all((index >= 0) & (index < RESOLUTION), -1)
+    source, which = np.nonzero(keep)
+    poses = T[source].copy()
+    poses[:, :3, 3] = voxel_centre(index[source, which])
+    return poses, source
 
 
 def voxelise(

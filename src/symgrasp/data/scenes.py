@@ -12,13 +12,16 @@ the gripper by the caller (`symgrasp.sim.grippers.get_gripper`), the object set 
    gravity-rejection score along world −z (expressed in the object frame);
 3. drop grasps whose open hand hits the table or any object at the grasp or on the approach
    from the pre-grasp (:func:`symgrasp.sim.collision.hand_collides`);
-4. voxelise the survivors (:func:`symgrasp.data.labels.voxelise`);
+4. voxelise the survivors (:func:`symgrasp.data.labels.voxelise`), each also at the voxel
+   centres its tolerance ``cfg.label_spread`` reaches where the open hand is free as well
+   (:func:`spread_labels`; by default none: a grasp labels the voxel of its TCP alone);
 5. render one depth image from a random camera on a spherical cap around the workspace and
    fuse it into the 40³ TSDF.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,13 +29,14 @@ import numpy as np
 from symgrasp.config import SceneConfig
 from symgrasp.data.directions import interpolate
 from symgrasp.data.grasp_db import GraspDatabase
-from symgrasp.data.labels import voxelise
+from symgrasp.data.labels import VoxelLabels, spread_poses, voxelise
 from symgrasp.objects.sets import ObjectSource, resolve
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, orbit_extrinsic
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.objects import ObjectSpec, surface_samples
 from symgrasp.sim.render import make_renderer
+from symgrasp.sim.world import World
 from symgrasp.workspace import RESOLUTION, WORKSPACE_SIZE
 
 DEPTH_UNIT = 1e-4
@@ -78,7 +82,8 @@ def scene_grasps(
     rng: np.random.Generator,
 ) -> dict[str, np.ndarray]:
     """Every held database grasp moved into the scene, with its score along world gravity,
-    and whether the open ``hand`` collides there (``collides``). Arrays over all G grasps."""
+    and whether the open ``hand`` collides there (``collides``): arrays over all G grasps; and
+    the scene's surface samples that the check used (``points``, (P, 3) world frame)."""
     T, score, width, owner = [], [], [], []
     points = []
     for i, (obj, T_wo, db) in enumerate(zip(objects, poses, databases, strict=True)):
@@ -99,20 +104,79 @@ def scene_grasps(
         "width": np.concatenate(width) if width else np.zeros(0),
         "object": np.concatenate(owner) if owner else np.zeros(0, dtype=int),
         "collides": hand_collides(T_all, hand, cloud, tolerance=-cfg.clearance),
+        "points": cloud,
     }
 
 
-def make_scene_record(
+def spread_box(cfg: SceneConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The tolerance box of ``cfg.label_spread`` in the grasp frame: its lower and upper
+    corners (3,) [m] along e_x, e_y, e_z."""
+    back, forward, y, z = cfg.label_spread
+    return np.array([-back, -y, -z]), np.array([forward, y, z])
+
+
+def spread_labels(
+    T_world_tcp: np.ndarray,
+    score: np.ndarray,
+    width: np.ndarray,
+    cfg: SceneConfig,
+    collides: Callable[[np.ndarray], np.ndarray],
+) -> VoxelLabels:
+    """The voxel labels of the surviving grasps ``T_world_tcp`` (G, 4, 4) with ``score`` and
+    ``width`` (G,): each grasp labels the voxel of its TCP and, with its rotation, score and
+    width, every other voxel centre of its tolerance box (`spread_box`, `spread_poses`) where
+    ``collides`` ((N, 4, 4) poses → (N,) bool: the scene's swept-hand check) says the hand is
+    free. Voxels merge as in `voxelise` (best score, up to ``cfg.k_max`` rotations). With
+    ``cfg.label_spread`` all zero, exactly ``voxelise`` of the grasps."""
+    if not any(cfg.label_spread):
+        return voxelise(T_world_tcp, score, width, cfg.k_max)
+    moved, source = spread_poses(T_world_tcp, *spread_box(cfg))
+    free = ~collides(moved) if len(moved) else np.zeros(0, dtype=bool)
+    keep = source[free]
+    return voxelise(
+        np.concatenate([T_world_tcp.reshape(-1, 4, 4), moved[free]]),
+        np.concatenate([score, score[keep]]),
+        np.concatenate([width, width[keep]]),
+        cfg.k_max,
+    )
+
+
+@dataclass(frozen=True)
+class LabelledScene:
+    """A settled scene and its labels, before it is observed (`labelled_scene`).
+
+    Attributes:
+        kind: "pile" or "packed".
+        world: the settled scene (no hand).
+        pool_index: (N,) pool index of each kept object, in the world's order.
+        poses: (N, 4, 4) their settled ``T_world_object``.
+        grasps: `scene_grasps` of the kept objects (every held database grasp, collisions).
+        labels: the voxel labels of the grasps that survive the collision check.
+    """
+
+    kind: str
+    world: World
+    pool_index: np.ndarray
+    poses: np.ndarray
+    grasps: dict[str, np.ndarray]
+    labels: VoxelLabels
+
+    @property
+    def survivors(self) -> np.ndarray:
+        """(G,) bool: the grasps that pass the collision check."""
+        return ~self.grasps["collides"]
+
+
+def labelled_scene(
     scene_id: int,
     cfg: SceneConfig,
     hand: GripperSpec,
     pool: ScenePool,
     databases: list[GraspDatabase],
     seed: int = 0,
-) -> dict[str, np.ndarray]:
-    """Build, label and observe scene ``scene_id`` of ``cfg`` for the gripper ``hand`` (the spec
-    of ``cfg.gripper``); ``databases[k]`` belongs to ``pool.objects[k]`` (``pool`` =
-    `scene_pool` of ``cfg``). Returns the arrays stored in the scene's file (docs/data.md)."""
+) -> tuple[LabelledScene, np.random.Generator]:
+    """Steps 1–4 of scene ``scene_id`` (see `make_scene_record` for the arguments), and the
+    scene's random stream, from which the observation goes on drawing."""
     rng = scene_rng(seed, scene_id)
     kind = str(rng.choice(cfg.kinds))
     n = min(int(rng.poisson(cfg.mean_objects)) + 1, cfg.max_objects)
@@ -126,21 +190,41 @@ def make_scene_record(
     placed = [databases[k] for k in pool_index]  # the settled objects' databases
     grasps = scene_grasps(world.objects, poses, placed, cfg, hand, rng)
     ok = ~grasps["collides"]
-    labels = voxelise(
-        grasps["T_world_tcp"][ok], grasps["score"][ok], grasps["width"][ok], cfg.k_max
+    labels = spread_labels(
+        grasps["T_world_tcp"][ok],
+        grasps["score"][ok],
+        grasps["width"][ok],
+        cfg,
+        lambda T: hand_collides(T, hand, grasps["points"], tolerance=-cfg.clearance),
     )
+    return LabelledScene(kind, world, pool_index, poses, grasps, labels), rng
+
+
+def make_scene_record(
+    scene_id: int,
+    cfg: SceneConfig,
+    hand: GripperSpec,
+    pool: ScenePool,
+    databases: list[GraspDatabase],
+    seed: int = 0,
+) -> dict[str, np.ndarray]:
+    """Build, label and observe scene ``scene_id`` of ``cfg`` for the gripper ``hand`` (the spec
+    of ``cfg.gripper``); ``databases[k]`` belongs to ``pool.objects[k]`` (``pool`` =
+    `scene_pool` of ``cfg``). Returns the arrays stored in the scene's file (docs/data.md)."""
+    scene, rng = labelled_scene(scene_id, cfg, hand, pool, databases, seed)
+    grasps, ok, labels = scene.grasps, scene.survivors, scene.labels
 
     intrinsic = CameraIntrinsic()
     T_world_camera = random_camera(cfg, rng)
-    depth = make_renderer(intrinsic).render(world, T_world_camera)
+    depth = make_renderer(intrinsic).render(scene.world, T_world_camera)
     volume = TSDFVolume(resolution=RESOLUTION)
     volume.integrate(depth, intrinsic, T_world_camera)
 
     return {
         "scene_id": np.int64(scene_id),
-        "kind": np.str_(kind),
-        "object_pool_index": pool_index,
-        "object_poses": poses.astype(np.float64),
+        "kind": np.str_(scene.kind),
+        "object_pool_index": scene.pool_index,
+        "object_poses": scene.poses.astype(np.float64),
         "grasp_pose": grasps["T_world_tcp"][ok].astype(np.float32),
         "grasp_score": grasps["score"][ok].astype(np.float32),
         "grasp_width": grasps["width"][ok].astype(np.float32),

@@ -7,6 +7,10 @@ Following the paper (Appx. C), with a batch from `symgrasp.data.dataset.collate_
   ``ValidityLoss("focal", γ, α)``, the focal loss of Lin et al. 2017,
   −α_t (1 − p_t)^γ log p_t per voxel (p_t the predicted probability of the voxel's label,
   α_t = α at valid voxels and 1 − α elsewhere, or 1 without α), normalised the same way;
+  with ``ValidityLoss(ignore_band=d)``, the invalid voxels within Chebyshev distance d of a
+  valid voxel of their scene (`ignored_voxels`) are left out of the sum: a voxel beside a
+  labelled grasp often holds a grasp that was not sampled, and teaching it as invalid is
+  teaching noise (docs/data.md, "False negatives");
 - **score**: squared error of the gravity-rejection score at the valid voxels, mean over them
   (elsewhere the label is 0 by convention, not a measurement; the validity head covers it);
 - **rotation**: ``representation.loss(pred, rotations, rotation_mask)`` (Eq. 8 for
@@ -58,12 +62,25 @@ def focal_loss(logits: Tensor, labels: Tensor, gamma: float, alpha: float | None
     return loss
 
 
+def ignored_voxels(valid: Tensor, band: int) -> Tensor:
+    """The invalid voxels of ``valid`` [B, D, H, W] (0 or 1) within Chebyshev distance
+    ``band`` [voxels] of a valid voxel of the same scene: bool, same shape."""
+    near = F.max_pool3d(valid[:, None], kernel_size=2 * band + 1, stride=1, padding=band)
+    return (near[:, 0] > 0) & (valid == 0)
+
+
 def _validity_sum(logits: Tensor, labels: Tensor, loss: ValidityLoss | None) -> Tensor:
     """The validity loss of ``logits`` [B, D, H, W] against ``labels`` (same shape, 0 or 1),
-    summed over the voxels."""
-    if loss is None or loss.kind == "bce":
+    summed over the voxels (those `ignored_voxels` leaves in, with an ignore band)."""
+    if loss is None or (loss.kind == "bce" and not loss.ignore_band):
         return F.binary_cross_entropy_with_logits(logits, labels, reduction="sum")
-    return focal_loss(logits, labels, loss.focal_gamma, loss.focal_alpha).sum()
+    if loss.kind == "bce":
+        per_voxel = F.binary_cross_entropy_with_logits(logits, labels, reduction="none")
+    else:
+        per_voxel = focal_loss(logits, labels, loss.focal_gamma, loss.focal_alpha)
+    if loss.ignore_band:
+        per_voxel = per_voxel.masked_fill(ignored_voxels(labels, loss.ignore_band), 0.0)
+    return per_voxel.sum()
 
 
 def grasp_losses(

@@ -323,6 +323,7 @@ _RECIPE = (
     "validity_loss",
     "focal_gamma",
     "focal_alpha",
+    "ignore_band",
     "train_scenes",
 )
 """The fields of `TrainConfig` a resumed run must keep (by their names in its `record`):
