@@ -95,6 +95,17 @@ def test_the_oracle_refuses_to_plan_without_a_world():
         oracle.plan(Observation(depth, intrinsic, default_extrinsic()))
 
 
+def test_detect_refuses_the_oracle_on_depth_images(tmp_path):
+    intrinsic = CameraIntrinsic()
+    np.save(tmp_path / "depth.npy", np.zeros((intrinsic.height, intrinsic.width), np.float32))
+    (tmp_path / "K.json").write_text(json.dumps({"fx": 540, "fy": 540, "cx": 320, "cy": 240}))
+    (tmp_path / "T.json").write_text(json.dumps(default_extrinsic().tolist()))
+    with pytest.raises(SystemExit, match="plays only in symgrasp bench declutter"):
+        main(["detect", "--model", "oracle", "--depth", str(tmp_path / "depth.npy"),
+              "--intrinsic", str(tmp_path / "K.json"), "--extrinsic", str(tmp_path / "T.json"),
+              "--out", str(tmp_path / "out")])  # fmt: skip
+
+
 def test_the_oracle_is_named_and_versioned_by_its_databases():
     assert planner_kind("oracle") == "oracle"
     oracle = load_planner("oracle")
