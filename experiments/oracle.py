@@ -109,10 +109,22 @@ def end_cause(record: dict[str, Any], max_attempts: int, max_failures: int = 2) 
     return "cleared" if record["successes"] == record["objects"] else "emptied"
 
 
-def end_causes(rounds: list[dict[str, Any]], num_objects: int) -> dict[str, int]:
-    """How many of ``rounds`` ended by each of `CAUSES`."""
-    counted = Counter(end_cause(r, 2 * num_objects) for r in rounds)
-    return {cause: counted[cause] for cause in CAUSES}
+def end_causes(rounds: list[dict[str, Any]], num_objects: int) -> dict[str, Any]:
+    """How many of ``rounds`` ended by each of `CAUSES` (``rounds``), the objects they left on
+    the table (``left``: what each cause costs the CR), and of the rounds that ended with
+    nothing found, those where the planner proposed nothing (``no_grasp``) and those where the
+    observed surface rejected every grasp it proposed (``all_rejected``)."""
+    causes = [end_cause(r, 2 * num_objects) for r in rounds]
+    counted, left = Counter(causes), Counter()
+    for cause, r in zip(causes, rounds, strict=True):
+        left[cause] += r["objects"] - r["successes"]
+    last = [r["attempts"][-1] for c, r in zip(causes, rounds, strict=True) if c == NONE_FOUND]
+    return {
+        "rounds": {cause: counted[cause] for cause in CAUSES},
+        "left": {cause: left[cause] for cause in CAUSES},
+        "no_grasp": sum(a["candidates"] == 0 for a in last),
+        "all_rejected": sum(a["candidates"] > 0 for a in last),
+    }
 
 
 def collate(args: argparse.Namespace, cells: list[tuple[str, str, str]]) -> list[dict[str, Any]]:
@@ -153,14 +165,25 @@ def collate(args: argparse.Namespace, cells: list[tuple[str, str, str]]) -> list
     return out
 
 
+def ends(counted: dict[str, Any]) -> str:
+    """`end_causes` as ``rounds by cause (objects left by cause); nothing found: proposed
+    nothing + all rejected``."""
+    rounds = " / ".join(str(v) for v in counted["rounds"].values())
+    left = " / ".join(str(v) for v in counted["left"].values())
+    return f"{rounds} ({left}); {counted['no_grasp']} + {counted['all_rejected']}"
+
+
 def table(cells: list[dict[str, Any]]) -> str:
     lines = [
         f"| hand | objects (scene) | rounds | oracle SR % | oracle CR % | {BASELINE} SR / CR % "
-        f"(same rounds) | oracle − {BASELINE} SR / CR | oracle's rounds ended "
-        f"({', '.join(CAUSES)}) | {BASELINE}'s | oracle s/round (median) |",
+        f"(same rounds) | oracle − {BASELINE} SR / CR | oracle's rounds ended | {BASELINE}'s "
+        "| oracle s/round (median) |",
         "|" + "---|" * 10,
     ]
-    modes = ["", "The oracle's grasps by failure mode (`symgrasp.benchmark.failures`):", "",
+    modes = ["", f"Rounds ended: {' / '.join(CAUSES)} (objects those rounds left on the "
+             "table); of the rounds that ended with nothing found, those where the planner "
+             "proposed nothing + those where the observed surface rejected all it proposed.",
+             "", "The oracle's grasps by failure mode (`symgrasp.benchmark.failures`):", "",
              "| hand | objects (scene) | executed | modes |", "|---|---|---|---|"]  # fmt: skip
     for c in cells:
         where = f"| {c['gripper']} | {c['objects']} ({c['scene']}) |"
@@ -178,8 +201,8 @@ def table(cells: list[dict[str, Any]]) -> str:
             s, d = b["summary"], b["oracle_minus"]
             row += [f"{100 * s['success_ratio']:.1f} / {100 * s['clear_ratio']:.1f}",
                     f"{percent_change(d['success_ratio'])} / {percent_change(d['clear_ratio'])}"]  # fmt: skip
-        row.append(" / ".join(str(v) for v in c["oracle_ends"].values()))
-        row.append("–" if b is None else " / ".join(str(v) for v in b["ends"].values()))
+        row.append(ends(c["oracle_ends"]))
+        row.append("–" if b is None else ends(b["ends"]))
         row.append(f"{c['oracle_planning_s_per_round']['median']:.0f}")
         lines.append(where + " " + " | ".join(row) + " |")
         found = ", ".join(f"{k} {v}" for k, v in o["modes"].items())
