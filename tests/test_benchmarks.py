@@ -51,6 +51,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "experiments/recipe": ("recipe.json", "verdicts"),
     "experiments/seed_spread": ("seed_spread.json", "pairings"),
     "experiments/peers_table": ("peers_declutter.json", "cells"),
+    "experiments/oracle": ("oracle.json", "cells"),
     "experiments/vgn_frame": ("vgn_frame.json", "cells"),
     "experiments/robustness": ("robustness.json", "cells"),
 }

@@ -97,7 +97,7 @@ LAYERS = {
     "data": {"perception", "sim", "objects", "parallel"},
     "model": {"bingham", "rotation", "perception", "sim", "data"},
     "detect": {"bingham", "rotation", "perception", "sim", "model"},
-    "peers": {"bingham", "rotation", "perception", "sim", "objects", "model", "detect"},
+    "peers": {"bingham", "rotation", "perception", "sim", "objects", "data", "model", "detect"},
 }
 """What each layer below the benchmark may import besides the root modules: the layers to its
 left in docs/architecture.md's map."""

@@ -152,6 +152,13 @@ class DatabaseConfig:
         check_range("slip", self.slip, 1e-4, 0.1, integer=False)
 
 
+TRAINING_DATABASE = DatabaseConfig(grasps=150, directions=16)
+"""The grasp databases of the shipped models' training data (VGN's training meshes: 150 held
+grasps, 16 directions, the rest the defaults; docs/data.md,
+experiments/campaigns/robust_training.toml): what the oracle planner reads unless told
+otherwise (`symgrasp.peers.oracle`)."""
+
+
 @dataclass(frozen=True)
 class SceneConfig:
     """What a dataset is made of: everything that changes its content (`symgrasp.data`)."""

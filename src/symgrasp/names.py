@@ -65,6 +65,13 @@ PEERS = ("vgn",)
 """Other people's detectors that symgrasp runs from their published weights in the data folder
 (`symgrasp.peers`): VGN's network (Breyer et al., CoRL 2020)."""
 
+ORACLE = "oracle"
+"""The planner that reads the simulator's state and returns the scene's training labels
+(`symgrasp.peers.oracle`): the upper bound of the declutter benchmark, no detector."""
+
+ORACLE_GRIPPER = "robotiq-2f85"
+"""The oracle's hand when none is named: the paper's."""
+
 BACKENDS = ("process", "ray")
 """Where the tasks of data generation and benchmarks run (`symgrasp.parallel`): a pool of
 local processes, or a Ray cluster (the optional extra ``cluster``)."""
@@ -94,8 +101,8 @@ def is_plugin_name(name: str) -> bool:
 
 def planner_kind(name: str) -> str:
     """What plays for the planner name ``name`` (`symgrasp.peers.planners` loads it):
-    ``"model"`` (a shipped model or a checkpoint file), a peer's name (`PEERS`) or
+    ``"model"`` (a shipped model or a checkpoint file), a peer's name (`PEERS`), `ORACLE` or
     ``"plugin"`` (a user's ``package.module:NAME``)."""
-    if str(name) in PEERS:
+    if str(name) in (*PEERS, ORACLE):
         return str(name)
     return "plugin" if is_plugin_name(str(name)) else "model"

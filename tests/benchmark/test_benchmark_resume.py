@@ -133,7 +133,24 @@ def _run_and_kill(argv, out, delay):
     return rounds.read_text()
 
 
-def test_killed_benchmarks_resume_to_the_uninterrupted_result(tmp_path, without_timings):
+@pytest.fixture
+def fresh_process_threads():
+    """Torch threads as a fresh process has them, for rounds played here beside rounds played in
+    a new process: a round's floats depend on the thread count (an earlier test in this
+    process may have set one thread, as data generation's workers do)."""
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(int(subprocess.check_output(
+        [sys.executable, "-c", "import torch; print(torch.get_num_threads())"]
+    )))  # fmt: skip
+    yield
+    torch.set_num_threads(before)
+
+
+def test_killed_benchmarks_resume_to_the_uninterrupted_result(
+    tmp_path, without_timings, fresh_process_threads
+):
     argv = ["bench", "declutter", "--rounds", "4", "--num-objects", "1", "--seed", "3"]
     out, delays = tmp_path / "killed", random.Random(0)
     saved = []

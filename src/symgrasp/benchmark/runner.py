@@ -312,8 +312,10 @@ def _check_model(config: BenchmarkConfig, out: Path) -> None:
 
 def _version(config: BenchmarkConfig) -> str:
     """The SHA-256 of what ``config`` plays (`planner_version`: the model file, VGN's weights,
-    a user's planner's source)."""
-    return planner_version(config.model, dict(config.options).get("gripper"))
+    the oracle's source and databases, a user's planner's source)."""
+    options = dict(config.options)
+    gripper = options.pop("gripper", None)
+    return planner_version(config.model, gripper, **options)
 
 
 def read_rounds(path: str | Path) -> dict[int, dict[str, Any]]:

@@ -20,9 +20,14 @@ from symgrasp.cli.options import (
     output_folder_path,
     parse_planner,
 )
-from symgrasp.config import DEFAULT_VALIDITY, BenchmarkConfig
+from symgrasp.config import (
+    DEFAULT_VALIDITY,
+    TRAINING_DATABASE,
+    BenchmarkConfig,
+    DatabaseConfig,
+)
 from symgrasp.fields import field_docs
-from symgrasp.names import planner_kind
+from symgrasp.names import ORACLE_GRIPPER, planner_kind
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 
@@ -42,7 +47,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         description="VGN's and the paper's declutter protocol: each round drops --num-objects "
         "objects as a pile; before every attempt the cameras' depth images (--view, --views, "
         "--noise; by default one noiseless image from a fixed camera) are handed to the planner "
-        "(--model: a trained model, vgn or your own, docs/benchmark.md), and its best grasp "
+        "(--model: a trained model, vgn, the oracle or your own, docs/benchmark.md), and its best grasp "
         "whose approach misses the observed scene (those images fused) is executed; a round "
         "ends when "
         "the table is clear, no grasp is found or two attempts in a row fail. Round r uses seed "
@@ -86,11 +91,21 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "refuse to run unless --model uses this rotation representation (a guard for scripts: "
         "the checkpoint, not this option, decides the representation)",
     )
+    for name, field in (("grasps", "grasps"), ("directions", "directions")):
+        declutter.add_argument(
+            f"--oracle-{name}",
+            type=int,
+            default=None,
+            metavar="N",
+            help=f"--model oracle only: {sentence(field_docs(DatabaseConfig)[field]).rstrip('.')} "
+            f"in the oracle's databases (default: {getattr(TRAINING_DATABASE, field)}, the "
+            "shipped models' training data; fewer: cheaper databases, docs/benchmark.md)",
+        )
     add_shared(
         declutter,
         "gripper",
-        "the hand, a built-in's name or a spec file: for vgn (default: franka) and your own "
-        "planner function, the hand simulated; for a model, a guard: refuse to run unless "
+        "the hand, a built-in's name or a spec file: for vgn (default: franka), the oracle "
+        f"(default: {ORACLE_GRIPPER}) and your own planner function, the hand simulated; for a model, a guard: refuse to run unless "
         "--model was trained for it (its gripper, stored in it, is the one simulated)",
     )
     declutter.set_defaults(run=_run_declutter)
@@ -120,13 +135,17 @@ def _run_declutter(args: argparse.Namespace) -> None:
     options = () if threshold is None else (("confidence_threshold", threshold),)
     if args.validity is not None:
         options += (("validity_threshold", args.validity),)
+    oracle = {"grasps": args.oracle_grasps, "directions": args.oracle_directions}
+    oracle = tuple((k, v) for k, v in oracle.items() if v is not None)
+    if oracle and kind != "oracle":
+        raise SystemExit(f"error: --oracle-* options are the oracle's, not --model {args.model}'s")
     if kind != "model":
         if options or args.representation is not None:
             raise SystemExit(
                 f"error: --validity, --confidence, --no-confidence and --rep are a trained "
                 f"model's; --model {args.model} takes none of them"
             )
-        options = () if args.gripper is None else (("gripper", args.gripper),)
+        options = (() if args.gripper is None else (("gripper", args.gripper),)) + oracle
     if kind == "plugin" and os.getcwd() not in sys.path:
         sys.path.insert(0, os.getcwd())  # the planner's module, found as `python -m` finds it
     config = dataclasses.replace(config_from_args(BenchmarkConfig, args), options=options)

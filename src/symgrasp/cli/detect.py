@@ -251,6 +251,11 @@ def _planner(args: argparse.Namespace):
     from symgrasp.peers.planners import load_planner
 
     kind = planner_kind(args.model)
+    if kind == "oracle":
+        raise SystemExit(
+            "error: --model oracle reads the simulator's state, which depth images do not "
+            "hold: it plays only in symgrasp bench declutter"
+        )
     if kind == "model":
         if args.gripper is not None:
             raise SystemExit(

@@ -19,6 +19,7 @@ from symgrasp.names import (
     MESH_UNITS,
     NOISES,
     OBJECT_SETS,
+    ORACLE,
     PEERS,
     PRETRAINED,
     REPRESENTATIONS,
@@ -143,9 +144,9 @@ GRIPPER_METAVAR = "{" + ",".join(GRIPPERS) + "}|SPEC" + GRIPPER_SPEC_SUFFIX
 MODEL_METAVAR = "{" + ",".join(PRETRAINED) + "}|CHECKPOINT"
 """How ``--model``'s value is shown in every help: a shipped model's name or a file."""
 
-PLANNER_METAVAR = "{" + ",".join((*PRETRAINED, *PEERS)) + "}|CHECKPOINT|MODULE:NAME"
+PLANNER_METAVAR = "{" + ",".join((*PRETRAINED, *PEERS, ORACLE)) + "}|CHECKPOINT|MODULE:NAME"
 """How a planner is shown where any may play (``detect``, ``bench declutter``): a shipped
-model, a peer detector (VGN's network), a checkpoint file or a user's planner
+model, a peer detector (VGN's network), the oracle, a checkpoint file or a user's planner
 (`symgrasp.peers.planners`)."""
 
 SHARED = {

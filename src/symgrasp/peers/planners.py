@@ -2,7 +2,8 @@
 bench declutter --model`` play.
 
 A name is a shipped model or a checkpoint file (`symgrasp.detect.GraspDetector`), ``vgn``
-(VGN's network from the data folder, `symgrasp.peers.vgn`), or ``package.module:NAME`` (a
+(VGN's network from the data folder, `symgrasp.peers.vgn`), ``oracle`` (the scene's training
+labels read from the simulator, `symgrasp.peers.oracle`), or ``package.module:NAME`` (a
 user's planner, `symgrasp.peers.plugin`).
 """
 
@@ -16,7 +17,8 @@ from symgrasp.detect.detector import GraspDetector
 from symgrasp.detect.planner import GraspPlanner
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.model.checkpoint import file_sha256
-from symgrasp.names import planner_kind
+from symgrasp.names import ORACLE_GRIPPER, planner_kind
+from symgrasp.peers.oracle import OraclePlanner
 from symgrasp.peers.plugin import load_plugin
 from symgrasp.peers.vgn import VGN, check_weights
 from symgrasp.sim.grippers import GripperSpec, get_gripper
@@ -29,15 +31,18 @@ def load_planner(
     **options: Any,
 ) -> GraspPlanner:
     """The planner ``name`` names (module docstring), on ``device``. ``gripper`` (a spec or a
-    built-in's name): the hand for a planner that takes any (``vgn``, a user's function);
-    a checkpoint decides its own, and a hand other than it is refused. ``options``: keyword
-    arguments of `GraspDetector` or `symgrasp.peers.vgn.VGN`. Raises ValueError naming what
-    is wrong, `symgrasp.objects.folder.MissingData` when VGN's weights are not in the data
+    built-in's name): the hand for a planner that takes any (``vgn``, ``oracle``, a user's
+    function); a checkpoint decides its own, and a hand other than it is refused.
+    ``options``: keyword arguments of `GraspDetector`, `symgrasp.peers.vgn.VGN` or
+    `symgrasp.peers.oracle.OraclePlanner` (which runs no network: ``device`` is not its).
+    Raises ValueError naming what is wrong, `symgrasp.objects.folder.MissingData` when VGN's weights are not in the data
     folder."""
     hand = gripper if gripper is None or isinstance(gripper, GripperSpec) else get_gripper(gripper)
     kind = planner_kind(str(name))
     if kind == "vgn":
         return VGN(hand or "franka", device=device, **options)
+    if kind == "oracle":
+        return OraclePlanner(hand or ORACLE_GRIPPER, **options)
     if kind == "plugin":
         if options:
             raise ValueError(
@@ -53,10 +58,16 @@ def load_planner(
     return detector
 
 
-def planner_version(name: str | Path, gripper: GripperSpec | str | None = None) -> str:
+def planner_version(
+    name: str | Path, gripper: GripperSpec | str | None = None, **options: Any
+) -> str:
     """The SHA-256 of what ``name`` plays, without building a network: the checkpoint file,
-    VGN's weights file, or a user's planner's ``version`` (its source file's hash)."""
+    VGN's weights file, the oracle's ``version`` (its source and database configuration) or
+    a user's planner's (its source file's hash). ``options``: the planner's keyword arguments
+    (`load_planner`), which only the oracle's version depends on."""
     kind = planner_kind(str(name))
+    if kind == "oracle":
+        return load_planner(name, gripper, **options).version
     if kind == "vgn":
         return hashlib.sha256(check_weights().read_bytes()).hexdigest()
     if kind == "plugin":
