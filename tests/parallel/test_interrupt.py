@@ -54,6 +54,12 @@ def _alive(pid):
     return state != "Z"  # a zombie has exited; only its parent's wait is missing
 
 
+def _as_from_a_terminal():
+    """SIGINT handled as a terminal's command has it: a shell's background job (a CI run
+    started with ``&``) ignores SIGINT, and an ignored signal is inherited."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start(out, databases):
     """``data generate --workers 2`` into ``out`` (databases copied in), in a session of its
     own (a Ctrl-C reaches its group), once its two workers have written a scene; returns the
@@ -64,7 +70,7 @@ def _start(out, databases):
     code = f"from symgrasp.cli import main; main({argv!r})"
     process = subprocess.Popen(
         [sys.executable, "-c", code], env=env, stderr=subprocess.PIPE, text=True,
-        start_new_session=True,
+        start_new_session=True, preexec_fn=_as_from_a_terminal,
     )  # fmt: skip
     deadline = time.monotonic() + 60
     while not scene_path(out, 0).exists():
