@@ -1,7 +1,8 @@
 """What the experiments share beyond `symgrasp.scripts`: where their results go, the shipped
 model that stands in for every training run in ``--quick`` mode, the order their tables list
-the hands in, which validation scenes a checkpoint is looked at on, the Wilson interval of a rate
-and a grasp database's prefix."""
+the hands in, which validation scenes a checkpoint is looked at on, the Wilson interval of a rate,
+a grasp database's prefix, the Table 1 rounds a shipped model replays, and a page's text
+between two markers."""
 
 from __future__ import annotations
 
@@ -123,3 +124,38 @@ def validation_items(
         split = GraspDataset(data, split="val", augment=False)
     step = max(1, len(split) // scenes)
     return checkpoint, [split[i] for i in range(0, len(split), step)][:scenes]
+
+
+def table1_rounds(
+    model: str, objects: str, scene: str, baselines: str | Path, rounds: int, agree: dict[str, Any]
+) -> tuple[list[dict[str, Any]] | None, Path]:
+    """Rounds 0 … ``rounds`` − 1 of the Table 1 cell that the shipped ``model`` replays round for
+    round (its hand's, representation's and training seed's, `symgrasp.benchmark.cells`;
+    tests/benchmark/test_benchmark_shipped_replay.py) in ``baselines`` (Table 1's rounds
+    unpacked from ``results/declutter_rounds.tar.gz``), and the cell's folder. The rounds are
+    None unless the cell recorded the values of ``agree`` (configuration fields) and holds them
+    all; whatever model file played them, which may live on another machine."""
+    from symgrasp.benchmark.cells import Cell
+    from symgrasp.benchmark.runner import read_rounds, recorded_config
+    from symgrasp.detect.pretrained import resolve_model
+    from symgrasp.model.checkpoint import load_checkpoint, trained_gripper
+
+    state = load_checkpoint(resolve_model(model))
+    cell = Cell(trained_gripper(state).name, state["representation"], state["config"]["seed"],
+                objects, scene).folder(baselines)  # fmt: skip
+    recorded = recorded_config(cell)
+    if recorded is None or any(recorded[k] != v for k, v in agree.items()):
+        return None, cell
+    done = read_rounds(cell / "rounds.jsonl")
+    seeds = range(rounds)
+    return ([done[s] for s in seeds] if all(s in done for s in seeds) else None), cell
+
+
+def update_page(page: Path, begin: str, end: str, text: str) -> None:
+    """Replace what stands between ``page``'s markers ``begin`` and ``end`` by ``text`` (a
+    script's ``--docs``; SystemExit naming the page when it lacks them)."""
+    content = page.read_text()
+    if begin not in content or end not in content:
+        raise SystemExit(f"error: --docs {page} has no {begin} … {end} markers")
+    head, rest = content.split(begin, 1)
+    page.write_text(f"{head}{begin}\n{text}{end}{rest.split(end, 1)[1]}")

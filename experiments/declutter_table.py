@@ -58,7 +58,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from common import GRIPPERS, SHIPPED, add_result_option
+from common import GRIPPERS, SHIPPED, add_result_option, update_page
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.cells import Cell
@@ -430,15 +430,7 @@ def figure(rows: list[dict], path: str | Path, args: argparse.Namespace) -> None
 
 
 BEGIN, END = "<!-- declutter-table: begin -->", "<!-- declutter-table: end -->"
-
-
-def update_page(page: Path, table: str) -> None:
-    """Replace the text between the ``BEGIN`` and ``END`` markers of ``page`` by ``table``."""
-    text = page.read_text()
-    if BEGIN not in text or END not in text:
-        raise SystemExit(f"error: --docs {page} has no {BEGIN} … {END} markers")
-    head, rest = text.split(BEGIN, 1)
-    page.write_text(f"{head}{BEGIN}\n{table}{END}{rest.split(END, 1)[1]}")
+"""The markers of ``--docs`` between which the tables go."""
 
 
 def main() -> None:
@@ -534,7 +526,7 @@ def main() -> None:
         prefixes=prefixes,
     )
     figure(rows, args.figure, args)
-    update_page(Path(args.docs), table)
+    update_page(Path(args.docs), BEGIN, END, table)
     write_archive(Path(args.archive), played, args)
 
 

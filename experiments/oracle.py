@@ -38,8 +38,9 @@ from typing import Any
 
 import numpy as np
 from common import add_result_option
-from peers_table import baseline_rounds, folder_name
+from peers_table import baseline_rounds, cell_name
 
+from symgrasp.benchmark.cells import objects_folder
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.declutter import NONE_FOUND
 from symgrasp.benchmark.runner import (
@@ -49,6 +50,7 @@ from symgrasp.benchmark.runner import (
     run_or_reuse,
     summarise,
 )
+from symgrasp.benchmark.seeds import common_rounds
 from symgrasp.config import TRAINING_DATABASE, BenchmarkConfig
 from symgrasp.names import ORACLE
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
@@ -70,11 +72,6 @@ CAUSES = ("cleared", "emptied", NONE_FOUND, "two_failures", "max_attempts")
 """How a round ends (`end_cause`)."""
 
 
-def cell_name(cell: tuple[str, str, str]) -> str:
-    """``HAND/OBJECTS`` (``--cells``); the scene follows from the object set."""
-    return f"{cell[0]}/{cell[1]}"
-
-
 def oracle_config(hand: str, objects: str, scene: str, args: argparse.Namespace) -> BenchmarkConfig:
     """The cell's benchmark, its options as ``bench declutter --model oracle --gripper HAND
     --oracle-grasps G [--oracle-directions K]`` records them."""
@@ -90,7 +87,7 @@ def oracle_config(hand: str, objects: str, scene: str, args: argparse.Namespace)
 def oracle_folder(hand: str, objects: str, scene: str, args: argparse.Namespace) -> Path:
     """``--out/HAND/oracle-gG[-kK]/OBJECTS[-packed]``."""
     k = "" if args.directions == TRAINING_DATABASE.directions else f"-k{args.directions}"
-    return args.out / hand / f"oracle-g{args.grasps}{k}" / folder_name(objects, scene)
+    return args.out / hand / f"oracle-g{args.grasps}{k}" / objects_folder(objects, scene)
 
 
 def end_cause(record: dict[str, Any], max_attempts: int, max_failures: int = 2) -> str:
@@ -153,9 +150,7 @@ def collate(args: argparse.Namespace, cells: list[tuple[str, str, str]]) -> list
         }  # fmt: skip
         base, source = baseline_rounds(BASELINE, hand, objects, scene, args, play=args.quick)
         if base is not None:
-            by_seed = {r["seed"]: r for r in base if "error" not in r}
-            ours = [r for r in rounds if r["seed"] in by_seed]
-            theirs = [by_seed[r["seed"]] for r in ours]
+            ours, theirs = common_rounds(rounds, base)
             cell["baseline"] = {
                 "model": f"{BASELINE}-{hand}", "source": source, "paired_rounds": len(ours),
                 "summary": summarise(theirs), "ends": end_causes(theirs, args.num_objects),

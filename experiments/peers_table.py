@@ -38,22 +38,14 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option
+from common import add_result_option, table1_rounds, update_page
 from declutter_table import PUBLISHED
 
-from symgrasp.benchmark.cells import Cell
+from symgrasp.benchmark.cells import objects_folder
 from symgrasp.benchmark.compare import paired_change, percent_change
-from symgrasp.benchmark.runner import (
-    percent_with_interval,
-    read_rounds,
-    recorded_config,
-    run_or_reuse,
-    saved_rounds,
-    summarise,
-)
+from symgrasp.benchmark.runner import percent_with_interval, run_or_reuse, saved_rounds, summarise
+from symgrasp.benchmark.seeds import common_rounds
 from symgrasp.config import BenchmarkConfig
-from symgrasp.detect.pretrained import resolve_model
-from symgrasp.model.checkpoint import load_checkpoint
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 from symgrasp.scripts import cpu_model, parse_args, run_main, write_result
 
@@ -78,26 +70,6 @@ def cell_name(cell: tuple[str, str, str]) -> str:
     return f"{cell[0]}/{cell[1]}"
 
 
-def folder_name(objects: str, scene: str) -> str:
-    """A cell's folder below its hand and planner, as `symgrasp.benchmark.cells` names it."""
-    return objects + ("" if scene == "pile" else f"-{scene}")
-
-
-def stored_rounds(
-    folder: Path, objects: str, scene: str, args: argparse.Namespace
-) -> list[dict[str, Any]] | None:
-    """Rounds 0 … ``--rounds`` − 1 of the benchmark in ``folder`` when it played the cell's
-    world (objects, scene, objects per round, from round seed 0) and holds them all, else
-    None: whatever model file played them, which may live on another machine."""
-    recorded = recorded_config(folder)
-    world = {"objects": objects, "scene": scene, "num_objects": args.num_objects, "seed": 0}
-    if recorded is None or any(recorded[k] != v for k, v in world.items()):
-        return None
-    done = read_rounds(folder / "rounds.jsonl")
-    seeds = range(args.rounds)
-    return [done[s] for s in seeds] if all(s in done for s in seeds) else None
-
-
 def vgn_config(
     hand: str, objects: str, scene: str, rounds: int, num_objects: int
 ) -> BenchmarkConfig:
@@ -111,17 +83,17 @@ def baseline_rounds(
     rep: str, hand: str, objects: str, scene: str, args: argparse.Namespace, play: bool
 ) -> tuple[list[dict[str, Any]] | None, str]:
     """The rounds of the shipped ``REP-HAND`` on the cell's rounds and where they come from:
-    Table 1's cell in ``--baselines`` when it holds them all, else its own folder under
-    ``--out`` (played when ``play``); None when neither holds them."""
+    Table 1's cell in ``--baselines`` when it played the cell's world (objects, scene, objects
+    per round, from round seed 0) and holds them all (`table1_rounds`), else its own folder
+    under ``--out`` (played when ``play``); None when neither holds them."""
     model = f"{rep}-{hand}"
-    seed = load_checkpoint(resolve_model(model))["config"]["seed"]
-    table = Cell(hand, rep, seed, objects, scene).folder(args.baselines)
-    stored = stored_rounds(table, objects, scene, args)
+    world = {"objects": objects, "scene": scene, "num_objects": args.num_objects, "seed": 0}
+    stored, table = table1_rounds(model, objects, scene, args.baselines, args.rounds, world)
     if stored is not None:
         return stored, str(table)
     config = BenchmarkConfig(model=model, objects=objects, scene=scene,
                              num_objects=args.num_objects, rounds=args.rounds)  # fmt: skip
-    own = args.out / hand / rep / folder_name(objects, scene)
+    own = args.out / hand / rep / objects_folder(objects, scene)
     if play:
         return run_or_reuse(config, own, parallel_from_args(args)), str(own)
     return saved_rounds(config, own), str(own)
@@ -132,12 +104,11 @@ def collate(args: argparse.Namespace, cells: list[tuple[str, str, str]]) -> list
     out = []
     for hand, objects, scene in cells:
         config = vgn_config(hand, objects, scene, args.rounds, args.num_objects)
-        rounds = saved_rounds(config, args.out / hand / "vgn" / folder_name(objects, scene))
+        rounds = saved_rounds(config, args.out / hand / "vgn" / objects_folder(objects, scene))
         cell: dict[str, Any] = {"gripper": hand, "objects": objects, "scene": scene}
         if rounds is None:
             out.append({**cell, "waiting": True})
             continue
-        done = [r for r in rounds if "error" not in r]
         cell["vgn"] = summarise(rounds)
         cell["baselines"] = {}
         for rep in BASELINES:
@@ -145,9 +116,7 @@ def collate(args: argparse.Namespace, cells: list[tuple[str, str, str]]) -> list
             if base is None:
                 cell["baselines"][rep] = {"waiting": True, "source": source}
                 continue
-            finished = {r["seed"] for r in base if "error" not in r}
-            ours = [r for r in done if r["seed"] in finished]
-            theirs = [r for r in base if r["seed"] in {r["seed"] for r in ours}]
+            ours, theirs = common_rounds(rounds, base)
             cell["baselines"][rep] = {
                 "source": source, "summary": summarise(base), "paired_rounds": len(ours),
                 "vgn_minus": paired_change(ours, theirs),
@@ -198,15 +167,6 @@ def table(cells: list[dict[str, Any]]) -> str:
     return "\n".join(lines + modes) + "\n"
 
 
-def update_page(page: Path, text: str) -> None:
-    """Replace what stands between ``page``'s `BEGIN` and `END` markers by ``text``."""
-    content = page.read_text()
-    if BEGIN not in content or END not in content:
-        raise SystemExit(f"error: --docs {page} has no {BEGIN} … {END} markers")
-    head, rest = content.split(BEGIN, 1)
-    page.write_text(f"{head}{BEGIN}\n{text}{END}{rest.split(END, 1)[1]}")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/bench/peers"),
@@ -241,7 +201,7 @@ def main() -> None:
     if not args.collate_only:
         for hand, objects, scene in cells:
             config = vgn_config(hand, objects, scene, args.rounds, args.num_objects)
-            folder = args.out / hand / "vgn" / folder_name(objects, scene)
+            folder = args.out / hand / "vgn" / objects_folder(objects, scene)
             print(f"VGN {hand} {objects} ({scene}) → {folder}")
             run_or_reuse(config, folder, parallel_from_args(args))
             for rep in BASELINES:
@@ -252,7 +212,7 @@ def main() -> None:
     text = table(collated)
     print(text)
     load = os.getloadavg()[0]
-    update_page(args.docs, f"{args.rounds} rounds a cell, collated by `SYMGRASP_DATA=../shared "
+    update_page(args.docs, BEGIN, END, f"{args.rounds} rounds a cell, collated by `SYMGRASP_DATA=../shared "
                 f"PYTHONPATH=src python experiments/peers_table.py` ({cpu_model()}, load {load:.1f}; "
                 "a round's outcomes do not depend on the load: each is a pure function of its "
                 "seed):\n\n" + text)  # fmt: skip

@@ -45,21 +45,14 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from common import SHIPPED, add_result_option
+from common import SHIPPED, add_result_option, table1_rounds, update_page
 
-from symgrasp.benchmark.cells import Cell
+from symgrasp.benchmark.cells import objects_folder
 from symgrasp.benchmark.compare import paired_change, percent_change
-from symgrasp.benchmark.runner import (
-    percent_with_interval,
-    read_rounds,
-    recorded_config,
-    run_or_reuse,
-    saved_rounds,
-    summarise,
-)
+from symgrasp.benchmark.runner import percent_with_interval, run_or_reuse, saved_rounds, summarise
+from symgrasp.benchmark.seeds import common_rounds
 from symgrasp.config import BenchmarkConfig
-from symgrasp.detect.pretrained import resolve_model, trained_for
-from symgrasp.model.checkpoint import load_checkpoint
+from symgrasp.detect.pretrained import trained_for
 from symgrasp.names import PRETRAINED
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 from symgrasp.scripts import cpu_model, parse_args, run_main, write_result
@@ -104,26 +97,18 @@ def config(
 def folder(model: str, objects: str, scene: str, condition: str, args: argparse.Namespace) -> Path:
     """Where a condition of a cell plays: ``--out/HAND/REP/OBJECTS[-packed]/CONDITION``."""
     rep, hand = trained_for(model)
-    name = objects + ("" if scene == "pile" else f"-{scene}")
-    return args.out / hand.name / rep / name / condition
+    return args.out / hand.name / rep / objects_folder(objects, scene) / condition
 
 
-def table1_rounds(model: str, objects: str, scene: str, args: argparse.Namespace) -> tuple:
+def clean_rounds(model: str, objects: str, scene: str, args: argparse.Namespace) -> tuple:
     """The clean rounds of the shipped ``model`` from the Table 1 cell of its training seed in
     ``--baselines`` and that folder, when the cell recorded the clean configuration (but the
     model file, a training run's, which the shipped model replays) and holds every round; else
     (None, its folder)."""
-    rep, hand = trained_for(model)
-    seed = load_checkpoint(resolve_model(model))["config"]["seed"]
-    cell = Cell(hand.name, rep, seed, objects, scene).folder(args.baselines)
-    recorded = recorded_config(cell)
     wanted = json.loads(json.dumps(dataclasses.asdict(config(model, objects, scene, CLEAN, args))))
     ignored = ("model", "rounds", "pictures")
-    if recorded is None or any(recorded[k] != v for k, v in wanted.items() if k not in ignored):
-        return None, cell
-    done = read_rounds(cell / "rounds.jsonl")
-    seeds = range(args.rounds)
-    return ([done[s] for s in seeds] if all(s in done for s in seeds) else None), cell
+    agree = {k: v for k, v in wanted.items() if k not in ignored}
+    return table1_rounds(model, objects, scene, args.baselines, args.rounds, agree)
 
 
 def rounds_of(model: str, objects: str, scene: str, condition: str, args: argparse.Namespace,
@@ -131,7 +116,7 @@ def rounds_of(model: str, objects: str, scene: str, condition: str, args: argpar
     """A condition's rounds and where they are (clean: Table 1's when it holds them); played
     or resumed when ``play``, else None when not all there."""
     if condition == CLEAN:
-        stored, cell = table1_rounds(model, objects, scene, args)
+        stored, cell = clean_rounds(model, objects, scene, args)
         if stored is not None:
             return stored, cell
     wanted = config(model, objects, scene, condition, args)
@@ -182,10 +167,7 @@ def collate(args: argparse.Namespace) -> list[dict[str, Any]]:
 def paired(rounds: list[dict[str, Any]], clean: list[dict[str, Any]]) -> dict[str, Any]:
     """``rounds`` minus ``clean`` on the rounds both finished: SR and CR changes with their
     paired intervals (`paired_change`) and how many rounds were paired."""
-    finished = {r["seed"] for r in clean if "error" not in r}
-    ours = [r for r in rounds if "error" not in r and r["seed"] in finished]
-    seeds = {r["seed"] for r in ours}
-    theirs = [r for r in clean if r["seed"] in seeds]
+    ours, theirs = common_rounds(rounds, clean)
     return {"paired_rounds": len(ours), **paired_change(ours, theirs)}
 
 
@@ -209,15 +191,6 @@ def table(cells: list[dict[str, Any]]) -> str:
             f"{c['finished_rounds']} |"
         )  # fmt: skip
     return "\n".join(lines) + "\n"
-
-
-def update_page(page: Path, text: str) -> None:
-    """Replace what stands between ``page``'s `BEGIN` and `END` markers by ``text``."""
-    content = page.read_text()
-    if BEGIN not in content or END not in content:
-        raise SystemExit(f"error: --docs {page} has no {BEGIN} … {END} markers")
-    head, rest = content.split(BEGIN, 1)
-    page.write_text(f"{head}{BEGIN}\n{text}{END}{rest.split(END, 1)[1]}")
 
 
 def main() -> None:
@@ -271,7 +244,7 @@ def main() -> None:
     text = table(cells)
     print(text, end="")
     load = os.getloadavg()[0]
-    update_page(args.docs, f"{args.rounds} rounds a cell, collated by `SYMGRASP_DATA=../shared "
+    update_page(args.docs, BEGIN, END, f"{args.rounds} rounds a cell, collated by `SYMGRASP_DATA=../shared "
                 f"PYTHONPATH=src python experiments/robustness.py` ({cpu_model()}, load "
                 f"{load:.1f}; a round's outcomes do not depend on the load: each is a pure "
                 "function of its seed):\n\n" + text)  # fmt: skip

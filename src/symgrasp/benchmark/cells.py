@@ -22,6 +22,11 @@ NO_THRESHOLD = (("confidence_threshold", 0.0),)
 """The detector options of the paper's "2D Bingham" row: its confidence threshold off."""
 
 
+def objects_folder(objects: str, scene: str) -> str:
+    """The last level of a cell's folder: ``OBJECTS`` for a pile, ``OBJECTS-SCENE`` else."""
+    return objects + ("" if scene == "pile" else f"-{scene}")
+
+
 @dataclass(frozen=True)
 class Cell:
     """One training run of one representation on one object set (module docstring)."""
@@ -48,7 +53,7 @@ class Cell:
     def folder(self, out: str | Path) -> Path:
         """Where the cell's benchmark lives under ``out``."""
         rep = self.rep + ("" if self.threshold else "-noconf")
-        objects = self.objects + ("" if self.scene == "pile" else f"-{self.scene}")
+        objects = objects_folder(self.objects, self.scene)
         return Path(out) / self.gripper / rep / f"s{self.seed}" / objects
 
     def config(self, model: str | Path, rounds: int = 100, num_objects: int = 5) -> BenchmarkConfig:
