@@ -13,7 +13,7 @@ change of the shared machine's load falls on both:
 
 - **before**: the force ramps stepped one `World.step` at a time through `World`'s interface
   (`apply_force`, `step`, `hand_pose`, `object_positions`), the code before
-  `World.push_until_slip`;
+  `World.push_until_slip` (`symgrasp.sim.execute.stepwise_pull_out_forces`);
 - **after**: the code as it is.
 
 The fastest of the repeats counts. One more build (after) measures the shares of its time
@@ -46,6 +46,7 @@ from symgrasp.data.grasp_db import GraspDatabase, build_database
 from symgrasp.names import GRIPPERS
 from symgrasp.objects.sets import resolve
 from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.sim.execute import stepwise_pull_out_forces
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.sim.objects import ObjectSpec, Part
 
@@ -53,29 +54,6 @@ OBJECTS = "vgn-pile-train,vgn-packed-train"
 BOX_HALF = (0.02, 0.03, 0.045)
 BOOTSTRAP = 2000
 FAST_RAMPS = grasp_db.pull_out_forces
-
-
-def stepwise_pull_out_forces(world, index, directions, max_force, rate, slip) -> np.ndarray:
-    """`symgrasp.sim.execute.pull_out_forces` as it was: each ramp stepped through `World`'s
-    interface, the hand's pose and the object's position read back after every step."""
-    start_state = world.snapshot()
-    resisted = []
-    for direction in np.asarray(directions, dtype=float):
-        world.restore(start_state)
-        u = direction / np.linalg.norm(direction)
-        start = np.linalg.inv(world.hand_pose()) @ np.r_[world.object_positions()[index], 1.0]
-        force = 0.0
-        while force < max_force:
-            force += rate * world.timestep
-            world.apply_force(index, force * u)
-            world.step(world.timestep)
-            now = np.linalg.inv(world.hand_pose()) @ np.r_[world.object_positions()[index], 1.0]
-            if np.linalg.norm(now[:3] - start[:3]) > slip:
-                break
-        world.apply_force(index, np.zeros(3))
-        resisted.append(min(force, max_force))
-    world.restore(start_state)
-    return np.array(resisted)
 
 
 class MujocoClock:

@@ -13,7 +13,6 @@ import os
 from pathlib import Path
 from typing import NoReturn
 
-import numpy as np
 import pytest
 
 from symgrasp.objects.folder import DATA_ENV, VGN_ROOT
@@ -125,34 +124,3 @@ def _without_timings(value):
 def without_timings():
     """Benchmark records and summaries without their planning times, which no run repeats."""
     return _without_timings
-
-
-def _stepwise_pull_out_forces(world, index, directions, max_force, rate, slip):
-    """One force ramp per direction from the world's current state, written step by step
-    through `World`'s interface (`apply_force`, `step`, `hand_pose`): the pull-out test as it
-    was before `World.push_until_slip`."""
-    start_state = world.snapshot()
-    resisted = []
-    for direction in np.asarray(directions, dtype=float):
-        world.restore(start_state)
-        u = direction / np.linalg.norm(direction)
-        start = np.linalg.inv(world.hand_pose()) @ np.r_[world.object_positions()[index], 1.0]
-        force = 0.0
-        while force < max_force:
-            force += rate * world.timestep
-            world.apply_force(index, force * u)
-            world.step(world.timestep)
-            now = np.linalg.inv(world.hand_pose()) @ np.r_[world.object_positions()[index], 1.0]
-            if np.linalg.norm(now[:3] - start[:3]) > slip:
-                break
-        world.apply_force(index, np.zeros(3))
-        resisted.append(min(force, max_force))
-    world.restore(start_state)
-    return np.array(resisted)
-
-
-@pytest.fixture
-def stepwise_pull_out_forces():
-    """The oracle of `symgrasp.sim.execute.pull_out_forces`, same arguments and result: the
-    force ramps stepped one `World.step` at a time, reading the hand's pose at each."""
-    return _stepwise_pull_out_forces

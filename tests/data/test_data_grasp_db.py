@@ -20,6 +20,7 @@ from symgrasp.data.grasp_db import (
 from symgrasp.objects.folder import DATA_ENV
 from symgrasp.objects.sets import resolve
 from symgrasp.sim import FRANKA, get_gripper
+from symgrasp.sim.execute import stepwise_pull_out_forces
 from symgrasp.sim.objects import ObjectSpec, Part, surface_samples
 
 HALF = (0.02, 0.03, 0.045)  # 4 × 6 × 9 cm: only the 4 and 6 cm sides fit the 8 cm Franka
@@ -135,9 +136,7 @@ def _assert_same(a: GraspDatabase, b: GraspDatabase) -> None:
         assert np.array_equal(getattr(a, field.name), getattr(b, field.name)), field.name
 
 
-def test_the_database_is_the_one_of_ramps_stepped_through_the_world(
-    database, stepwise_pull_out_forces, monkeypatch
-):
+def test_the_database_is_the_one_of_ramps_stepped_through_the_world(database, monkeypatch):
     """The fast ramps change no bit of a database, so a cached one (its key unchanged) is
     what this code builds."""
     monkeypatch.setattr(grasp_db, "pull_out_forces", stepwise_pull_out_forces)
@@ -145,7 +144,7 @@ def test_the_database_is_the_one_of_ramps_stepped_through_the_world(
 
 
 @pytest.mark.parametrize("gripper", ["franka", "robotiq-2f85"])
-def test_so_is_a_database_on_a_vgn_mesh(gripper, vgn_data, stepwise_pull_out_forces, monkeypatch):
+def test_so_is_a_database_on_a_vgn_mesh(gripper, vgn_data, monkeypatch):
     monkeypatch.setenv(DATA_ENV, str(vgn_data))
     obj = resolve("vgn-pile-train,vgn-packed-train").pool(2, 0)[1]
     assert len(obj.parts) == 3  # a mesh of several convex parts

@@ -12,7 +12,14 @@ from symgrasp.sim import (
     large_box,
     make_scene,
 )
-from symgrasp.sim.execute import Outcome, pull_out_force, pull_out_forces, ramp, top_grasp
+from symgrasp.sim.execute import (
+    Outcome,
+    pull_out_force,
+    pull_out_forces,
+    ramp,
+    stepwise_pull_out_forces,
+    top_grasp,
+)
 from symgrasp.sim.objects import ObjectSpec, Part
 from symgrasp.workspace import TABLE_HEIGHT
 
@@ -222,9 +229,7 @@ def _held_box(gripper: str) -> World:
 
 
 @pytest.mark.parametrize("gripper", GRIPPERS)
-def test_pull_out_forces_equal_the_ramp_stepped_through_the_world(
-    gripper, stepwise_pull_out_forces
-):
+def test_pull_out_forces_equal_the_ramp_stepped_through_the_world(gripper):
     """Bit for bit, ramps that slip and ramps that hold to the end alike; the world is left as
     it was."""
     world = _held_box(gripper)

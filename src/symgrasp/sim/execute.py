@@ -173,3 +173,43 @@ def pull_out_force(
     if u.shape != (3,) or np.linalg.norm(u) == 0:
         raise ValueError("direction must be a non-zero 3-vector")
     return float(pull_out_forces(world, object_index, u[None], max_force, rate, slip)[0])
+
+
+def stepwise_pull_out_forces(
+    world: World,
+    object_index: int,
+    directions: np.ndarray,
+    max_force: float = 300.0,
+    rate: float = 600.0,
+    slip: float = 0.01,
+) -> np.ndarray:
+    """`pull_out_forces` as it was before `World.push_until_slip`, the same arguments and, bit
+    for bit, the same result: each ramp stepped one `World.step` at a time through `World`'s
+    interface (`apply_force`, `step`, `hand_pose`, `object_positions`), the hand's pose and the
+    object's position read back after every step. Slow (more Python than MuJoCo per step): the
+    reference that tests/sim/test_sim_execute.py and tests/data/test_data_grasp_db.py check
+    the fast ramps against and that benchmarks/grasp_db.py times them against."""
+
+    def in_hand() -> np.ndarray:
+        """The object's position in the hand's frame."""
+        return (
+            np.linalg.inv(world.hand_pose()) @ np.r_[world.object_positions()[object_index], 1.0]
+        )[:3]
+
+    start_state = world.snapshot()
+    resisted = []
+    for direction in np.asarray(directions, dtype=float):
+        world.restore(start_state)
+        u = direction / np.linalg.norm(direction)
+        start = in_hand()
+        force = 0.0
+        while force < max_force:
+            force += rate * world.timestep
+            world.apply_force(object_index, force * u)
+            world.step(world.timestep)
+            if np.linalg.norm(in_hand() - start) > slip:
+                break
+        world.apply_force(object_index, np.zeros(3))
+        resisted.append(min(force, max_force))
+    world.restore(start_state)
+    return np.array(resisted)
