@@ -16,8 +16,8 @@ scenes with a 95% bootstrap interval over scenes.
 Variants: the image written as a 16-bit PNG in millimetres and in tenths of a millimetre and
 read back (`symgrasp.detect.files`); 5% of the pixels dropped at random (invalid zeros), fused
 as they are and with ``fill_holes`` 1; the pixels within 2 px of a depth jump over 2 cm
-dropped (the edge holes of a stereo or structured-light sensor), fused as they are and with
-``fill_holes`` 2 and 4.
+dropped (the edge holes of a stereo or structured-light sensor,
+`symgrasp.perception.points.edge_holes`), fused as they are and with ``fill_holes`` 2 and 4.
 """
 
 from __future__ import annotations
@@ -28,13 +28,14 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from scipy.ndimage import binary_dilation
+from common import add_result_option
 
 from symgrasp.config import SceneConfig
 from symgrasp.data.scenes import random_camera
 from symgrasp.detect import GraspDetector
 from symgrasp.detect.files import load_depth, save_png_depth
 from symgrasp.perception import CameraIntrinsic
+from symgrasp.perception.points import edge_holes
 from symgrasp.scripts import parse_args, run_main, write_result
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
@@ -45,18 +46,6 @@ MATCH_VOXELS = 1
 MATCH_DEGREES = 25.0
 DROPPED = 0.05
 """Share of pixels the dropout variant zeroes."""
-
-
-def edge_holes(depth: np.ndarray, jump: float = 0.02, width: int = 2) -> np.ndarray:
-    """``depth`` with the pixels within ``width`` of a jump over ``jump`` [m] between
-    neighbouring pixels dropped (0)."""
-    edge = np.zeros(depth.shape, dtype=bool)
-    rows, cols = np.abs(np.diff(depth, axis=0)) > jump, np.abs(np.diff(depth, axis=1)) > jump
-    edge[1:] |= rows
-    edge[:-1] |= rows
-    edge[:, 1:] |= cols
-    edge[:, :-1] |= cols
-    return np.where(binary_dilation(edge, iterations=width), 0.0, depth).astype(np.float32)
 
 
 def png_round_trip(depth: np.ndarray, scale: float, folder: Path) -> np.ndarray:
@@ -90,13 +79,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", type=int, default=50, help="piles (default: 50)")
     parser.add_argument("--model", default="bingham2d-robotiq-2f85", help="model name or path")
-    parser.add_argument(
-        "--result",
-        default="experiments/results/sensor_depth",
-        metavar="STEM",
-        help="where the result goes: STEM.json and STEM.md (default: "
-        "experiments/results/sensor_depth)",
-    )
+    add_result_option(parser, "sensor_depth")
     args = parse_args(parser, outputs=("result",), quick={"scenes": 2})
     torch.set_num_threads(1)
 

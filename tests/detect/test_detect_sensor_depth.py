@@ -3,11 +3,11 @@ other units of a depth scale, invalid zeros, holes at object edges (and ``fill_h
 
 import numpy as np
 import pytest
-from scipy.ndimage import binary_dilation
 
 from symgrasp.detect import GraspDetector
 from symgrasp.detect.files import load_depth, save_png_depth
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
+from symgrasp.perception.points import edge_holes
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
@@ -65,18 +65,6 @@ def test_zeros_in_a_png_are_missing_pixels_like_nan(detector, depth, tmp_path):
     seen_before = detector.fuse(depth, SMALL, T).weight > 0
     lost = seen_before & (volume.weight == 0)
     assert lost.any() and (volume.tsdf[lost] == 1).all()
-
-
-def edge_holes(depth: np.ndarray, jump: float = 0.02, width: int = 2) -> np.ndarray:
-    """``depth`` with the pixels within ``width`` of a depth jump over ``jump`` [m] between
-    neighbours dropped (0), as a stereo or structured-light sensor drops them."""
-    edge = np.zeros(depth.shape, dtype=bool)
-    rows, cols = np.abs(np.diff(depth, axis=0)) > jump, np.abs(np.diff(depth, axis=1)) > jump
-    edge[1:] |= rows
-    edge[:-1] |= rows
-    edge[:, 1:] |= cols
-    edge[:, :-1] |= cols
-    return np.where(binary_dilation(edge, iterations=width), 0.0, depth).astype(np.float32)
 
 
 def test_filling_edge_holes_brings_the_tsdf_back_towards_the_whole_images(detector, depth):

@@ -1,5 +1,6 @@
 """Point clouds as depth images (`symgrasp.perception.points`): the z-buffer rule, the round
-trip through a camera's own pixels, the virtual camera and hole filling, against closed forms."""
+trip through a camera's own pixels, the virtual camera, holes made at depth jumps and hole
+filling, against closed forms."""
 
 import numpy as np
 import pytest
@@ -8,6 +9,7 @@ from symgrasp.bad_input import CAMERA, INTRINSIC, table_depth
 from symgrasp.perception import CameraIntrinsic, depth_to_points, fill_holes, points_view
 from symgrasp.perception.points import (
     DEFAULT_PIXEL_SIZE,
+    edge_holes,
     points_depth,
     viewpoint_extrinsic,
     virtual_camera,
@@ -125,6 +127,25 @@ def test_fill_holes_takes_the_farthest_neighbour_and_reaches_as_far_as_asked():
     assert np.array_equal(fill_holes(depth, 0), depth)
     with pytest.raises(ValueError, match="pixels must be an integer ≥ 0"):
         fill_holes(depth, -1)
+
+
+def test_edge_holes_drop_the_pixels_within_their_width_of_a_jump_and_fill_holes_mends_them():
+    depth = np.full((9, 12), 1.0, dtype=np.float32)
+    depth[:, 6:] = 1.01  # a step under the jump: no edge
+    assert np.array_equal(edge_holes(depth, jump=0.02), depth)
+    depth[:, 6:] = 1.5  # a step over it, between columns 5 and 6
+    for width in (1, 2):
+        holed = edge_holes(depth, jump=0.02, width=width)
+        dropped = np.flatnonzero((holed == 0).all(axis=0))
+        assert list(dropped) == list(range(5 - width, 7 + width))  # both sides of the jump
+        assert np.array_equal(holed[holed > 0], depth[holed > 0])
+        # each side's width + 1 columns filled from its own side: the step as it was
+        assert np.array_equal(fill_holes(holed, width + 1), depth)
+        assert not np.array_equal(fill_holes(holed, width), depth)
+    with pytest.raises(ValueError, match="width must be an integer ≥ 1"):
+        edge_holes(depth, width=0)  # scipy would dilate until nothing changes
+    with pytest.raises(ValueError, match="jump must be > 0"):
+        edge_holes(depth, jump=0.0)
 
 
 def test_bad_arguments_are_refused_naming_them():

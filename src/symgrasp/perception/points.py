@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 import torch
-from scipy.ndimage import maximum_filter
+from scipy.ndimage import binary_dilation, maximum_filter
 
 from symgrasp.perception.camera import CameraIntrinsic, is_rigid, look_at, vector3
 from symgrasp.workspace import VOXEL_SIZE, WORKSPACE_SIZE
@@ -81,6 +81,24 @@ def fill_holes(depth: np.ndarray, pixels: int = 1) -> np.ndarray:
             break
         filled = np.where(missing, maximum_filter(filled, size=3, mode="constant"), filled)
     return filled
+
+
+def edge_holes(depth: np.ndarray, jump: float = 0.02, width: int = 2) -> np.ndarray:
+    """``depth`` (H, W) [m] with the pixels within ``width`` of a depth jump over ``jump`` [m]
+    between neighbouring pixels dropped (0, missing), as a stereo or structured-light sensor
+    drops them at object edges: the holes `fill_holes` fills, made in a rendered image to
+    measure what they cost (experiments/sensor_depth.py, tests/detect)."""
+    if not (isinstance(width, int | np.integer) and width >= 1):
+        raise ValueError(f"width must be an integer ≥ 1, got {width!r}")
+    if not jump > 0:
+        raise ValueError(f"jump must be > 0 [m], got {jump!r}")
+    edge = np.zeros(depth.shape, dtype=bool)
+    rows, cols = np.abs(np.diff(depth, axis=0)) > jump, np.abs(np.diff(depth, axis=1)) > jump
+    edge[1:] |= rows
+    edge[:-1] |= rows
+    edge[:, 1:] |= cols
+    edge[:, :-1] |= cols
+    return np.where(binary_dilation(edge, iterations=width), 0.0, depth).astype(np.float32)
 
 
 def virtual_camera(
