@@ -126,6 +126,18 @@ def validation_items(
     return checkpoint, [split[i] for i in range(0, len(split), step)][:scenes]
 
 
+def add_table1_options(parser: argparse.ArgumentParser, baselines: str = "") -> None:
+    """``--baselines``, ``--rounds`` and ``--num-objects`` of a study paired with Table 1's
+    rounds (`table1_rounds`): where they are unpacked (``baselines`` says what the study takes
+    from them), and the rounds a cell plays, Table 1's by default."""
+    parser.add_argument("--baselines", type=Path, default=Path("out/bench/table"),
+                        help="Table 1's rounds, unpacked from experiments/results/"
+                        f"declutter_rounds.tar.gz{baselines} (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
+    parser.add_argument("--num-objects", type=int, default=5,
+                        help="objects per round (default: 5)")  # fmt: skip
+
+
 def table1_rounds(
     model: str, objects: str, scene: str, baselines: str | Path, rounds: int, agree: dict[str, Any]
 ) -> tuple[list[dict[str, Any]] | None, Path]:

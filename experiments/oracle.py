@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import add_result_option
+from common import add_result_option, add_table1_options
 from peers_table import baseline_rounds, cell_name
 
 from symgrasp.benchmark.cells import objects_folder
@@ -210,12 +210,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("out/bench/oracle"),
                         help="where the oracle's cells (and baselines not in --baselines) are "
                         "played (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--baselines", type=Path, default=Path("out/bench/table"),
-                        help="Table 1's rounds, unpacked from experiments/results/"
-                        "declutter_rounds.tar.gz (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
-    parser.add_argument("--num-objects", type=int, default=5,
-                        help="objects per round (default: 5)")  # fmt: skip
+    add_table1_options(parser)
     parser.add_argument("--grasps", type=int, default=TRAINING_DATABASE.grasps,
                         help="held grasps per object database (default: %(default)s, the "
                         "shipped models' training data)")  # fmt: skip

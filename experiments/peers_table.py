@@ -38,7 +38,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option, table1_rounds, update_page
+from common import add_result_option, add_table1_options, table1_rounds, update_page
 from declutter_table import PUBLISHED
 
 from symgrasp.benchmark.cells import objects_folder
@@ -172,12 +172,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("out/bench/peers"),
                         help="where VGN's cells (and baselines not in --baselines) are played "
                         "(default: %(default)s)")  # fmt: skip
-    parser.add_argument("--baselines", type=Path, default=Path("out/bench/table"),
-                        help="Table 1's rounds, unpacked from experiments/results/"
-                        "declutter_rounds.tar.gz (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
-    parser.add_argument("--num-objects", type=int, default=5,
-                        help="objects per round (default: 5)")  # fmt: skip
+    add_table1_options(parser)
     parser.add_argument("--cells", nargs="+", default=None, metavar="HAND/OBJECTS",
                         choices=[cell_name(c) for c in CELLS],
                         help="the cells to play or collate (default: all: %(choices)s)")  # fmt: skip

@@ -45,7 +45,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from common import SHIPPED, add_result_option, table1_rounds, update_page
+from common import SHIPPED, add_result_option, add_table1_options, table1_rounds, update_page
 
 from symgrasp.benchmark.cells import objects_folder
 from symgrasp.benchmark.compare import paired_change, percent_change
@@ -198,9 +198,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("out/bench/robustness"),
                         help="where the conditions (and clean rounds not in --baselines) are "
                         "played (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--baselines", type=Path, default=Path("out/bench/table"),
-                        help="Table 1's rounds, unpacked from experiments/results/"
-                        "declutter_rounds.tar.gz: the clean rounds (default: %(default)s)")  # fmt: skip
+    add_table1_options(parser, baselines=": the clean rounds")
     parser.add_argument("--models", nargs="+", choices=PRETRAINED, default=list(MODELS),
                         help="shipped models (default: %(default)s)")  # fmt: skip
     parser.add_argument("--sets", nargs="+", type=parse_set, default=[parse_set(s) for s in SETS],
@@ -210,9 +208,6 @@ def main() -> None:
                         default=list(CONDITIONS),
                         help="what the cameras see (default: all: %(choices)s; clean is "
                         "always collated, the others' pairing)")  # fmt: skip
-    parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
-    parser.add_argument("--num-objects", type=int, default=5,
-                        help="objects per round (default: 5)")  # fmt: skip
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument("--play-only", action="store_true",
                       help="play the conditions, write no result")  # fmt: skip
