@@ -124,3 +124,22 @@ def _without_timings(value):
 def without_timings():
     """Benchmark records and summaries without their planning times, which no run repeats."""
     return _without_timings
+
+
+@pytest.fixture
+def fake_rounds(monkeypatch):
+    """Benchmark rounds without a simulator or a model: ``fake_rounds(play)`` has
+    `symgrasp.benchmark.runner` call ``play`` in place of `run_round` (the same arguments; it
+    returns a `Round` or raises), its workers holding a stand-in planner of the Franka hand
+    and no object set."""
+    from symgrasp.benchmark import runner
+
+    class Planner:
+        gripper = "franka"
+
+    def use(play) -> None:
+        monkeypatch.setattr(runner, "run_round", play)
+        monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
+            config=config, planner=Planner(), out=out, objects=None))  # fmt: skip
+
+    return use

@@ -21,22 +21,17 @@ from symgrasp.cli import main
 
 
 @pytest.fixture
-def played(monkeypatch):
+def played(fake_rounds):
     """Seeds played, in order, by fake rounds: a success on odd seeds, a slip on even ones (so
     the bootstrap sees different rounds), without a simulator or a model."""
     seeds = []
-
-    class Detector:
-        gripper = "franka"
 
     def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
         seeds.append(seed)
         outcome = "success" if seed % 2 else "slipped"
         return Round(seed, num_objects, "gl", [Attempt(outcome, None, 1, 0, 0.1, num_objects)])
 
-    monkeypatch.setattr(runner, "run_round", fake_round)
-    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, planner=Detector(), objects=None, out=out))  # fmt: skip
+    fake_rounds(fake_round)
     return seeds
 
 

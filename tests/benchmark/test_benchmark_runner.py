@@ -96,10 +96,7 @@ def test_bootstrap_interval_shrinks_like_one_over_sqrt_rounds():
     assert 0.1 < width[25] < 0.25
 
 
-def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp_path):
-    class Detector:
-        gripper = "franka"
-
+def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(fake_rounds, tmp_path):
     def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
         if seed == 11:
             raise RuntimeError("simulation unstable")
@@ -107,9 +104,7 @@ def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(monkeypatch, tmp
 
         return Round(seed, num_objects, "gl")
 
-    monkeypatch.setattr(runner, "run_round", fake_round)
-    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, planner=Detector(), out=out, objects=None))  # fmt: skip
+    fake_rounds(fake_round)
     config = BenchmarkConfig(rounds=3, seed=10)
     expected = "1 of the 3 rounds in .* failed; the first \\(seed 11\\): RuntimeError: simulation"
     with pytest.raises(TasksFailed, match=expected):
@@ -136,10 +131,7 @@ def test_a_summary_never_averages_over_failed_rounds():
         assert with_failure[key] == without[key]
 
 
-def test_resume_plays_failed_rounds_again_and_keeps_one_record_per_seed(monkeypatch, tmp_path):
-    class Detector:
-        gripper = "franka"
-
+def test_resume_plays_failed_rounds_again_and_keeps_one_record_per_seed(fake_rounds, tmp_path):
     broken = {11, 12}
 
     def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
@@ -149,9 +141,7 @@ def test_resume_plays_failed_rounds_again_and_keeps_one_record_per_seed(monkeypa
 
         return Round(seed, num_objects, "gl", [Attempt("success", None, 1, 0, 0.1, 1)])
 
-    monkeypatch.setattr(runner, "run_round", fake_round)
-    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, planner=Detector(), out=out, objects=None))  # fmt: skip
+    fake_rounds(fake_round)
     config = BenchmarkConfig(rounds=4, seed=10)
     with pytest.raises(TasksFailed, match=r"2 of the 4 rounds .* \(seed 11\): RuntimeError"):
         runner.run_benchmark(config, tmp_path)
@@ -171,13 +161,11 @@ def test_a_later_finished_record_of_a_seed_wins_over_a_failed_one(tmp_path):
     assert runner.read_rounds(path) == {3: finished}
 
 
-def test_a_benchmark_whose_every_round_failed_stops_naming_the_first_error(monkeypatch, tmp_path):
+def test_a_benchmark_whose_every_round_failed_stops_naming_the_first_error(fake_rounds, tmp_path):
     def failing_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
         raise RuntimeError(f"no object in round {seed}")
 
-    monkeypatch.setattr(runner, "run_round", failing_round)
-    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, planner=None, out=out, objects=None))  # fmt: skip
+    fake_rounds(failing_round)
     config = BenchmarkConfig(rounds=2, seed=10)
     expected = "every one of the 2 rounds in .* failed; the first \\(seed 10\\): RuntimeError: no object in round 10"
     with pytest.raises(TasksFailed, match=expected):
@@ -257,10 +245,7 @@ def test_cli_thresholds_reach_the_detector(tmp_path):
     assert detector.validity_threshold == 0.3 and detector.confidence_threshold == 0.0
 
 
-def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(monkeypatch, tmp_path):
-    class Detector:
-        gripper = "franka"
-
+def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(fake_rounds, tmp_path):
     played = []
 
     def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
@@ -269,9 +254,7 @@ def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(mon
         played.append(seed)
         return Round(seed, num_objects, "gl")
 
-    monkeypatch.setattr(runner, "run_round", fake_round)
-    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, planner=Detector(), out=out, objects=None))  # fmt: skip
+    fake_rounds(fake_round)
     config = BenchmarkConfig(rounds=2, seed=5)
     assert runner.saved_rounds(config, tmp_path) is None
     first = runner.run_or_reuse(config, tmp_path)
@@ -286,15 +269,12 @@ def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(mon
 
 
 def test_the_sensing_reaches_the_rounds_is_recorded_and_resume_refuses_another(
-    monkeypatch, tmp_path
+    fake_rounds, tmp_path
 ):
     from dataclasses import replace
 
     from symgrasp.benchmark.declutter import Round
     from symgrasp.benchmark.sensing import Sensor
-
-    class Detector:
-        gripper = "franka"
 
     sensors = []
 
@@ -302,9 +282,7 @@ def test_the_sensing_reaches_the_rounds_is_recorded_and_resume_refuses_another(
         sensors.append(sensor)
         return Round(seed, num_objects, "gl")
 
-    monkeypatch.setattr(runner, "run_round", fake_round)
-    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, planner=Detector(), out=out, objects=None))  # fmt: skip
+    fake_rounds(fake_round)
     config = BenchmarkConfig(rounds=2, noise="dex", view="circle", views=6)
     runner.run_benchmark(config, tmp_path)
     assert sensors == [Sensor("dex", "circle", 6)] * 2

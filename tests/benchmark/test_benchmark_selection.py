@@ -288,12 +288,11 @@ def test_the_command_line_shows_each_checkpoints_declutter_numbers(run, capsys, 
     assert lines[-1].startswith("chosen: epoch_002.pt")
 
 
-def test_failed_validation_rounds_name_their_cause_and_are_not_cached(run, monkeypatch, capsys):
+def test_failed_validation_rounds_name_their_cause_and_are_not_cached(
+    run, monkeypatch, capsys, fake_rounds
+):
     from symgrasp.benchmark import runner
     from symgrasp.benchmark.declutter import Attempt, Round
-
-    class Detector:
-        gripper = "franka"
 
     broken = [True]
 
@@ -303,9 +302,7 @@ def test_failed_validation_rounds_name_their_cause_and_are_not_cached(run, monke
         return Round(seed, num_objects, "gl", [Attempt("success", None, 1, 0, 0.1, 1)])
 
     monkeypatch.setattr(runner, "resolve", lambda objects, unit: None)  # the set is "there"
-    monkeypatch.setattr(runner, "run_round", fake_round)
-    monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
-        config=config, detector=Detector(), out=out, objects=None))  # fmt: skip
+    fake_rounds(fake_round)
     with pytest.raises(SystemExit, match=r"1 of the 2 rounds .* failed; .*mesh file unreadable"):
         main(["select", str(run), "--by", "declutter", "--rounds", "2"])
     cached = [json.loads(p.read_text()) for p in (run / "selection").glob("*.json")]
