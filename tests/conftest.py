@@ -9,7 +9,10 @@ instead, so that a run meant to cover the data (``pytest -m data`` in .ci/run) c
 skipping.
 """
 
+import json
 import os
+import subprocess
+import sys
 from pathlib import Path
 from typing import NoReturn
 
@@ -17,7 +20,10 @@ import pytest
 
 from symgrasp.objects.folder import DATA_ENV, VGN_ROOT
 
-SHARED = Path(os.environ.get(DATA_ENV) or Path(__file__).resolve().parents[1].parent / "shared")
+ROOT = Path(__file__).resolve().parents[1]
+"""The checkout."""
+
+SHARED = Path(os.environ.get(DATA_ENV) or ROOT.parent / "shared")
 """The data a user downloads, as the tests find it: the data folder ``$SYMGRASP_DATA`` names,
 else ../shared beside the checkout."""
 
@@ -143,3 +149,15 @@ def fake_rounds(monkeypatch):
             config=config, planner=Planner(), out=out, objects=None))  # fmt: skip
 
     return use
+
+
+def campaign_steps(*plans: str) -> dict[str, dict]:
+    """The steps of the campaign ``plans`` (paths from the checkout), read together as the
+    driver reads them (``experiments/campaign.py show``), by name; ``{root}`` is /root."""
+    shown = subprocess.run(
+        [sys.executable, "experiments/campaign.py", "show", *plans, "--root", "/root"],
+        cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT / "src")}, capture_output=True,
+        text=True,
+    )  # fmt: skip
+    assert shown.returncode == 0, shown.stderr
+    return {s["name"]: s for s in map(json.loads, shown.stdout.splitlines())}

@@ -13,6 +13,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 import pytest
+from conftest import campaign_steps
 
 from symgrasp.benchmark.selection import DeclutterValidation, checkpoint_id
 from symgrasp.config import JUDGE_SEED, BenchmarkConfig
@@ -104,12 +105,7 @@ def test_the_evidence_table_shows_before_after_and_the_net_change_per_seed(judge
 
 
 def test_the_plan_trains_every_factor_and_hands_its_options_to_the_recipe_study(factors):
-    done = subprocess.run(
-        [sys.executable, "experiments/campaign.py", "show",
-         "experiments/campaigns/robust_training.toml", "--root", "/root"],
-        cwd=ROOT, env=ENV, capture_output=True, text=True,
-    )  # fmt: skip
-    steps = {s["name"]: s for s in map(json.loads, done.stdout.splitlines())}
+    steps = campaign_steps("experiments/campaigns/robust_training.toml")
     words = shlex.split(steps["recipe-study"]["run"])
     flags = dict(words[i + 1].split("=", 1) for i, w in enumerate(words) if w == "--flags")
     _, *others = factors

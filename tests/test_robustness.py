@@ -11,18 +11,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+from conftest import campaign_steps
+
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
 
 
 def test_the_plan_plays_every_cell_the_table_waits_for_once_and_collates_after_them(tmp_path):
-    shown = subprocess.run(
-        [sys.executable, "experiments/campaign.py", "show",
-         "experiments/campaigns/robustness.toml", "--root", "/root"],
-        cwd=ROOT, env=ENV, capture_output=True, text=True,
-    )  # fmt: skip
-    assert shown.returncode == 0, shown.stderr
-    steps = {s["name"]: s for s in map(json.loads, shown.stdout.splitlines())}
+    steps = campaign_steps("experiments/campaigns/robustness.toml")
     page = tmp_path / "page.md"
     page.write_text("<!-- robustness-table: begin -->\n<!-- robustness-table: end -->\n")
     collated = subprocess.run(

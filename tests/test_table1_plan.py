@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import campaign_steps
 
 ROOT = Path(__file__).resolve().parents[1]
 PLANS = ROOT / "experiments" / "campaigns"
@@ -20,13 +21,7 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
 @pytest.fixture(scope="module")
 def steps():
     """The plan's steps by name, ``{root}`` being /root."""
-    done = subprocess.run(
-        [sys.executable, "experiments/campaign.py", "show", str(PLANS / "robust_training.toml"),
-         str(PLANS / "table1.toml"), "--root", "/root"],
-        cwd=ROOT, env=ENV, capture_output=True, text=True,
-    )  # fmt: skip
-    assert done.returncode == 0, done.stderr
-    return {s["name"]: s for s in map(json.loads, done.stdout.splitlines())}
+    return campaign_steps(str(PLANS / "robust_training.toml"), str(PLANS / "table1.toml"))
 
 
 @pytest.fixture(scope="module")
