@@ -40,6 +40,7 @@ import time
 import mujoco
 import numpy as np
 
+from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.config import DatabaseConfig
 from symgrasp.data import grasp_db
 from symgrasp.data.grasp_db import GraspDatabase, build_database
@@ -52,7 +53,6 @@ from symgrasp.sim.objects import ObjectSpec, Part
 
 OBJECTS = "vgn-pile-train,vgn-packed-train"
 BOX_HALF = (0.02, 0.03, 0.045)
-BOOTSTRAP = 2000
 FAST_RAMPS = grasp_db.pull_out_forces
 
 

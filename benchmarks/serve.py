@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.detect import GraspDetector
 from symgrasp.perception import CameraIntrinsic, default_extrinsic, depth_to_points
 from symgrasp.scripts import parse_args, run_main, write_result
@@ -37,8 +38,6 @@ from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
 
 ROOT = Path(__file__).resolve().parents[1]
-BOOTSTRAP = 2000
-"""Resamples of the rounds behind each interval."""
 
 
 def median_interval(values: list[float], seed: int = 0) -> tuple[float, float]:

@@ -30,6 +30,7 @@ import numpy as np
 import torch
 from common import add_result_option
 
+from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.config import SceneConfig
 from symgrasp.data.scenes import random_camera
 from symgrasp.detect import GraspDetector
@@ -41,7 +42,6 @@ from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
 
-BOOTSTRAP = 2000
 MATCH_VOXELS = 1
 MATCH_DEGREES = 25.0
 DROPPED = 0.05
