@@ -105,15 +105,19 @@ def test_non_maximum_suppression_keeps_the_best_of_each_neighbourhood():
 
 
 @pytest.mark.parametrize("radius", [1, 2, 3])
-def test_non_maximum_suppression_equals_a_brute_force_search_of_each_box(radius):
-    """Random scores on random candidate voxels, some at the grid's border, ties included: a
-    candidate stays iff no candidate within ``radius`` voxels (Chebyshev) scores higher."""
+@pytest.mark.parametrize("region", [(0, R), (1, 9), (30, R)])
+def test_non_maximum_suppression_equals_a_brute_force_search_of_each_box(radius, region):
+    """Random scores on random candidate voxels in ``region`` (the whole grid, its borders
+    included, or a cluster near a corner, as candidates lie on objects), ties included: a
+    candidate stays iff no candidate within ``radius`` voxels (Chebyshev) scores higher;
+    voxels that are not candidates score higher still and must not count."""
     rng = np.random.default_rng(radius)
-    index = np.unique(rng.integers(0, R, size=(400, 3)), axis=0)
-    index[:5] = [[0, 0, 0], [0, 0, 1], [39, 39, 39], [38, 39, 39], [20, 20, 20]]
+    index = np.unique(rng.integers(*region, size=(400, 3)), axis=0)
+    if region == (0, R):
+        index[:5] = [[0, 0, 0], [0, 0, 1], [39, 39, 39], [38, 39, 39], [20, 20, 20]]
     index = np.unique(index, axis=0)
     value = rng.choice([0.1, 0.2, 0.3, 0.5], size=len(index))  # coarse: many ties
-    score = torch.zeros(R, R, R, dtype=torch.float64)
+    score = torch.ones(R, R, R, dtype=torch.float64)
     score[tuple(torch.as_tensor(index).T)] = torch.as_tensor(value)
     near = np.abs(index[:, None] - index[None]).max(-1) <= radius
     expected = [value[m] >= value[near[m]].max() for m in range(len(index))]

@@ -12,7 +12,7 @@ Any detector the benchmark plays meets `GraspPlanner` (`symgrasp.detect.planner`
 from symgrasp.detect.detector import GraspDetector, NoGraspWarning
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.planner import GraspPlanner, Observation
-from symgrasp.detect.pretrained import PRETRAINED, export_model
+from symgrasp.detect.pretrained import PRETRAINED, export_model, export_torchscript
 
 __all__ = [
     "PRETRAINED",
@@ -22,4 +22,5 @@ __all__ = [
     "NoGraspWarning",
     "Observation",
     "export_model",
+    "export_torchscript",
 ]

@@ -1,7 +1,10 @@
-"""The models shipped inside the package, and how a training checkpoint becomes one.
+"""The models shipped inside the package, how a training checkpoint becomes one, and how a
+model leaves symgrasp for another stack.
 
 A shipped model is a checkpoint of ``symgrasp train`` without its optimizer state (≈ 1 MB),
 stored in ``symgrasp/detect/models/<name>.pt``; its model card is ``docs/models.md``.
+`export_torchscript` writes a model's network as a TorchScript file that LibTorch (C++) or
+``torch.jit.load`` runs without symgrasp (docs/detect.md, "Exported model").
 """
 
 from __future__ import annotations
@@ -9,9 +12,24 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from symgrasp.model.checkpoint import load_checkpoint, save_checkpoint, trained_gripper
+from symgrasp import __version__
+from symgrasp.config import DEFAULT_VALIDITY
+from symgrasp.model.checkpoint import (
+    file_sha256,
+    load_checkpoint,
+    load_model,
+    save_checkpoint,
+    trained_gripper,
+)
+from symgrasp.model.ranking import DEFAULT_NMS_RADIUS
+from symgrasp.model.torchscript import save_torchscript
 from symgrasp.names import PRETRAINED
+from symgrasp.perception.tsdf import TRUNCATION_VOXELS
 from symgrasp.sim.grippers import GripperSpec
+from symgrasp.workspace import RESOLUTION, VOXEL_SIZE, WORKSPACE_SIZE
+
+TORCHSCRIPT_FORMAT = "symgrasp-torchscript-1"
+"""The ``format`` of an exported file's metadata; a change of its meaning changes the name."""
 
 
 def shipped_path(name: str) -> Path:
@@ -56,3 +74,47 @@ def export_model(checkpoint: str | Path, out: str | Path) -> Path:
     state.pop("format", None)
     save_checkpoint(out, state)
     return Path(out)
+
+
+def export_torchscript(name_or_path: str | Path, out: str | Path) -> Path:
+    """Write the network of model ``name_or_path`` (as `resolve_model` takes it) to ``out`` as
+    a frozen TorchScript graph, TSDF ``[B, 1, 40, 40, 40]`` → (score, validity logit, rotation
+    channels), with the facts its reader needs as metadata (`symgrasp.model.torchscript`): the
+    input grid, the representation, the gripper, the detector's default thresholds."""
+    path = resolve_model(name_or_path)
+    model, state = load_model(path, map_location="cpu")
+    representation = model.representation
+    metadata = {
+        "format": TORCHSCRIPT_FORMAT,
+        "model": str(name_or_path),
+        "checkpoint_sha256": file_sha256(path),
+        "symgrasp_version": __version__,
+        "input": {
+            "shape": [1, 1, RESOLUTION, RESOLUTION, RESOLUTION],
+            "what": "TSDF in [-1, 1] (1: free or unseen, < 0 behind the surface), the signed "
+            "depth difference along the optical axis over the truncation, averaged over views",
+            "resolution": RESOLUTION,
+            "workspace_size_m": WORKSPACE_SIZE,
+            "voxel_size_m": VOXEL_SIZE,
+            "truncation_voxels": TRUNCATION_VOXELS,
+            "voxel_centre": "origin + (index + 0.5) * voxel_size, index (i, j, k) along world "
+            "(x, y, z); the table top 0.05 m above the origin",
+        },
+        "outputs": [
+            "score [B, 40, 40, 40]: gravity-rejection score",
+            "validity [B, 40, 40, 40]: logit (sigmoid gives the probability)",
+            f"rotation [B, {representation.channels}, 40, 40, 40]: the representation's channels",
+        ],
+        "representation": representation.name,
+        "channels": representation.channels,
+        "grasp_frame": "R = [e_x e_y e_z]: approach, e_z x e_x, closing axis; the TCP at the "
+        "voxel centre",
+        "gripper": trained_gripper(state).to_dict(),
+        "defaults": {
+            "validity_threshold": DEFAULT_VALIDITY,
+            "confidence_threshold": representation.default_confidence,
+            "nms_radius_voxels": DEFAULT_NMS_RADIUS,
+        },
+        "decoding": "docs/detect.md, 'Exported model'",
+    }
+    return save_torchscript(model, out, metadata)

@@ -94,9 +94,14 @@ def rank_voxels(
 def local_maxima(score: Tensor, index: Tensor, radius: int) -> Tensor:
     """Which of the candidate voxels ``index`` [M, 3] hold the highest ``score`` [D, H, W]
     among the candidates within ``radius`` voxels (a bool ``[M]``)."""
-    at = tuple(index.T)
-    candidates = torch.full_like(score, -torch.inf)
-    candidates[at] = score[at]
+    # Only the candidates' bounding box, grown by the radius, can hold a neighbour: pooling it
+    # alone gives the same maxima at a fraction of the whole grid's cost.
+    lo = (index.min(dim=0).values - radius).clamp_min(0)
+    hi = index.max(dim=0).values + radius + 1
+    box = score[lo[0] : hi[0], lo[1] : hi[1], lo[2] : hi[2]]
+    at = tuple((index - lo).T)
+    candidates = torch.full_like(box, -torch.inf)
+    candidates[at] = box[at]
     pooled = candidates[None, None]
     for axis in range(3):  # a box's maximum, one axis at a time: 3·(2r+1) reads, not (2r+1)³
         kernel, padding = [1, 1, 1], [0, 0, 0]

@@ -12,6 +12,8 @@ pixel's viewing ray, as Open3D's ``UniformTSDFVolume`` measures it (VGN's fusion
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import torch
 
@@ -59,9 +61,7 @@ class TSDFVolume:
         shape = (self.resolution,) * 3
         self.tsdf = torch.ones(shape, device=self.device)
         self.weight = torch.zeros(shape, device=self.device)
-        idx = torch.arange(self.resolution, device=self.device, dtype=torch.float32)
-        grid = torch.stack(torch.meshgrid(idx, idx, idx, indexing="ij"), dim=-1)
-        self._centres = ((grid + 0.5) * self.voxel_size + self.origin).reshape(-1, 3)
+        self._centres = _voxel_centres(self.size, self.resolution, tuple(origin), self.device)
 
     def integrate(
         self,
@@ -134,3 +134,16 @@ class TSDFVolume:
             pb = centres.narrow(axis, 1, self.resolution - 1)[crossing]
             points.append(pa + t * (pb - pa))
         return torch.cat(points)
+
+
+@functools.lru_cache(maxsize=8)
+def _voxel_centres(
+    size: float, resolution: int, origin: tuple[float, ...], device: torch.device
+) -> torch.Tensor:
+    """The (resolution³, 3) voxel centres [m] of a grid, built once per geometry: a detector
+    fuses a fresh volume for every image, and rebuilding them took a sixth of the fusion.
+    Read only."""
+    idx = torch.arange(resolution, device=device, dtype=torch.float32)
+    grid = torch.stack(torch.meshgrid(idx, idx, idx, indexing="ij"), dim=-1)
+    offset = torch.tensor(origin, dtype=torch.float32, device=device)
+    return ((grid + 0.5) * (size / resolution) + offset).reshape(-1, 3)
