@@ -227,17 +227,20 @@ def make_scene_record(
 ) -> dict[str, np.ndarray]:
     """Build, label and observe scene ``scene_id`` of ``cfg`` for the gripper ``hand`` (the spec
     of ``cfg.gripper``); ``databases[k]`` belongs to ``pool.objects[k]`` (``pool`` =
-    `scene_pool` of ``cfg``). Returns the arrays stored in the scene's file (docs/data.md);
-    ``depth`` is the image the TSDF was fused from, with its noise."""
+    `scene_pool` of ``cfg``). Returns the arrays stored in the scene's file (docs/data.md).
+    ``depth`` is the rendered image, before the noise: the image fused is
+    ``noisy_depth(depth, cfg.noise, noise_seed(seed, scene_id))``, reproduced from the stored
+    one to its 0.1 mm steps (a noisy image, stored, would compress to several times the file:
+    docs/data.md, "Depth noise")."""
     scene, rng = labelled_scene(scene_id, cfg, hand, pool, databases, seed)
     grasps, ok, labels = scene.grasps, scene.survivors, scene.labels
 
     intrinsic = CameraIntrinsic()
     T_world_camera = random_camera(cfg, rng)
     depth = make_renderer(intrinsic).render(scene.world, T_world_camera)
-    depth = noisy_depth(depth, cfg.noise, noise_seed(seed, scene_id))
+    seen = noisy_depth(depth, cfg.noise, noise_seed(seed, scene_id))
     volume = TSDFVolume(resolution=RESOLUTION)
-    volume.integrate(depth, intrinsic, T_world_camera)
+    volume.integrate(seen, intrinsic, T_world_camera)
 
     return {
         "scene_id": np.int64(scene_id),
