@@ -292,8 +292,8 @@ def main() -> None:
     }
     geometry = views()
 
-    def ci(v: list[float], scale: float = 1, digits: int = 3) -> str:
-        return f"{v[0] * scale:.{digits}f} [{v[1] * scale:.{digits}f}, {v[2] * scale:.{digits}f}]"
+    def ci(v: list[float], digits: int = 3) -> str:
+        return f"{v[0]:.{digits}f} [{v[1]:.{digits}f}, {v[2]:.{digits}f}]"
 
     def quantiles(v: list[float]) -> str:
         return f"min {v[0]:.0%}, 1st percentile {v[1]:.0%}, median {v[2]:.0%}"

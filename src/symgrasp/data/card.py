@@ -82,11 +82,11 @@ def manifest_mismatches(root: str | Path) -> list[str]:
 @writes_folder(DATASET, "root")
 def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str, Any]:
     """Counts, class balance and histograms of a dataset, and the depth noise its images were
-    made with (``noise``); written to ``card.json`` and
-    ``card.png`` in ``root``, which is held for the call (one writer at a time: not while
-    `generate` writes it, `symgrasp.folders`). ``validate`` > 0 adds that many physics trials
-    of labelled against random grasps. ValueError naming the first `SHOWN` of
-    `manifest_mismatches` on one line when the folder is not what its manifest promises."""
+    made with (``noise``); written to ``card.json`` and ``card.png`` in ``root``, which is held
+    for the call (one writer at a time: not while `generate` writes it, `symgrasp.folders`).
+    ``validate`` > 0 adds that many physics trials of labelled against random grasps.
+    ValueError naming the first `SHOWN` of `manifest_mismatches` on one line when the folder is
+    not what its manifest promises."""
     root = Path(root)
     try:  # refuses an unfinished dataset in its own words; a mismatch: all of them below
         data = GraspDataset(root, split="all")

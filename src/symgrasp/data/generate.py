@@ -169,8 +169,7 @@ def generate(
         ValueError: ``out`` is not a folder path, holds files that are not a dataset, or is
             being written by another process; it already holds scenes and ``resume`` is
             False, or holds a dataset of another configuration or seed (the message names the
-            fields that differ); or `open_executor`'s
-            bad input.
+            fields that differ); or `open_executor`'s bad input.
         TasksFailed: some tasks raised (the other scenes are written).
     """
     hand = get_gripper(cfg.gripper)  # the names, resolved once (a ValueError names a bad one)

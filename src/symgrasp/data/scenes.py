@@ -70,8 +70,8 @@ def scene_rng(seed: int, scene_id: int) -> np.random.Generator:
 NOISE_STREAM = 0x6E6F6973
 """Last word of the seed of a scene's depth noise (`noise_seed`): ASCII "nois". Nonzero, since
 NumPy's seeding ignores trailing zeros (``[s, i, 0]`` is `scene_rng`'s ``[s, i]``), and larger
-than any attempt index of the benchmark's draws (`symgrasp.benchmark.sensing.draw_seed`), so no
-other stream of the package starts from the same seed."""
+than any attempt index of the benchmark's draws (`symgrasp.benchmark.sensing.draw_seed`), so
+neither the scene's stream nor a benchmark's draw starts from the same seed."""
 
 
 def noise_seed(seed: int, scene_id: int) -> tuple[int, int, int]:
