@@ -54,6 +54,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "experiments/oracle": ("oracle.json", "cells"),
     "experiments/vgn_frame": ("vgn_frame.json", "cells"),
     "experiments/robustness": ("robustness.json", "cells"),
+    "experiments/depth_noise": ("depth_noise.json", "summary"),
 }
 SHARED_MODULES = {"experiments/common"}
 """Modules of the folders that are not scripts."""

@@ -22,7 +22,7 @@ import torch
 from PIL import Image
 
 from symgrasp import bingham
-from symgrasp.config import BenchmarkConfig
+from symgrasp.config import BenchmarkConfig, SceneConfig
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
 from symgrasp.workspace import TABLE_HEIGHT
@@ -128,6 +128,11 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     keyless = json.loads((folder / "manifest_keyless" / "manifest.json").read_text())
     del keyless["k_max"]
     (folder / "manifest_keyless" / "manifest.json").write_text(json.dumps(keyless))
+    scene = SceneConfig()  # a dataset begun with the default configuration, no scene yet
+    (folder / "dataset" / "scenes").mkdir(parents=True)
+    begun = {"gripper": scene.gripper, "object_set": scene.object_set, "k_max": scene.k_max,
+             "scene_ids": [], "seed": 0, "config": dataclasses.asdict(scene)}  # fmt: skip
+    (folder / "dataset" / "manifest.json").write_text(json.dumps(begun))
     (folder / "bench_list").mkdir()
     (folder / "bench_list" / "config.json").write_text("[]")
     (folder / "bench_torn").mkdir()  # rounds.jsonl torn in the middle (hand-edited, merged)
@@ -217,6 +222,7 @@ ARGUMENTS = {  # case: (argv of the `make_files` folder, text the one-line messa
     "data generate --grasps 0": (lambda d: ["data", "generate", "--out", str(d / "g"), "--grasps", "0"], "grasps"),
     "data generate --kinds heap": (lambda d: ["data", "generate", "--out", str(d / "g"), "--kinds", "heap"], "--kinds"),
     "data generate --camera-distance 0.7 0.4": (lambda d: ["data", "generate", "--out", str(d / "g"), "--camera-distance", "0.7", "0.4"], "camera_distance"),
+    "data generate --noise gaussian": (lambda d: ["data", "generate", "--out", str(d / "g"), "--noise", "gaussian"], "--noise"),
     "train --lr inf": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--lr", "inf"], "lr"),
     "train --epochs 0": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--epochs", "0"], "epochs"),
     "train --nproc 2 --batch-size 3": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--nproc", "2", "--batch-size", "3"], "batch_size 3 must be a multiple of the 2"),
@@ -290,6 +296,7 @@ FILES = {  # case: (argv of the `make_files` folder, text the one-line message n
     "data inspect a torn manifest": (lambda d: ["data", "inspect", str(d / "manifest_torn")], "manifest.json is not a valid dataset manifest: not JSON"),
     "train on a manifest without k_max": (lambda d: ["train", "--data", str(d / "manifest_keyless"), "--out", str(d / "r")], "manifest.json is not a valid dataset manifest: it lacks the key 'k_max'"),
     "data generate --resume on a manifest that is []": (lambda d: ["data", "generate", "--out", str(d / "manifest_list"), "--resume"], "manifest.json is not a valid dataset manifest"),
+    "data generate --resume with another depth noise": (lambda d: ["data", "generate", "--out", str(d / "dataset"), "--resume", "--noise", "dex"], "noise: 'none' recorded, 'dex' given"),
     "data inspect unfinished": (lambda d: ["data", "inspect", str(d / "unfinished")], "unfinished"),
     "data inspect not a dataset": (lambda d: ["data", "inspect", str(d / "folder")], "manifest"),
     "data inspect a scene file copied under another id": (lambda d: ["data", "inspect", str(d / "swapped")], "scene_000001.npz holds scene 0, not 1"),

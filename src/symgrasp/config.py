@@ -201,9 +201,16 @@ class SceneConfig:
     the TCP)."""
     database: DatabaseConfig = field(default_factory=DatabaseConfig)
     """How the per-object grasp databases are built."""
+    noise: str = "none"
+    """Depth noise of each scene's image before it is fused: none, or dex (the declutter
+    benchmark's --noise dex, one function for both: the image times Gamma(k = 1000,
+    θ = 0.001), and with probability 0.5 plus a 5 mm Gaussian field drawn on a 4× coarser grid,
+    upsampled), drawn from the dataset's seed and the scene's id alone (docs/data.md, "Depth
+    noise"). The labels do not change."""
 
     def __post_init__(self) -> None:
         _check_mesh_unit(self.mesh_unit)
+        check_noise(self.noise)
         unknown = set(self.kinds) - set(SCENES)
         if not self.kinds or unknown:
             raise ValueError(f"kinds must be a non-empty subset of {SCENES}, got {self.kinds}")
@@ -433,11 +440,16 @@ _STORED_AS = {"kind": "validity_loss"}
 """Their fields that checkpoints store under another name."""
 
 
+def check_noise(noise: str) -> None:
+    """Raise ValueError naming the argument unless ``noise`` is one of `NOISES`."""
+    if noise not in NOISES:
+        raise ValueError(f"noise must be one of {NOISES}, got {noise!r}")
+
+
 def check_sensing(noise: str, view: str, views: int) -> None:
     """Raise ValueError naming the argument unless ``noise`` is one of `NOISES`, ``view`` one of
     `VIEWS` and ``views`` a number of images it takes (1 for the `ONE_VIEW` cameras)."""
-    if noise not in NOISES:
-        raise ValueError(f"noise must be one of {NOISES}, got {noise!r}")
+    check_noise(noise)
     if view not in VIEWS:
         raise ValueError(f"view must be one of {VIEWS}, got {view!r}")
     check_range("views", views, 1, MAX_VIEWS)

@@ -34,8 +34,9 @@ SCENES = ("pile", "packed")
 """Scene kinds (`symgrasp.sim.world`)."""
 
 NOISES = ("none", "dex")
-"""Depth noise of the declutter benchmark's images (`symgrasp.benchmark.sensing`): none, or the
-field's ``dex`` model (GIGA's, after Dex-Net: `symgrasp.perception.noise`)."""
+"""Depth noise of the declutter benchmark's images (`symgrasp.benchmark.sensing`) and of the
+training data's (`symgrasp.data.scenes`): none, or the field's ``dex`` model (GIGA's, after
+Dex-Net: `symgrasp.perception.noise`)."""
 
 VIEWS = ("fixed", "side", "circle", "random")
 """Where the declutter benchmark's cameras look from (`symgrasp.benchmark.sensing`): symgrasp's

@@ -32,7 +32,7 @@ import numpy as np
 from symgrasp.config import SceneConfig, check_sensing
 from symgrasp.data.scenes import random_camera
 from symgrasp.detect.planner import Observation
-from symgrasp.perception import CameraIntrinsic, add_depth_noise, default_extrinsic
+from symgrasp.perception import CameraIntrinsic, default_extrinsic, noisy_depth
 from symgrasp.perception.camera import orbit_extrinsic
 from symgrasp.sim.render import DepthRenderer
 from symgrasp.sim.world import World
@@ -61,8 +61,9 @@ def draw_seed(what: int, seed: int, attempt: int, view: int) -> tuple[int, int, 
 @dataclass(frozen=True)
 class Sensor:
     """The cameras of the benchmark (module docstring): ``views`` images per attempt from
-    ``view``, each with ``noise`` (`symgrasp.names.NOISES`: ``"dex"`` is
-    `symgrasp.perception.noise.add_depth_noise` at its defaults), taken by ``intrinsic``.
+    ``view``, each with ``noise`` (`symgrasp.names.NOISES`, read by
+    `symgrasp.perception.noise.noisy_depth`: ``"dex"`` is `add_depth_noise` at its defaults),
+    taken by ``intrinsic``.
     ValueError naming the argument for an unknown name or a number of views the view does not
     take (`symgrasp.config.check_sensing`)."""
 
@@ -99,12 +100,12 @@ class Sensor:
         """What the planner is given before attempt ``attempt`` of the round of seed ``seed``:
         ``world`` rendered by ``renderer`` from each camera, with its noise."""
         cameras = self.cameras(seed, attempt)
-        depth = np.stack([renderer.render(world, T) for T in cameras])
-        if self.noise == "dex":
-            depth = np.stack(
-                [
-                    add_depth_noise(d, draw_seed(NOISE, seed, attempt, v))
-                    for v, d in enumerate(depth)
-                ]
-            )
+        depth = np.stack(
+            [
+                noisy_depth(
+                    renderer.render(world, T), self.noise, draw_seed(NOISE, seed, attempt, v)
+                )
+                for v, T in enumerate(cameras)
+            ]
+        )
         return Observation(depth, self.intrinsic, cameras, world)

@@ -81,11 +81,12 @@ def manifest_mismatches(root: str | Path) -> list[str]:
 
 @writes_folder(DATASET, "root")
 def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str, Any]:
-    """Counts, class balance and histograms of a dataset; written to ``card.json`` and
-    ``card.png`` in ``root``, which is held for the call (one writer at a time: not while
-    `generate` writes it, `symgrasp.folders`). ``validate`` > 0 adds that many physics trials
-    of labelled against random grasps. ValueError naming the first `SHOWN` of
-    `manifest_mismatches` on one line when the folder is not what its manifest promises."""
+    """Counts, class balance and histograms of a dataset, and the depth noise its images were
+    made with (``noise``); written to ``card.json`` and ``card.png`` in ``root``, which is held
+    for the call (one writer at a time: not while `generate` writes it, `symgrasp.folders`).
+    ``validate`` > 0 adds that many physics trials of labelled against random grasps.
+    ValueError naming the first `SHOWN` of `manifest_mismatches` on one line when the folder is
+    not what its manifest promises."""
     root = Path(root)
     try:  # refuses an unfinished dataset in its own words; a mismatch: all of them below
         data = GraspDataset(root, split="all")
@@ -122,6 +123,7 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
         "root": str(root),
         "manifest": {k: v for k, v in data.manifest.items() if k not in ("scene_ids", "config")},
         "scenes": len(data),
+        "noise": data.manifest.get("config", {}).get("noise", "none"),  # older: none
         "skipped_files": [str(p) for p in data.skipped],
         "scene_kinds": {k: kinds.count(k) for k in sorted(set(kinds))},
         "mean_per_scene": {k: float(np.mean(v)) if v else 0.0 for k, v in per_scene.items()},
@@ -156,7 +158,10 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
         [card["targets_per_voxel"][str(k)] for k in range(1, data.k_max + 1)],
     )
     ax[2].set(xlabel="rotation targets per voxel", ylabel="voxels")
-    fig.suptitle(f"{root.name}: {len(data)} scenes, {data.gripper.name}, {data.object_set}")
+    fig.suptitle(
+        f"{root.name}: {len(data)} scenes, {data.gripper.name}, {data.object_set}, "
+        f"depth noise {card['noise']}"
+    )
     fig.tight_layout()
     fig.savefig(root / "card.png", dpi=100)
     plt.close(fig)

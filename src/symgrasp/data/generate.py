@@ -168,8 +168,8 @@ def generate(
     Raises:
         ValueError: ``out`` is not a folder path, holds files that are not a dataset, or is
             being written by another process; it already holds scenes and ``resume`` is
-            False, or holds a dataset of another configuration or seed; or `open_executor`'s
-            bad input.
+            False, or holds a dataset of another configuration or seed (the message names the
+            fields that differ); or `open_executor`'s bad input.
         TasksFailed: some tasks raised (the other scenes are written).
     """
     hand = get_gripper(cfg.gripper)  # the names, resolved once (a ValueError names a bad one)
@@ -184,9 +184,19 @@ def generate(
         if not resume:
             raise ValueError(f"out {root} already holds a dataset; pass resume=True (--resume)")
         defaults = dataclasses.asdict(SceneConfig())  # fields added later: their defaults
-        recorded = json.loads(json.dumps({**defaults, **old["config"]}))
-        if recorded != json.loads(json.dumps(dataclasses.asdict(cfg))) or old["seed"] != seed:
-            raise ValueError(f"out {root} holds a dataset of another configuration or seed")
+        recorded = json.loads(json.dumps({**defaults, **old["config"], "seed": old["seed"]}))
+        wanted = json.loads(json.dumps({**dataclasses.asdict(cfg), "seed": seed}))
+        differ = sorted(
+            k for k in recorded.keys() | wanted.keys() if recorded.get(k) != wanted.get(k)
+        )
+        if differ:
+            changes = "; ".join(
+                f"{k}: {recorded.get(k)!r} recorded, {wanted.get(k)!r} given" for k in differ
+            )
+            raise ValueError(
+                f"out {root} holds a dataset of another configuration ({changes}); resume it "
+                "with the same options, or choose another out (--out)"
+            )
     elif any((root / "scenes").glob("*.npz")) and not resume:
         raise ValueError(f"out {root} already holds scenes; pass resume=True (--resume)")
     pool = scene_pool(cfg)  # after the cheap checks: a bad --out is named before objects load

@@ -15,8 +15,10 @@ the gripper by the caller (`symgrasp.sim.grippers.get_gripper`), the object set 
 4. voxelise the survivors (:func:`symgrasp.data.labels.voxelise`), each also at the voxel
    centres its tolerance ``cfg.label_spread`` reaches where the open hand is free as well
    (:func:`spread_labels`; by default none: a grasp labels the voxel of its TCP alone);
-5. render one depth image from a random camera on a spherical cap around the workspace and
-   fuse it into the 40³ TSDF.
+5. render one depth image from a random camera on a spherical cap around the workspace, add
+   the configuration's depth noise (``cfg.noise``, `symgrasp.perception.noise.noisy_depth`:
+   the benchmark's function, drawn from the scene's own noise stream, `noise_seed`) and fuse
+   it into the 40³ TSDF.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from symgrasp.data.directions import interpolate
 from symgrasp.data.grasp_db import GraspDatabase
 from symgrasp.data.labels import VoxelLabels, spread_poses, voxelise
 from symgrasp.objects.sets import ObjectSource, resolve
-from symgrasp.perception import CameraIntrinsic, TSDFVolume, orbit_extrinsic
+from symgrasp.perception import CameraIntrinsic, TSDFVolume, noisy_depth, orbit_extrinsic
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.objects import ObjectSpec, surface_samples
@@ -63,6 +65,21 @@ def scene_pool(cfg: SceneConfig) -> ScenePool:
 def scene_rng(seed: int, scene_id: int) -> np.random.Generator:
     """The random stream of one scene: independent of every other scene id."""
     return np.random.default_rng([seed, scene_id])
+
+
+NOISE_STREAM = 0x6E6F6973
+"""Last word of the seed of a scene's depth noise (`noise_seed`): ASCII "nois". Nonzero, since
+NumPy's seeding ignores trailing zeros (``[s, i, 0]`` is `scene_rng`'s ``[s, i]``), and larger
+than any attempt index of the benchmark's draws (`symgrasp.benchmark.sensing.draw_seed`), so
+neither the scene's stream nor a benchmark's draw starts from the same seed."""
+
+
+def noise_seed(seed: int, scene_id: int) -> tuple[int, int, int]:
+    """The seed of scene ``scene_id``'s depth noise in the dataset of seed ``seed``: a stream of
+    its own beside `scene_rng`'s, so adding noise draws nothing from the scene's stream (its
+    objects, labels and camera stay those of the noiseless scene) and depends on nothing but the
+    scene."""
+    return (seed, scene_id, NOISE_STREAM)
 
 
 def random_camera(cfg: SceneConfig, rng: np.random.Generator) -> np.ndarray:
@@ -210,15 +227,20 @@ def make_scene_record(
 ) -> dict[str, np.ndarray]:
     """Build, label and observe scene ``scene_id`` of ``cfg`` for the gripper ``hand`` (the spec
     of ``cfg.gripper``); ``databases[k]`` belongs to ``pool.objects[k]`` (``pool`` =
-    `scene_pool` of ``cfg``). Returns the arrays stored in the scene's file (docs/data.md)."""
+    `scene_pool` of ``cfg``). Returns the arrays stored in the scene's file (docs/data.md).
+    ``depth`` is the rendered image, before the noise: the image fused is
+    ``noisy_depth(depth, cfg.noise, noise_seed(seed, scene_id))``, reproduced from the stored
+    one to its 0.1 mm steps (a noisy image, stored, would compress to several times the file:
+    docs/data.md, "Depth noise")."""
     scene, rng = labelled_scene(scene_id, cfg, hand, pool, databases, seed)
     grasps, ok, labels = scene.grasps, scene.survivors, scene.labels
 
     intrinsic = CameraIntrinsic()
     T_world_camera = random_camera(cfg, rng)
     depth = make_renderer(intrinsic).render(scene.world, T_world_camera)
+    seen = noisy_depth(depth, cfg.noise, noise_seed(seed, scene_id))
     volume = TSDFVolume(resolution=RESOLUTION)
-    volume.integrate(depth, intrinsic, T_world_camera)
+    volume.integrate(seen, intrinsic, T_world_camera)
 
     return {
         "scene_id": np.int64(scene_id),

@@ -12,7 +12,7 @@ from symgrasp.perception.camera import (
     look_at,
     orbit_extrinsic,
 )
-from symgrasp.perception.noise import add_depth_noise
+from symgrasp.perception.noise import add_depth_noise, noisy_depth
 from symgrasp.perception.points import fill_holes, points_view
 from symgrasp.perception.table import TableFit, fit_table
 from symgrasp.perception.tsdf import TSDFVolume
@@ -27,6 +27,7 @@ __all__ = [
     "fill_holes",
     "fit_table",
     "look_at",
+    "noisy_depth",
     "orbit_extrinsic",
     "points_view",
 ]

@@ -26,6 +26,20 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.ndimage import zoom
 
+from symgrasp.names import NOISES
+
+
+def noisy_depth(depth: np.ndarray, noise: str, seed: int | Sequence[int]) -> np.ndarray:
+    """``depth`` (H, W) [m] as the sensor ``noise`` (`symgrasp.names.NOISES`) gives it:
+    ``depth`` itself for ``"none"`` (no draw, no copy), `add_depth_noise` at its defaults
+    drawn from ``seed`` for ``"dex"``. The one reading of the names, shared by the benchmark's
+    cameras (`symgrasp.benchmark.sensing`) and the training data (`symgrasp.data.scenes`)."""
+    if noise == "none":
+        return depth
+    if noise == "dex":
+        return add_depth_noise(depth, seed)
+    raise ValueError(f"noise must be one of {NOISES}, got {noise!r}")
+
 
 def add_depth_noise(
     depth: np.ndarray,
