@@ -53,7 +53,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "the table is clear, no grasp is found or two attempts in a row fail. Round r uses seed "
         "--seed + r. Writes config.json, rounds.jsonl (each round as it finishes, so "
         "--resume can finish an interrupted run), then results.json (SR, CR with bootstrap "
-        "95%% intervals over rounds, outcomes, failure modes, planning time) and results.md "
+        "95 % intervals over rounds, outcomes, failure modes, planning time) and results.md "
         "into --out. Each failed grasp is replayed from the state it started in, turned about "
         "its approach axis by 30..150 degrees: if a turn succeeds the failure was a wrong yaw, "
         "otherwise it is named by how it ended (collision, wrong approach = closed on nothing, "
@@ -113,7 +113,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "compare",
         help="the paired change of SR and CR between two benchmarks of the same rounds",
         description="Compare two `bench declutter` folders on the rounds both finished (the same "
-        "seeds drop the same objects the same way): SR and CR of each and A − B with a 95%% "
+        "seeds drop the same objects the same way): SR and CR of each and A − B with a 95 % "
         "interval from one bootstrap over rounds resampled in pairs. The folders must play the "
         "same world (objects, mesh units, scene, objects per round); the models, thresholds and "
         "hands may differ.",
