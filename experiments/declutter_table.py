@@ -5,14 +5,22 @@ experiments/results/declutter_rounds.tar.gz.
 
     PYTHONPATH=src SYMGRASP_DATA=DIR python experiments/declutter_table.py --runs ROOT/runs \\
         [--out ROOT/bench/table] [--grippers G ...] [--reps REP ...] [--seeds 0 1 2] \\
-        [--rounds 100] [--workers 2] [--collate-only | --play-only] [--quick [DIR]]
+        [--rounds 100] [--first-seed 0] [--workers 2] [--collate-only | --play-only] [--quick [DIR]]
 
 Every cell is one training run (``--runs/PREFIX-REP-sSEED``, the prefix per gripper from
 ``--prefix``) whose ``best.pt`` the declutter validation chose (``symgrasp select RUN --by
 declutter``; training objects and seeds only), playing ``--rounds`` rounds of 5 objects from
-round seed 0 with failure diagnosis into ``--out/GRIPPER/REP[-noconf]/sSEED/OBJECTS[-packed]``
-(`symgrasp.benchmark.cells`; a cell already there is read, not replayed, so the script resumes
-and picks up runs as they are selected; a run not yet selected is listed as waiting).
+round seed ``--first-seed`` (default 0) with failure diagnosis into
+``--out/GRIPPER/REP[-noconf]/sSEED/OBJECTS[-packed]`` (`symgrasp.benchmark.cells`; a cell
+already there is read, not replayed, so the script resumes and picks up runs as they are
+selected; a run not yet selected is listed as waiting).
+
+**Round seeds.** Table 1's rounds are seeds 0–99, which have informed choices since (the
+operating point, the recipe, …). ``--first-seed 100`` plays the same cells on seeds 100–199,
+test rounds no choice was made on (issue 36): their cells live in folders of their own
+(``OBJECTS[-packed]-first-seed-100``), and their result, figure, archive and page markers get
+``-first-seed-100`` after the default names, so the two sets of rounds never mix and Table 1's
+outputs stay as they are. Every table says which round seeds it reports.
 
 - **Table 1**: per gripper, object set (``--objects``, pile) and representation (the paper's
   five rows: ``bingham2d`` with and without its confidence threshold, ``rotmat6d``,
@@ -141,10 +149,11 @@ def label(rep: str, threshold: bool) -> str:
 
 def grid(args: argparse.Namespace) -> list[Cell]:
     """Every cell of both tables, each once (the field's pile cells are Table 1's)."""
-    cells = [Cell(g, rep, seed, objects, "pile", threshold)
+    first = args.first_seed
+    cells = [Cell(g, rep, seed, objects, "pile", threshold, first)
              for g, (rep, threshold), objects, seed
              in itertools.product(args.grippers, args.rows, args.objects, args.seeds)]  # fmt: skip
-    cells += [Cell(args.field_gripper, rep, seed, objects, scene)
+    cells += [Cell(args.field_gripper, rep, seed, objects, scene, first_seed=first)
               for (objects, scene), rep, seed in itertools.product(args.field, args.reps, args.seeds)]  # fmt: skip
     return list(dict.fromkeys(cells))
 
@@ -204,9 +213,7 @@ def row(played: dict[Cell, dict], gripper: str, rep: str, threshold: bool, objec
         scene: str) -> dict[str, Any]:  # fmt: skip
     """One representation on one object set: the seeds played, the means over them with the
     hierarchical intervals, each seed's summary, and the failure modes pooled over seeds."""
-    mine = {c.seed: p["rounds"] for c, p in played.items()
-            if (c.gripper, c.rep, c.threshold, c.objects, c.scene)
-            == (gripper, rep, threshold, objects, scene) and p["rounds"]}  # fmt: skip
+    mine = _played_seeds(played, gripper, rep, threshold, objects, scene)
     result: dict[str, Any] = {"gripper": gripper, "rep": rep, "threshold": threshold,
                               "objects": objects, "scene": scene, "seeds": sorted(mine)}  # fmt: skip
     if not mine:
@@ -223,6 +230,15 @@ def row(played: dict[Cell, dict], gripper: str, rep: str, threshold: bool, objec
     if threshold is not None:
         result["confidence"] = confidences([r for runs in mine.values() for r in runs], threshold)
     return result
+
+
+def _played_seeds(played: dict[Cell, dict], gripper: str, rep: str, threshold: bool,
+                  objects: str, scene: str) -> dict[int, list[dict]]:  # fmt: skip
+    """The rounds of each training seed whose cell of one representation and object set is
+    played."""
+    return {c.seed: p["rounds"] for c, p in played.items()
+            if (c.gripper, c.rep, c.threshold, c.objects, c.scene)
+            == (gripper, rep, threshold, objects, scene) and p["rounds"]}  # fmt: skip
 
 
 def confidences(rounds: list[dict], threshold: float) -> dict[str, Any]:
@@ -244,8 +260,9 @@ def lead(played: dict[Cell, dict], a: dict[str, Any], b: dict[str, Any]) -> dict
         return None
 
     def runs(r: dict[str, Any]) -> list[list[dict]]:
-        return [played[Cell(r["gripper"], r["rep"], s, r["objects"], r["scene"],
-                            r["threshold"])]["rounds"] for s in r["seeds"]]  # fmt: skip
+        mine = _played_seeds(played, r["gripper"], r["rep"], r["threshold"], r["objects"],
+                             r["scene"])  # fmt: skip
+        return [mine[s] for s in r["seeds"]]
 
     m = seed_lead(runs(a), runs(b))
     return {
@@ -319,7 +336,7 @@ def markdown(rows: list[dict], leads: list[dict], field: list[dict], field_leads
         paper = " | ".join(f"paper {o} SR / CR" for o in args.objects)
         text += [f"### {gripper}", "",
                  f"Mean over training seeds [95 % interval over seeds and rounds] (seed "
-                 f"{' / '.join(map(str, seeds))}):", "",
+                 f"{' / '.join(map(str, seeds))}), round seeds {round_seeds(args)}:", "",
                  f"| representation | {head} | {paper} |",
                  "|---|" + "---|" * (3 * len(args.objects))]  # fmt: skip
         for rep, threshold in args.rows:
@@ -348,6 +365,8 @@ def markdown(rows: list[dict], leads: list[dict], field: list[dict], field_leads
     if not args.field:
         return "\n".join(text) + _waiting(waiting)
     text += [f"### The field's protocol ({args.field_gripper}, VGN's objects)", "",
+             f"Mean over training seeds [95 % interval over seeds and rounds], round seeds "
+             f"{round_seeds(args)}:", "",
              "| representation | " + " | ".join(f"{o} ({s}) SR % | CR %" for o, s in args.field)
              + " |", "|---|" + "---|" * (2 * len(args.field))]  # fmt: skip
     for rep in args.reps:
@@ -420,7 +439,8 @@ def figure(rows: list[dict], path: str | Path, args: argparse.Namespace) -> None
     axes[0, 0].plot([], [], color="k", lw=2, label="the paper (its simulator)")
     fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="lower center",
                ncol=4 if len(objects) > 1 else 2, fontsize=9)  # fmt: skip
-    fig.suptitle(f"Simulated decluttering, {args.rounds} rounds of {args.num_objects} objects\n"
+    fig.suptitle(f"Simulated decluttering, {args.rounds} rounds of {args.num_objects} objects "
+                 f"(round seeds {round_seeds(args)})\n"
                  f"mean over training seeds {', '.join(map(str, args.seeds))}; 95 % intervals "
                  "over seeds and rounds", fontsize=10)  # fmt: skip
     fig.tight_layout(rect=(0, 0.05 if len(objects) > 1 else 0.1, 1, 1))
@@ -429,8 +449,31 @@ def figure(rows: list[dict], path: str | Path, args: argparse.Namespace) -> None
     plt.close(fig)
 
 
-BEGIN, END = "<!-- declutter-table: begin -->", "<!-- declutter-table: end -->"
-"""The markers of ``--docs`` between which the tables go."""
+OUTPUTS = ("result", "figure", "archive")
+"""The files a collation writes whose default names take the first seed (`first_seed_name`)."""
+
+
+def markers(first_seed: int) -> tuple[str, str]:
+    """The markers of ``--docs`` between which the tables of the rounds from ``first_seed`` go:
+    ``<!-- declutter-table: begin -->`` … for 0, ``declutter-table-first-seed-F`` else."""
+    name = first_seed_name("declutter-table", first_seed)
+    return f"<!-- {name}: begin -->", f"<!-- {name}: end -->"
+
+
+def round_seeds(args: argparse.Namespace) -> str:
+    """The round seeds every cell plays, e.g. ``0–99``."""
+    return f"{args.first_seed}–{args.first_seed + args.rounds - 1}"
+
+
+def first_seed_name(name: str, first_seed: int) -> str:
+    """``name`` (a file name or a marker) for the cells of ``first_seed``: itself for 0, else
+    with ``-first-seed-F`` after its stem: ``declutter_rounds.tar.gz`` →
+    ``declutter_rounds-first-seed-100.tar.gz``, ``declutter-table`` →
+    ``declutter-table-first-seed-100``."""
+    if not first_seed:
+        return name
+    stem, dot, suffixes = name.partition(".")
+    return f"{stem}-first-seed-{first_seed}{dot}{suffixes}"
 
 
 def main() -> None:
@@ -455,6 +498,13 @@ def main() -> None:
                         help="the field's table's gripper (default: franka, VGN's hand)")  # fmt: skip
     parser.add_argument("--rounds", type=int, default=100, help="rounds per cell (default: 100)")
     parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
+    parser.add_argument("--first-seed", type=int, default=0,
+                        help="round seed of every cell's first round (default: 0, Table 1's "
+                        "rounds 0–99, which have informed choices since; 100: test rounds no "
+                        "choice was made on). Another first seed's cells play in folders of "
+                        "their own (OBJECTS[-packed]-first-seed-F), and the default names of "
+                        "--result, --figure, --archive and the --docs markers get "
+                        "-first-seed-F")  # fmt: skip
     add_parallel_options(parser, "rounds")
     parser.set_defaults(workers=2)
     mode = parser.add_mutually_exclusive_group()
@@ -481,6 +531,12 @@ def main() -> None:
     )  # fmt: skip
     if args.quick:  # the page's copy, so that its markers are still checked
         shutil.copyfile(parser.get_default("docs"), args.docs)
+    if args.first_seed < 0:
+        parser.error(f"--first-seed: expected a round seed ≥ 0, got {args.first_seed}")
+    for dest in OUTPUTS:  # another first seed's outputs beside Table 1's, never over them
+        path, default = Path(getattr(args, dest)), Path(parser.get_default(dest))
+        if path.name == default.name:
+            setattr(args, dest, str(path.with_name(first_seed_name(path.name, args.first_seed))))
     prefixes = {**PREFIXES, **dict(args.prefix or ())}
     args.rows = [(rep, threshold) for rep, threshold in ROWS if rep in args.reps]
 
@@ -513,7 +569,8 @@ def main() -> None:
         "over seeds, hierarchical intervals), bingham2d's paired leads, failure modes, and the "
         "field's pile/packed table with bingham2d's paired leads on its packed scenes",
         f"PYTHONPATH=src python experiments/declutter_table.py --runs {args.runs} --out "
-        f"{args.out} --seeds {' '.join(map(str, args.seeds))}",
+        f"{args.out} --seeds {' '.join(map(str, args.seeds))}"
+        + (f" --first-seed {args.first_seed}" if args.first_seed else ""),
         rows,
         table,
         leads=leads,
@@ -522,11 +579,12 @@ def main() -> None:
         waiting=sorted(set(waiting)),
         rounds=args.rounds,
         num_objects=args.num_objects,
+        round_seeds=[args.first_seed, args.first_seed + args.rounds - 1],
         seeds=list(args.seeds),
         prefixes=prefixes,
     )
     figure(rows, args.figure, args)
-    update_page(Path(args.docs), BEGIN, END, table)
+    update_page(Path(args.docs), *markers(args.first_seed), table)
     write_archive(Path(args.archive), played, args)
 
 

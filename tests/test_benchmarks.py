@@ -55,6 +55,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "experiments/vgn_frame": ("vgn_frame.json", "cells"),
     "experiments/robustness": ("robustness.json", "cells"),
     "experiments/depth_noise": ("depth_noise.json", "summary"),
+    "experiments/retrain_ablation": ("retrain_ablation.json", "gaps"),
 }
 SHARED_MODULES = {"experiments/common"}
 """Modules of the folders that are not scripts."""

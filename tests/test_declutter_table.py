@@ -120,6 +120,50 @@ def test_the_archive_collates_again_to_the_same_tables_and_bytes(collated):
     assert archive_again == archive
 
 
+def test_another_first_seed_collates_its_own_cells_into_outputs_of_its_own(tmp_path):
+    """Table 1's cells (round seeds 0-19, every grasp held) and those from round seed 100 (100-
+    119, every grasp missed) in one --out: --first-seed 100 reads only the latter, says so, and
+    writes beside Table 1's outputs (names with -first-seed-100), between its own markers."""
+    gone = tmp_path / "runs" / "gone.pt"
+    for seed in (0, 1):
+        _store(Cell("franka", "bingham2d", seed, "large-box"), tmp_path / "played",
+               _rounds([[HIT, HIT]] * 20), gone)  # fmt: skip
+        later = [{**r, "seed": r["seed"] + 100} for r in _rounds([[YAW, YAW]] * 20)]
+        _store(Cell("franka", "bingham2d", seed, "large-box", first_seed=100),
+               tmp_path / "played", later, gone)  # fmt: skip
+    into = tmp_path / "into"
+    into.mkdir()
+    page = into / "page.md"
+    later_begin, later_end = (m.replace("table", "table-first-seed-100") for m in (BEGIN, END))
+    page.write_text(f"{BEGIN}\nTable 1\n{END}\n{later_begin}\n{later_end}\n")
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), "--collate-only", "--runs", str(tmp_path / "no-runs"),
+         "--out", str(tmp_path / "played"), "--grippers", "franka", "--reps", "bingham2d",
+         "--seeds", "0", "1", "--objects", "large-box", "--field", "--rounds", "20",
+         "--first-seed", "100", "--result", str(into / "declutter"),
+         "--figure", str(into / "declutter_comparison.png"), "--docs", str(page),
+         "--archive", str(into / "declutter_rounds.tar.gz")],
+        cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT / "src")}, capture_output=True,
+        text=True,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert sorted(p.name for p in into.iterdir()) == [
+        "declutter-first-seed-100.json", "declutter-first-seed-100.md",
+        "declutter_comparison-first-seed-100.png", "declutter_rounds-first-seed-100.tar.gz",
+        "page.md",
+    ]  # fmt: skip
+    result = json.loads((into / "declutter-first-seed-100.json").read_text())
+    assert result["round_seeds"] == [100, 119] and "--first-seed 100" in result["command"]
+    row = next(r for r in result["cells"] if r["threshold"])
+    assert row["seeds"] == [0, 1] and row["ratios"]["success_ratio"][0] == 0.0
+    assert "round seeds 100–119:" in done.stdout
+    text = page.read_text()
+    assert text.startswith(f"{BEGIN}\nTable 1\n{END}\n{later_begin}\n### franka")
+    with tarfile.open(into / "declutter_rounds-first-seed-100.tar.gz") as tar:
+        names = tar.getnames()
+    assert len(names) == 4 and all("/large-box-first-seed-100/" in n for n in names)
+
+
 def _quoted(value: float, signed: bool) -> str:
     """``value`` (a ratio) as the docs print it: percent, one decimal, U+2212 for minus."""
     return (f"{100 * value:+.1f}" if signed else f"{100 * value:.1f}").replace("-", "−")

@@ -8,6 +8,7 @@ import pytest
 from symgrasp.benchmark.runner import summarise
 from symgrasp.benchmark.seeds import (
     common_rounds,
+    seed_contrast,
     seed_lead,
     seed_paired_change,
     seed_ratios,
@@ -91,6 +92,52 @@ def test_paired_change_includes_the_seed_spread_of_each_detector():
     means = [seed_ratios(r)["success_ratio"][0] for r in (a, b)]
     assert point == pytest.approx(means[0] - means[1])
     assert low < 0 < high  # one seed of A far ahead of B, one behind: no claim either way
+
+
+def test_a_main_effect_averages_the_factors_changes_over_the_other_factors_levels():
+    # a 2 × 2 whose cells grasp every object (1), 3 of 4 or half of their attempts, the same in
+    # every round and seed: the first factor adds 0.5 at its first level of the second and 0.25
+    # at its second, so its main effect is 0.375 in every draw; the second factor's is −0.125
+    cells = {"a1b1": (2, 4, 4), "a2b1": (4, 4, 4), "a1b2": (2, 4, 4), "a2b2": (3, 4, 4)}
+    runs = {name: [_run([c] * 30), _run([c] * 30)] for name, c in cells.items()}
+    detectors = [runs[name] for name in ("a1b1", "a2b1", "a1b2", "a2b2")]
+    first = seed_contrast(detectors, [-0.5, 0.5, -0.5, 0.5])
+    assert first["success_ratio"] == pytest.approx([0.375] * 3)
+    second = seed_contrast(detectors, [-0.5, -0.5, 0.5, 0.5])
+    assert second["clear_ratio"] == pytest.approx([-0.125] * 3)
+    # weights (1, −1) are the paired change, draw for draw
+    assert seed_contrast(detectors[:2], [1.0, -1.0], seed=4) == seed_paired_change(
+        *detectors[:2], seed=4
+    )
+
+
+def test_the_same_runs_under_two_conditions_share_their_seed_draws():
+    # seed 0 grasps 2 of 2 and seed 1 0 of 2 in every round, clean or noisy, except that noise
+    # costs seed 0 one grasp in every fourth round: drawn together, the seeds' gulf cancels and
+    # the change is the rounds' alone; drawn apart, it spans the gulf
+    good, bad = _run([(2, 2, 2)] * 40), _run([(0, 2, 2)] * 40)
+    noisy_good = _run([(1, 2, 2) if i % 4 == 0 else (2, 2, 2) for i in range(40)])
+    noisy, clean = [noisy_good, bad], [good, bad]
+    together = seed_contrast([noisy, clean], [1.0, -1.0], trained=["runs", "runs"])
+    point, low, high = together["success_ratio"]
+    assert point == pytest.approx(-0.125 / 2)  # seed 0 loses 1 grasp in 8, seed 1 nothing
+    # every draw loses between nothing (seed 1 drawn twice: a quarter of the draws) and the
+    # grasps of the drawn noisy rounds of seed 0, at most one in two
+    assert -0.5 < low < point < high == 0.0
+    apart = seed_contrast([noisy, clean], [1.0, -1.0])["success_ratio"]
+    assert apart[0] == point and apart[1] < -0.5 and apart[2] > 0.5
+
+
+def test_a_contrast_refuses_what_does_not_fit():
+    run = _run([(1, 2, 2)] * 3)
+    with pytest.raises(ValueError, match="weights: expected 2"):
+        seed_contrast([[run], [run]], [1.0])
+    with pytest.raises(ValueError, match="trained: expected 2"):
+        seed_contrast([[run], [run]], [1.0, -1.0], trained=[0])
+    with pytest.raises(ValueError, match="same training runs, but hold 1 and 2"):
+        seed_contrast([[run], [run, run]], [1.0, -1.0], trained=[0, 0])
+    with pytest.raises(ValueError, match="same round seeds"):
+        seed_contrast([[run], [_run([(1, 2, 2)] * 3, first=3)]], [1.0, -1.0])
 
 
 def test_runs_of_other_rounds_are_refused():

@@ -15,7 +15,10 @@ of round records (`symgrasp.benchmark.runner`), and:
 - two detectors that played the **same rounds** are compared by the difference of their means,
   resampling each detector's training seeds independently (they are independent training runs)
   and one draw of rounds shared by every run of both (the same seeds drop the same objects the
-  same way, so the rounds' luck cancels, as in `symgrasp.benchmark.compare`).
+  same way, so the rounds' luck cancels, as in `symgrasp.benchmark.compare`); any weighted
+  sum of detectors (`seed_contrast`: a 2 × 2 design's main effects) the same way, with one draw
+  of training seeds shared by detectors that are the same training runs played under other
+  conditions (a run's luck then cancels too).
 
 - one detector's **lead** over another (`seed_lead`): that change, and the paired change of
   every pairing of their training seeds (`symgrasp.benchmark.compare.paired_change`), with the
@@ -33,6 +36,7 @@ intervals are then a floor on the uncertainty, and the per-seed values belong be
 from __future__ import annotations
 
 import itertools
+from collections.abc import Hashable
 from typing import Any
 
 import numpy as np
@@ -99,28 +103,80 @@ def seed_paired_change(
     played the same rounds (the same round seeds, in the same order; `common_rounds` leaves out
     those that crashed in any run): ``{name: [change of the means over seeds, low, high]}`` by the
     hierarchical bootstrap with shared round draws (module docstring). ValueError when the runs'
-    round seeds differ."""
+    round seeds differ. `seed_contrast` with weights (1, −1)."""
     _check(runs_a, "runs_a")
     _check(runs_b, "runs_b")
     _check_aligned([*runs_a, *runs_b], "runs_a, runs_b")
-    a = np.stack([round_counts(run) for run in runs_a])  # (seeds, 3, rounds)
-    b = np.stack([round_counts(run) for run in runs_b])
+    return seed_contrast([runs_a, runs_b], [1.0, -1.0], seed=seed)
+
+
+def seed_contrast(
+    detectors: list[list[list[dict[str, Any]]]],
+    weights: list[float],
+    trained: list[Hashable] | None = None,
+    seed: int = 0,
+) -> dict[str, list[float]]:
+    """The weighted sum of detectors' SR and CR, each the mean over its training seeds, for
+    detectors (each given as runs, one per training seed) that played the same rounds (the same
+    round seeds in the same order, none crashed: `common_rounds`): ``{name: [sum, low, high]}``
+    by the hierarchical bootstrap with one draw of rounds shared by every run (module
+    docstring). Weights (1, −1) give a paired change (`seed_paired_change`); (−½, ½, −½, ½) of
+    a 2 × 2 design's cells (a1b1, a2b1, a1b2, a2b2) the main effect of the first factor,
+    averaged over the second's two levels.
+
+    Each detector's training seeds are drawn on their own, as independent training runs, except
+    for detectors given the same label in ``trained``: the same training runs played under other
+    conditions (another sensing, say), which share one draw of seeds, so that a run's own luck
+    cancels in their difference as the rounds' does. ValueError when ``weights`` or ``trained``
+    do not give one entry per detector, detectors of one label hold different numbers of runs,
+    or the runs' round seeds differ."""
+    if len(weights) != len(detectors):
+        raise ValueError(
+            f"weights: expected {len(detectors)}, one per detector, got {len(weights)}"
+        )
+    trained = list(range(len(detectors))) if trained is None else list(trained)
+    if len(trained) != len(detectors):
+        raise ValueError(
+            f"trained: expected {len(detectors)}, one per detector, got {len(trained)}"
+        )
+    for i, runs in enumerate(detectors):
+        _check(runs, f"detectors[{i}]")
+    _check_aligned([run for runs in detectors for run in runs], "detectors")
+    sizes: dict[Hashable, int] = {}
+    for label, runs in zip(trained, detectors, strict=True):
+        if sizes.setdefault(label, len(runs)) != len(runs):
+            raise ValueError(
+                f"trained: detectors labelled {label!r} are the same training runs, but hold "
+                f"{sizes[label]} and {len(runs)} runs"
+            )
+    # per detector: (seeds, 3, rounds)
+    counts = [np.stack([round_counts(run) for run in runs]) for runs in detectors]
+    n_rounds = counts[0].shape[2]
     rng = np.random.default_rng(seed)
     result = {}
-    for name, row in ROWS.items():
-        point = np.nanmean(pooled_ratio(a[:, 0], a[:, row])) - np.nanmean(
-            pooled_ratio(b[:, 0], b[:, row])
+
+    def contrast(drawn: list[np.ndarray], row: int) -> float:
+        """The weighted sum of the detectors' means over seeds of the ratio of ``row``."""
+        return sum(
+            w * np.nanmean(pooled_ratio(c[:, 0], c[:, row]))
+            for w, c in zip(weights, drawn, strict=True)
         )
-        changes = np.empty(BOOTSTRAP)
+
+    for name, row in ROWS.items():
+        point = contrast(counts, row)
+        values = np.empty(BOOTSTRAP)
         for i in range(BOOTSTRAP):
-            picks = rng.integers(a.shape[2], size=a.shape[2])  # the rounds, shared
-            da = a[rng.integers(len(a), size=len(a))][:, :, picks]
-            db = b[rng.integers(len(b), size=len(b))][:, :, picks]
-            changes[i] = np.nanmean(pooled_ratio(da[:, 0], da[:, row])) - np.nanmean(
-                pooled_ratio(db[:, 0], db[:, row])
-            )
-        changes = changes[np.isfinite(changes)]
-        interval = np.percentile(changes, [2.5, 97.5]) if len(changes) else [np.nan] * 2
+            picks = rng.integers(n_rounds, size=n_rounds)  # the rounds, shared
+            runs_drawn: dict[Hashable, np.ndarray] = {}
+            for label, c in zip(trained, counts, strict=True):
+                if label not in runs_drawn:
+                    runs_drawn[label] = rng.integers(len(c), size=len(c))
+            drawn = [
+                c[runs_drawn[label]][:, :, picks] for label, c in zip(trained, counts, strict=True)
+            ]
+            values[i] = contrast(drawn, row)
+        values = values[np.isfinite(values)]
+        interval = np.percentile(values, [2.5, 97.5]) if len(values) else [np.nan] * 2
         result[name] = [float(point), *map(float, interval)]
     return result
 

@@ -317,7 +317,7 @@ class _Cache:
 
     def __init__(self, folder: Path, path: Path, epoch: int) -> None:
         self.sha = file_sha256(path)
-        self.id = f"{path.stem}-{self.sha[:12]}"  # as checkpoint_id
+        self.id = checkpoint_id(path, self.sha)
         self.file = folder / f"{self.id}.json"
         self.data = {"checkpoint": path.name, "epoch": epoch, "sha256": self.sha}
         if self.file.is_file():
@@ -381,10 +381,12 @@ def checkpoint_measures(
     return table
 
 
-def checkpoint_id(path: str | Path) -> str:
-    """A checkpoint's name for caches: its file stem and the start of its SHA-256, so that a
-    file overwritten by other weights is never taken for the old one."""
-    return f"{Path(path).stem}-{file_sha256(path)[:12]}"
+def checkpoint_id(path: str | Path, sha256: str | None = None) -> str:
+    """A checkpoint's name for caches (its declutter validation plays in
+    ``selection/declutter/SETTINGS/ID``): its file stem and the start of its SHA-256 (``sha256``
+    when known, e.g. from ``selection.json``, else the file's), so that a file overwritten by
+    other weights is never taken for the old one."""
+    return f"{Path(path).stem}-{(sha256 or file_sha256(path))[:12]}"
 
 
 @writes_folder(None, "run_dir")

@@ -1,0 +1,257 @@
+"""experiments/retrain_ablation.py, run as a script on a campaign root of fake runs whose rounds
+are known by construction: each run selected by the real ``select_checkpoint`` (its declutter
+validation replaced by one that writes the constructed rounds where the real one would play
+them), so the script must read the *selected* checkpoint's rounds; the val-noise benchmarks laid
+out as ``symgrasp bench declutter`` leaves them. Checked: each arm's SR, CR and rounds ended by
+none_found, the effects against today and the main effects, the robustness gaps with one draw
+of training seeds for both conditions, the runs missing or unusable named with the reason, and
+that the campaign plan writes the runs and folders the script reads."""
+
+import json
+import os
+import shlex
+import subprocess
+import sys
+from dataclasses import asdict
+from pathlib import Path
+
+import pytest
+from conftest import campaign_steps
+
+from symgrasp.benchmark import selection
+from symgrasp.benchmark.runner import MODEL_SHA, summarise
+from symgrasp.config import BenchmarkConfig
+from symgrasp.model.checkpoint import file_sha256
+
+ROOT = Path(__file__).resolve().parents[1]
+ROUNDS, FIRST = 20, 1_000_000
+REP = "bingham2d"
+
+
+def _round(seed, outcomes):
+    """A 2-object round whose attempts had ``outcomes``."""
+    attempts = [{"outcome": o, "mode": None, "target": None, "planning_s": 0.1} for o in outcomes]
+    return {"seed": seed, "objects": 2, "renderer": "test", "attempts": attempts,
+            "successes": outcomes.count("success"),
+            "executed": sum(o != "none_found" for o in outcomes)}  # fmt: skip
+
+
+GOOD = ("success", "success")  # both objects lifted
+FAIL = ("no_contact", "no_contact")  # two failures in a row
+NONE = ("none_found",)  # no grasp found at once
+
+
+def _rounds(even, odd=None):
+    """``ROUNDS`` rounds from seed ``FIRST``: ``even`` in the even ones, ``odd`` (default the
+    same) in the odd ones."""
+    return [_round(FIRST + i, even if i % 2 == 0 or odd is None else odd) for i in range(ROUNDS)]
+
+
+ALL, HALF, HALF_NONE, ZERO = _rounds(GOOD), _rounds(GOOD, FAIL), _rounds(GOOD, NONE), _rounds(FAIL)
+"""SR / CR 1 / 1; 0.5 / 0.5; 1 / 0.5 with half the rounds ended by none_found; 0 / 0."""
+PLAYED = {  # (arm, seed): (clean rounds of the selected checkpoint, noise-side rounds)
+    ("today", 0): (HALF, HALF_NONE), ("today", 1): (HALF, HALF_NONE),
+    ("dense", 0): (ALL, HALF), ("dense", 1): (ALL, HALF),
+    ("sensing", 0): (HALF, HALF), ("sensing", 1): (HALF, HALF),
+    ("both", 0): (ALL, ALL), ("both", 1): (HALF, HALF),
+}  # fmt: skip
+
+
+def _write_benchmark(folder, config, rounds):
+    folder.mkdir(parents=True)
+    (folder / "config.json").write_text(json.dumps(asdict(config)))
+    (folder / "rounds.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rounds))
+
+
+def _select(run, epochs, monkeypatch, rounds=ROUNDS):
+    """``symgrasp select RUN --by declutter`` on ``rounds`` rounds, each checkpoint's declutter
+    validation writing ``epochs[name]``'s rounds (as many as there are) where the real one would
+    play them."""
+    for name in epochs:
+        (run / name).write_bytes(f"{run.name} {name}".encode())  # never loaded
+    rows = "".join(f"{i + 1},1.0\n" for i in range(len(epochs)))
+    (run / "metrics.csv").write_text("epoch,val_total\n" + rows)
+
+    def validate(checkpoint, out, objects, rounds, seed, *, num_objects, scene, mesh_unit,
+                 parallel=None):  # fmt: skip
+        config = BenchmarkConfig(model=str(checkpoint), objects=objects, mesh_unit=mesh_unit,
+                                 scene=scene, num_objects=num_objects, rounds=rounds, seed=seed,
+                                 diagnose=False)  # fmt: skip
+        played = epochs[Path(checkpoint).name][:rounds]
+        _write_benchmark(Path(out), config, played)
+        summary = summarise(played)
+        keys = ("rounds", "objects", "executed", "successes", "success_ratio",
+                "success_ratio_ci95", "clear_ratio", "clear_ratio_ci95")  # fmt: skip
+        return {**{k: summary[k] for k in keys}, "errors": 0, "config": asdict(config)}
+
+    monkeypatch.setattr(selection, "declutter_validation", validate)
+    validation = selection.DeclutterValidation(rounds=rounds)
+    return selection.select_checkpoint(run, "declutter", validation=validation, copy=False)
+
+
+def _val_noise(root, run, rounds, played_by=None):
+    """The val-noise benchmark of ``run``'s best.pt (a file of its own bytes), as ``symgrasp
+    bench declutter --noise dex --view side --out ROOT/bench/val-noise/RUN`` leaves it; the
+    SHA-256 of ``played_by`` (default best.pt) recorded as what played it."""
+    best = run / "best.pt"
+    best.write_bytes(f"{run.name} best".encode())
+    config = BenchmarkConfig(model=str(best), objects="vgn-pile-train", rounds=ROUNDS, seed=FIRST,
+                             noise="dex", view="side")  # fmt: skip
+    folder = root / "bench" / "val-noise" / run.name
+    _write_benchmark(folder, config, rounds)
+    (folder / MODEL_SHA).write_text((played_by or file_sha256(best)) + "\n")
+
+
+@pytest.fixture(scope="module")
+def result(tmp_path_factory):
+    """The script's result on a root holding seeds 0 and 1 of every arm (`PLAYED`, each run's
+    epoch 2 selected over an epoch 1 that fails every round) and, of seed 2: ``today`` trained
+    but not selected, ``dense`` selected and 19 of its 20 noisy rounds played, ``sensing`` not
+    trained, ``both`` selected on 10 rounds and validated under noise by a best.pt it no longer
+    has; collated with ``--seeds 0 1 2``."""
+    root = tmp_path_factory.mktemp("retrain")
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        for (arm, seed), (clean, noisy) in PLAYED.items():
+            run = root / "runs" / f"{arm}-{REP}-s{seed}"
+            run.mkdir(parents=True)
+            chosen = _select(run, {"epoch_001.pt": ZERO, "epoch_002.pt": clean}, monkeypatch)
+            assert chosen["chosen"]["checkpoint"] == "epoch_002.pt"
+            _val_noise(root, run, noisy)
+        (root / "runs" / f"today-{REP}-s2").mkdir()
+        dense = root / "runs" / f"dense-{REP}-s2"
+        dense.mkdir()
+        _select(dense, {"epoch_001.pt": ALL}, monkeypatch)
+        _val_noise(root, dense, ALL[:19])
+        both = root / "runs" / f"both-{REP}-s2"
+        both.mkdir()
+        _select(both, {"epoch_001.pt": ALL}, monkeypatch, rounds=10)
+        _val_noise(root, both, ALL, played_by="0" * 64)
+    done = subprocess.run(
+        [sys.executable, "experiments/retrain_ablation.py", "--root", str(root), "--seeds", "0",
+         "1", "2", "--rounds", str(ROUNDS), "--result", str(root / "result")],
+        cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT / "src")}, capture_output=True,
+        text=True,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    table = (root / "result.md").read_text()
+    assert table == done.stdout
+    return {**json.loads((root / "result.json").read_text()), "table": table}
+
+
+def _cell(result, arm, condition):
+    return next(c for c in result["cells"] if (c["arm"], c["condition"]) == (arm, condition))
+
+
+def _effect(result, effect, condition):
+    return next(
+        e for e in result["effects"] if (e["effect"], e["condition"]) == (effect, condition)
+    )
+
+
+def test_each_arm_reads_its_selected_checkpoints_rounds_in_both_conditions(result):
+    expected = {  # (arm, condition): (SR, CR), the mean over seeds 0 and 1 (dense clean: 0-2)
+        ("today", "clean"): (0.5, 0.5), ("today", "noise-side"): (1.0, 0.5),
+        ("dense", "clean"): (1.0, 1.0), ("dense", "noise-side"): (0.5, 0.5),
+        ("sensing", "clean"): (0.5, 0.5), ("sensing", "noise-side"): (0.5, 0.5),
+        ("both", "clean"): (0.75, 0.75), ("both", "noise-side"): (0.75, 0.75),
+    }  # fmt: skip
+    for (arm, condition), (sr, cr) in expected.items():
+        cell = _cell(result, arm, condition)
+        seeds = [0, 1, 2] if (arm, condition) == ("dense", "clean") else [0, 1]
+        assert cell["seeds"] == seeds, (arm, condition)
+        assert cell["ratios"]["success_ratio"][0] == pytest.approx(sr), (arm, condition)
+        assert cell["ratios"]["clear_ratio"][0] == pytest.approx(cr), (arm, condition)
+    both = _cell(result, "both", "clean")
+    assert both["ratios"]["per_seed_success_ratio"] == [1.0, 0.5]
+    low, high = both["ratios"]["success_ratio"][1:]
+    assert low <= 0.5 + 1e-9 and high == pytest.approx(1.0)  # the seeds' disagreement is inside
+
+
+def test_rounds_ended_by_none_found_against_issue_36s_ten_percent(result):
+    today = _cell(result, "today", "noise-side")["none_found"]
+    assert (today["rounds"], today["of"], today["share"]) == (20, 40, 0.5)
+    assert today["target"] == "missed"  # half the rounds: the interval lies above 10 %
+    dense = _cell(result, "dense", "clean")["none_found"]
+    assert (dense["rounds"], dense["of"], dense["target"]) == (0, 60, "met")  # 0 of 60: < 6 %
+
+
+def test_the_effects_against_today_and_the_main_effects_on_the_same_rounds(result):
+    dense = _effect(result, "dense − today", "clean")
+    assert dense["change"]["success_ratio"][0] == pytest.approx(0.5)
+    assert (dense["ahead"], dense["pairings"], dense["rounds"]) == (6, 6, ROUNDS)  # 3 × 2 seeds
+    assert _effect(result, "sensing − today", "clean")["change"]["success_ratio"] == [0.0] * 3
+    both = _effect(result, "both − today", "clean")
+    assert both["change"]["clear_ratio"][0] == pytest.approx(0.25) and both["ahead"] == 2
+    # main effects: the factor's two arms minus the other two, averaged over the other factor
+    labels = _effect(result, "labels (main effect)", "clean")["change"]["success_ratio"]
+    assert labels[0] == pytest.approx(((1.0 - 0.5) + (0.75 - 0.5)) / 2)
+    assert labels[1] <= labels[0] <= labels[2]
+    sensing = _effect(result, "sensing (main effect)", "clean")["change"]["clear_ratio"]
+    assert sensing[0] == pytest.approx(((0.5 - 0.5) + (0.75 - 1.0)) / 2)
+    noisy = _effect(result, "dense − today", "noise-side")["change"]
+    assert noisy["success_ratio"][0] == pytest.approx(-0.5)
+    assert noisy["clear_ratio"][0] == pytest.approx(0.0)
+
+
+def test_the_robustness_gap_pairs_each_run_with_itself(result):
+    gaps = {g["arm"]: g for g in result["gaps"]}
+    point, low, high = gaps["dense"]["change"]["clear_ratio"]
+    assert point == pytest.approx(-0.5) and low <= point <= high < -0.03
+    assert gaps["dense"]["target"] == "missed" and gaps["dense"]["seeds"] == [0, 1]
+    # both's seed 0 is far better than its seed 1, in both conditions alike: drawn together,
+    # the seeds' difference cancels, so the gap is 0 in every draw (drawn apart it would not be)
+    assert gaps["both"]["change"]["success_ratio"] == [0.0] * 3
+    assert gaps["both"]["target"] == "met" and gaps["both"]["seeds"] == [0, 1]
+    today = gaps["today"]["change"]
+    assert today["success_ratio"][0] == pytest.approx(0.5) and today["clear_ratio"][0] == 0
+    assert gaps["today"]["per_seed"]["0"]["success_ratio"][0] == pytest.approx(0.5)
+
+
+def test_missing_and_unusable_runs_are_named_with_the_reason(result):
+    missing = {r["run"]: r["missing"] for r in result["runs"]}
+    assert missing[f"today-{REP}-s0"] == {"clean": None, "noise-side": None}
+    assert missing[f"today-{REP}-s2"]["clean"] == "not selected"
+    assert missing[f"sensing-{REP}-s2"] == {"clean": "not trained", "noise-side": "not played"}
+    assert missing[f"dense-{REP}-s2"] == {"clean": None, "noise-side": "19 of 20 rounds played"}
+    assert "played another best.pt" in missing[f"both-{REP}-s2"]["noise-side"]
+    assert missing[f"both-{REP}-s2"]["clean"] == "holds other rounds (its rounds differ)"
+    # dense's seed 2 has clean rounds of its own: the clean cell rests on three seeds
+    assert _cell(result, "dense", "clean")["seeds"] == [0, 1, 2]
+    assert _cell(result, "dense", "noise-side")["seeds"] == [0, 1]
+    missing_line = result["table"].splitlines()[-1]
+    assert (
+        missing_line.startswith("Missing (7): ") and f"both-{REP}-s2 (noise-side: " in missing_line
+    )
+
+
+def test_a_root_with_nothing_yet_lists_every_run_as_missing(tmp_path):
+    done = subprocess.run(
+        [sys.executable, "experiments/retrain_ablation.py", "--root", str(tmp_path / "none"),
+         "--result", str(tmp_path / "result")],
+        cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT / "src")}, capture_output=True,
+        text=True,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert all(c["seeds"] == [] for c in result["cells"]) and len(result["cells"]) == 8
+    assert result["effects"] == [] and result["gaps"] == []
+    assert "Missing (16): today-bingham2d-s0 (clean: not trained)" in done.stdout
+
+
+def test_the_campaign_writes_the_runs_and_folders_the_script_reads():
+    steps = campaign_steps("experiments/campaigns/retrain.toml")
+    for arm in ("today", "dense", "sensing", "both"):
+        for seed in (0, 1):
+            run = f"{arm}-{REP}-s{seed}"
+            assert f"--out /root/runs/{run}" in steps[run]["run"]
+            select = shlex.split(steps[f"select-{run}"]["run"])
+            assert select[select.index("--by") + 1] == "declutter"
+            assert select[select.index("--rounds") + 1] == "200"  # the script's default
+            noisy = shlex.split(steps[f"val-noise-{run}"]["run"])
+            value = {flag: noisy[noisy.index(flag) + 1]
+                     for flag in ("--model", "--out", "--objects", "--seed", "--rounds", "--noise",
+                                  "--view")}  # fmt: skip
+            assert value == {"--model": f"/root/runs/{run}/best.pt",
+                             "--out": f"/root/bench/val-noise/{run}",
+                             "--objects": "vgn-pile-train", "--seed": "1000000",
+                             "--rounds": "200", "--noise": "dex", "--view": "side"}  # fmt: skip
