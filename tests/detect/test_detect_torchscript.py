@@ -90,7 +90,9 @@ def test_the_exported_file_runs_without_symgrasp_and_gives_the_networks_outputs(
     eager = GraspDetector.from_pretrained(MODEL, device="cpu")
     with torch.no_grad():
         want = eager.model(tsdf[None, None])
-    for how, tolerance in (("frozen", 1e-6), ("optimize", 1e-4)):
+    # Frozen: the same operations, summed in another order where the processes' torch thread
+    # counts differ (float rounding, ≈ 5e-6 on logits near −13).
+    for how, tolerance in (("frozen", 2e-5), ("optimize", 1e-4)):
         got = exported[how]
         np.testing.assert_allclose(got["score"], want.score.numpy(), atol=tolerance)
         np.testing.assert_allclose(got["validity"], want.validity.numpy(), atol=tolerance)
