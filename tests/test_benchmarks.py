@@ -37,6 +37,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "experiments/validity_calibration": ("validity_calibration.json", "cells"),
     "experiments/eigen_gap": ("eigen_gap.json", "cells"),
     "experiments/yaw_tolerance": ("yaw_tolerance.json", "cells"),
+    "experiments/franka_box": ("franka_box.json", "cells"),
     "experiments/scene_physics": ("scene_physics.json", "cells"),
     "experiments/decomposition": ("decomposition.json", "summary"),
     "experiments/grasp_db": ("grasp_db.json", "cells"),

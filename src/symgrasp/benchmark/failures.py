@@ -11,7 +11,8 @@ position, same ``e_x``, closing axis ``e_z`` rotated in the plane ⊥ ``e_x``; o
 - ``wrong_yaw``: some turned grasp succeeds: the approach was right, the yaw was not;
 - ``collision``: the hand hit something at pre-grasp or on the way in, whatever its yaw;
 - ``wrong_approach``: the fingers closed on nothing, whatever the yaw: the grasp point or
-  the approach direction misses the object;
+  the approach direction misses the object, or the closing pushed it out of the pads (a
+  closing line across an edge of a box, which rigid pads do not hold);
 - ``slip`` / ``multiple``: an object was grasped and lost, or two were lifted.
 
 Replays run on `World.snapshot` copies and the world is put back exactly as the failed
