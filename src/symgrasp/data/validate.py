@@ -104,10 +104,8 @@ def validate_labels(
         T[:3, :3] = Rotation.random(random_state=int(rng.integers(2**31))).as_matrix()
         T[:3, 3] = poses[i][:3, :3] @ p[0] + poses[i][:3, 3]
         random += execute_grasp(World(objects, poses, gripper=gripper), T).success
-    (labelled_rate, labelled_ci), (random_rate, random_ci) = (
-        rate(labelled, trials),
-        rate(random, trials),
-    )
+    labelled_rate, labelled_ci = rate(labelled, trials)
+    random_rate, random_ci = rate(random, trials)
     return ValidationResult(
         trials, labelled_rate, random_rate, labelled_ci, random_ci, added, *rate(added_held, added)
     )
