@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from symgrasp import rates
 from symgrasp.names import GRIPPERS as BUILT_IN
 
 if TYPE_CHECKING:
@@ -35,15 +35,9 @@ default, and what ``--quick`` plays in place of every training run."""
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> list[float]:
-    """Wilson score 95 % interval of the rate k / n, in percent (NaN for n = 0)."""
-    if n == 0:
-        return [float("nan"), float("nan")]
-    p, d = k / n, 1 + z * z / n
-    centre, half = (
-        (p + z * z / (2 * n)) / d,
-        z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d,
-    )
-    return [round(100 * (centre - half), 2), round(100 * (centre + half), 2)]
+    """Wilson score 95 % interval of the rate k / n, in percent (NaN for n = 0):
+    `symgrasp.rates.wilson`, as the result tables print it."""
+    return [round(100 * bound, 2) for bound in rates.wilson(k, n, z)]
 
 
 def prefix(db: GraspDatabase, n: int) -> GraspDatabase:

@@ -57,7 +57,7 @@ from tqdm import tqdm
 
 from symgrasp.config import DatabaseConfig, SceneConfig
 from symgrasp.data.grasp_db import cached_database
-from symgrasp.data.labels import VoxelLabels, voxel_centre, voxel_of
+from symgrasp.data.labels import VoxelLabels, added_voxels, voxel_centre, voxel_grasp, voxel_of
 from symgrasp.data.scenes import LabelledScene, labelled_scene, scene_pool, spread_labels
 from symgrasp.scripts import parse_args, run_main, write_result
 from symgrasp.sim import World, execute_grasp
@@ -170,22 +170,20 @@ def tolerance(scenes: list[Scene], hand, cfg, args, rng) -> dict[str, Any]:
     }
 
 
-def voxel_keys(labels: VoxelLabels) -> set[tuple[int, int, int]]:
-    return {tuple(v) for v in labels.voxel_index.tolist()}
+def voxel_keys(labels: VoxelLabels, which: np.ndarray | None = None) -> set[tuple[int, int, int]]:
+    """The voxels of ``labels`` (those where ``which`` (M,) bool is set, if given)."""
+    index = labels.voxel_index if which is None else labels.voxel_index[which]
+    return {tuple(v) for v in index.tolist()}
 
 
 def voxel_poses(labels: VoxelLabels, only: set | None, rng) -> list[np.ndarray]:
-    """For each voxel of ``labels`` (those in ``only``, if given): the pose of one of its
-    rotation targets drawn uniformly, at the voxel's centre."""
-    poses = []
-    for v, index in enumerate(labels.voxel_index.tolist()):
-        if only is not None and tuple(index) not in only:
-            continue
-        T = np.eye(4)
-        T[:3, :3] = labels.rotations[v, rng.choice(np.flatnonzero(labels.mask[v]))]
-        T[:3, 3] = voxel_centre(index)
-        poses.append(T)
-    return poses
+    """For each voxel of ``labels`` (those in ``only``, if given): the grasp it teaches
+    (`voxel_grasp`: one of its rotation targets drawn uniformly, at the voxel's centre)."""
+    return [
+        voxel_grasp(index, labels.rotations[v], labels.mask[v], rng)
+        for v, index in enumerate(labels.voxel_index.tolist())
+        if only is None or tuple(index) in only
+    ]
 
 
 def label_sets(scenes: list[Scene], args, rng) -> dict[str, Any]:
@@ -198,7 +196,10 @@ def label_sets(scenes: list[Scene], args, rng) -> dict[str, Any]:
         for k, scene in enumerate(scenes):
             groups["all voxels"] += [(k, T) for T in voxel_poses(scene.labels[name], None, rng)]
             if name != TODAY:
-                added = voxel_keys(scene.labels[name]) - voxel_keys(scene.labels[TODAY])
+                own = scene.today.grasps["T_world_tcp"][scene.today.survivors]
+                added = voxel_keys(
+                    scene.labels[name], added_voxels(scene.labels[name].voxel_index, own)
+                )
                 groups["voxels it adds"] += [
                     (k, T) for T in voxel_poses(scene.labels[name], added, rng)
                 ]

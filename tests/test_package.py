@@ -83,6 +83,7 @@ ROOT_MODULES = {
     "folders",
     "gl_backend",
     "names",
+    "rates",
     "workspace",
 }
 """The small root modules every layer reads (docs/architecture.md); they read only each other."""

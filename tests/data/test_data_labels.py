@@ -11,7 +11,14 @@ from scipy.spatial.transform import Rotation
 from symgrasp.config import DatabaseConfig, SceneConfig
 from symgrasp.data.generate import config_from_dict
 from symgrasp.data.grasp_db import build_database
-from symgrasp.data.labels import spread_poses, voxel_centre, voxel_of, voxelise
+from symgrasp.data.labels import (
+    added_voxels,
+    spread_poses,
+    voxel_centre,
+    voxel_grasp,
+    voxel_of,
+    voxelise,
+)
 from symgrasp.data.scenes import labelled_scene, make_scene_record, scene_pool, spread_labels
 from symgrasp.sim import FRANKA
 from symgrasp.sim.collision import hand_collides
@@ -132,6 +139,36 @@ def test_spread_labels_merge_per_voxel_like_voxelise():
     assert {tuple(v) for v in cut.voxel_index.tolist()} == {
         v for v in square(10) | square(11) if v[0] <= 10
     }
+
+
+def test_added_voxels_are_the_spreads_own_and_none_without_a_spread():
+    rng = np.random.default_rng(3)
+    T = np.tile(np.eye(4), (30, 1, 1))
+    T[:, :3, :3] = Rotation.random(30, random_state=4).as_matrix()
+    T[:, :3, 3] = rng.uniform(0.05, 0.25, (30, 3))
+    score, width = np.ones(30), np.full(30, 0.04)
+    assert not added_voxels(voxelise(T, score, width).voxel_index, T).any()
+    moved, source = spread_poses(T, np.array([-V, -V, -V]), np.array([2 * V, V, V]))
+    spread = voxelise(
+        np.concatenate([T, moved]), np.ones(30 + len(source)), np.ones(30 + len(source))
+    )
+    added = added_voxels(spread.voxel_index, T)
+    # oracle: an added voxel's box holds no grasp's TCP; every other voxel's box holds one
+    centres = voxel_centre(spread.voxel_index)
+    inside = np.all(np.abs(centres[:, None] - T[None, :, :3, 3]) <= V / 2, axis=-1).any(axis=1)
+    assert np.array_equal(added, ~inside) and added.sum() > 30
+
+
+def test_voxel_grasp_is_at_the_centre_with_one_of_the_voxels_targets():
+    rotations = np.tile(np.eye(3), (4, 1, 1))
+    rotations[1:3] = Rotation.random(2, random_state=5).as_matrix()
+    mask = np.array([False, True, True, False])
+    rng = np.random.default_rng(0)
+    drawn = [voxel_grasp(np.array([3, 0, 39]), rotations, mask, rng) for _ in range(40)]
+    assert all(np.allclose(T[:3, 3], [3.5 * V, 0.5 * V, 39.5 * V]) for T in drawn)
+    picked = [int(np.argmin([np.abs(T[:3, :3] - R).max() for R in rotations])) for T in drawn]
+    assert all(np.allclose(T[:3, :3], rotations[k]) for T, k in zip(drawn, picked, strict=True))
+    assert set(picked) == {1, 2}  # both targets, never a padded one
 
 
 @pytest.fixture(scope="module")

@@ -53,7 +53,9 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "--validate",
         type=integer(0, 100_000),
         default=50,
-        help="physics trials of labelled vs random grasps for the card; 0 skips them (default: 50)",
+        help="physics trials for the card: the grasps of labelled voxels drawn uniformly as "
+        "stored (TCP at the voxel's centre, one of its rotation targets; those a --label-spread "
+        "added also apart) against random grasps in the same scenes; 0 skips them (default: 50)",
     )
     inspect.add_argument("--seed", type=SEED, default=0, help="seed of the trials (default: 0)")
     inspect.set_defaults(run=_run_data_inspect)

@@ -33,6 +33,17 @@ from symgrasp.workspace import RESOLUTION, VOXEL_SIZE, WORKSPACE_SIZE
 
 SCORE_BINS = np.linspace(0.0, 1.0, 11)
 
+VALIDATION_NOTE = (
+    "labelled: the grasps the network is taught, one valid voxel drawn uniformly among the "
+    "scene files' (with its label spread, if any), the TCP at the voxel's centre, one of its "
+    "rotation targets; random: a random surface point and rotation in the same scene. Without "
+    "a spread the valid voxels are those of the surviving grasps, so this differs from cards "
+    "made before the voxels were checked (each grasp at its own TCP) only by the TCP's move to "
+    "its voxel's centre, at most 3.75 mm per axis. added: the trials at voxels holding no "
+    "stored grasp's TCP (the ones a spread adds). Rates are fractions, intervals Wilson 95 %."
+)
+"""What the card's ``label_validation`` numbers are (`symgrasp.data.validate`)."""
+
 SHOWN = 10
 """The mismatches ``data inspect``'s one error line names (`manifest_mismatches`); it counts
 the rest."""
@@ -84,7 +95,8 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
     """Counts, class balance and histograms of a dataset, and the depth noise its images were
     made with (``noise``); written to ``card.json`` and ``card.png`` in ``root``, which is held
     for the call (one writer at a time: not while `generate` writes it, `symgrasp.folders`).
-    ``validate`` > 0 adds that many physics trials of labelled against random grasps.
+    ``validate`` > 0 adds that many physics trials of the labelled voxels' grasps against
+    random grasps (`validate_labels`, ``label_validation``: `VALIDATION_NOTE`).
     ValueError naming the first `SHOWN` of `manifest_mismatches` on one line when the folder is
     not what its manifest promises."""
     root = Path(root)
@@ -145,7 +157,7 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
         cfg = config_from_dict(data.manifest["config"])
         ids = [int(p.stem.split("_")[1]) for p in data.paths]
         result = validate_labels(root, cfg, data.gripper, ids, validate, seed)
-        card["label_validation"] = dataclasses.asdict(result)
+        card["label_validation"] = {**dataclasses.asdict(result), "about": VALIDATION_NOTE}
     write_atomic(root / "card.json", lambda f: json.dump(card, f, indent=1), mode="w")
 
     fig, ax = plt.subplots(1, 3, figsize=(13, 3.6))

@@ -63,6 +63,27 @@ def voxel_centre(index: np.ndarray) -> np.ndarray:
     return (np.asarray(index) + 0.5) * VOXEL_SIZE
 
 
+def voxel_grasp(
+    index: np.ndarray, rotations: np.ndarray, mask: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
+    """The grasp one labelled voxel teaches, as the detector would execute it:
+    ``T_world_tcp`` (4, 4) with the TCP at the centre of voxel ``index`` (3,) and one of its
+    rotation targets ``rotations`` (k_max, 3, 3) where ``mask`` (k_max,) is set, drawn
+    uniformly with ``rng``."""
+    T = np.eye(4)
+    T[:3, :3] = rotations[rng.choice(np.flatnonzero(mask))]
+    T[:3, 3] = voxel_centre(index)
+    return T
+
+
+def added_voxels(voxel_index: np.ndarray, T_world_tcp: np.ndarray) -> np.ndarray:
+    """(M,) bool: which of the labelled voxels ``voxel_index`` (M, 3) hold none of the TCPs
+    of the grasps ``T_world_tcp`` (G, 4, 4) they were labelled from, i.e. the voxels a
+    spread (`spread_poses`) added. All False for labels without a spread (`voxelise`)."""
+    own = {tuple(v) for v in voxel_of(np.asarray(T_world_tcp)[:, :3, 3]).tolist()}
+    return np.array([tuple(v) not in own for v in np.asarray(voxel_index).tolist()], dtype=bool)
+
+
 def spread_poses(
     T_world_tcp: np.ndarray, lower: np.ndarray, upper: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
