@@ -99,20 +99,15 @@ def main() -> None:
 
 def _same_grasps(a: list, b: list) -> dict:
     """Whether two detectors' grasp lists pick the same voxels in the same order, and how far
-    apart their poses and scores are."""
-    voxels = [g.voxel for g in a] == [g.voxel for g in b]
+    apart their poses and scores are (None where the voxels differ)."""
+    same = [g.voxel for g in a] == [g.voxel for g in b]
+    pairs = list(zip(a, b, strict=True)) if same else []
+    pose = max((float(np.abs(x.pose - y.pose).max()) for x, y in pairs), default=0.0)
+    score = max((abs(x.score - y.score) for x, y in pairs), default=0.0)
     return {
-        "voxels_in_order": voxels,
-        "max_pose_difference": float(
-            max((np.abs(x.pose - y.pose).max() for x, y in zip(a, b, strict=True)), default=0.0)
-        )
-        if voxels
-        else None,
-        "max_score_difference": float(
-            max((abs(x.score - y.score) for x, y in zip(a, b, strict=True)), default=0.0)
-        )
-        if voxels
-        else None,
+        "voxels_in_order": same,
+        "max_pose_difference": pose if same else None,
+        "max_score_difference": score if same else None,
     }
 
 

@@ -574,18 +574,16 @@ def _depth_in_metres(depth: np.ndarray | Tensor) -> np.ndarray:
         raise ValueError(f"depth must be floating point metres, got {raw.dtype}{hint}")
     depth = raw.astype(np.float32)
     seen = np.isfinite(depth) & (depth > 0)
+    metres = np.where(seen, depth, 0.0)
     # the median is over the limit only if the maximum is: a max costs a tenth of a median
-    if (
-        seen.any()
-        and depth[seen].max() > MAX_MEDIAN_DEPTH
-        and np.median(depth[seen]) > MAX_MEDIAN_DEPTH
-    ):
-        raise ValueError(
-            f"depth must be in metres; its median over the seen pixels is "
-            f"{np.median(depth[seen]):.1f}, over {MAX_MEDIAN_DEPTH:g} m (millimetres? multiply "
-            "by 0.001)"
-        )
-    return np.where(seen, depth, 0.0)
+    if metres.max() > MAX_MEDIAN_DEPTH:
+        median = float(np.median(metres[seen]))
+        if median > MAX_MEDIAN_DEPTH:
+            raise ValueError(
+                f"depth must be in metres; its median over the seen pixels is {median:.1f}, "
+                f"over {MAX_MEDIAN_DEPTH:g} m (millimetres? multiply by 0.001)"
+            )
+    return metres
 
 
 def _ms_since(start: float, device: torch.device) -> float:
