@@ -32,10 +32,14 @@ def tsdf():
     return detector.fuse(depth, intrinsic, T).grid()
 
 
+CUDA = pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here")
+
+
+@pytest.mark.parametrize("device", ["cpu", pytest.param("cuda", marks=CUDA)])
 @pytest.mark.parametrize("name", PRETRAINED)
-def test_the_optimized_detector_gives_the_eager_outputs_and_grasps(name, tsdf):
-    eager = GraspDetector.from_pretrained(name, device="cpu")
-    fast = GraspDetector.from_pretrained(name, device="cpu", optimize=True)
+def test_the_optimized_detector_gives_the_eager_outputs_and_grasps(name, device, tsdf):
+    eager = GraspDetector.from_pretrained(name, device=device)
+    fast = GraspDetector.from_pretrained(name, device=device, optimize=True)
     a, b = eager.predict(tsdf), fast.predict(tsdf)
     for key in ("score", "validity", "rotation"):
         assert a[key].shape == b[key].shape
