@@ -69,7 +69,7 @@ def test_every_output_is_typed_as_an_output_path():
     into (a dataset, a run) as an existing folder."""
     outputs = _output_actions()
     assert set(outputs) == {
-        "demo", "sim show", "gripper show", "data generate", "data inspect", "data show",
+        "demo", "sim show", "gripper show", "data generate", "data relabel", "data inspect", "data show",
         "figures percentiles", "figures continuity", "figures distribution", "train", "select",
         "detect", "export", "bench declutter", "objects inspect", "objects fetch",
     }  # fmt: skip

@@ -1,5 +1,5 @@
-"""``symgrasp data generate``, ``data inspect`` and ``data show``: labelled grasp datasets
-(`symgrasp.data`)."""
+"""``symgrasp data generate``, ``data relabel``, ``data inspect`` and ``data show``: labelled
+grasp datasets (`symgrasp.data`)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,10 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         "(docs/data.md).",
     )
     actions = parser.add_subparsers(
-        dest="action", required=True, metavar="ACTION", help="what to do (generate, inspect, show)"
+        dest="action",
+        required=True,
+        metavar="ACTION",
+        help="what to do (generate, relabel, inspect, show)",
     )
     gen = actions.add_parser(
         "generate",
@@ -41,6 +44,22 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     )
     add_config_options(gen, SceneConfig)
     gen.set_defaults(run=_run_data_generate)
+
+    relabel = actions.add_parser(
+        "relabel",
+        help="a spread-label dataset's scenes, each grasp labelling its TCP's voxel alone",
+        description="Write the scenes of a finished dataset generated with --label-spread "
+        "with the labels generation gives without one (each surviving grasp at its TCP's voxel "
+        "alone): the same objects, grasps, camera, depth image and TSDF, without simulating the "
+        "scenes again, for an ablation of the labels on the same scenes (docs/data.md, "
+        '"Relabelled datasets").',
+    )
+    relabel.add_argument("src", type=input_folder, help="finished dataset with a label spread")
+    relabel.add_argument("--out", type=output_folder_path, required=True, help="dataset folder")
+    relabel.add_argument(
+        "--resume", action="store_true", help="continue a run in --out, skipping written scenes"
+    )
+    relabel.set_defaults(run=_run_data_relabel)
 
     inspect = actions.add_parser(
         "inspect",
@@ -78,6 +97,13 @@ def _run_data_generate(args: argparse.Namespace) -> None:
     from symgrasp.data.generate import generate
 
     manifest = generate(args.out, config, args.scenes, args.seed, args.resume, parallel)
+    print(f"{manifest['num_scenes']} scenes in {args.out} (hash {manifest['dataset_hash']})")
+
+
+def _run_data_relabel(args: argparse.Namespace) -> None:
+    from symgrasp.data.relabel import relabel
+
+    manifest = relabel(args.src, args.out, args.resume)
     print(f"{manifest['num_scenes']} scenes in {args.out} (hash {manifest['dataset_hash']})")
 
 

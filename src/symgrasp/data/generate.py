@@ -53,7 +53,7 @@ def config_from_dict(d: dict[str, Any]) -> SceneConfig:
     return SceneConfig(**d, database=DatabaseConfig(**db))
 
 
-def _manifest(
+def dataset_manifest(
     cfg: SceneConfig,
     hand: GripperSpec,
     seed: int,
@@ -202,7 +202,7 @@ def generate(
     pool = scene_pool(cfg)  # after the cheap checks: a bad --out is named before objects load
     with open_executor(parallel) as executor:  # a cluster is joined before anything is written
         if not manifest_path.exists():  # records the configuration that --resume must match
-            started = _manifest(cfg, hand, seed, [], root, generated_with)
+            started = dataset_manifest(cfg, hand, seed, [], root, generated_with)
             write_atomic(manifest_path, lambda f: json.dump(started, f, indent=1), mode="w")
         databases, failed = _databases(cfg, hand, pool, root / "db", executor)
         if failed:
@@ -226,7 +226,7 @@ def generate(
 
         def record() -> None:  # the manifest in progress, its counts those of the scenes on disk
             runs = [*generated_with, run]
-            manifest = _manifest(cfg, hand, seed, [], root, runs)
+            manifest = dataset_manifest(cfg, hand, seed, [], root, runs)
             write_atomic(manifest_path, lambda f: json.dump(manifest, f, indent=1), mode="w")
 
         try:
@@ -245,7 +245,7 @@ def generate(
         generated_with = [*generated_with, run]
 
     done = [i for i in range(scenes) if scene_path(root, i).exists()]
-    manifest = _manifest(cfg, hand, seed, done, root, generated_with)
+    manifest = dataset_manifest(cfg, hand, seed, done, root, generated_with)
     if failed:
         manifest["failed"] = failed
     write_atomic(manifest_path, lambda f: json.dump(manifest, f, indent=1), mode="w")

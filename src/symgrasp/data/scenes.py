@@ -217,6 +217,18 @@ def labelled_scene(
     return LabelledScene(kind, world, pool_index, poses, grasps, labels), rng
 
 
+def label_arrays(labels: VoxelLabels) -> dict[str, np.ndarray]:
+    """The arrays of a scene file that hold its voxel labels, in the file's types."""
+    return {
+        "voxel_index": labels.voxel_index.astype(np.int16),
+        "voxel_score": labels.score,
+        "voxel_width": labels.width,
+        "voxel_rotations": labels.rotations,
+        "voxel_rotation_mask": labels.mask,
+        "rotations_dropped": np.int64(labels.dropped),
+    }
+
+
 def make_scene_record(
     scene_id: int,
     cfg: SceneConfig,
@@ -252,12 +264,7 @@ def make_scene_record(
         "grasp_width": grasps["width"][ok].astype(np.float32),
         "grasp_object": grasps["object"][ok].astype(np.int64),
         "grasps_total": np.int64(len(ok)),
-        "voxel_index": labels.voxel_index.astype(np.int16),
-        "voxel_score": labels.score,
-        "voxel_width": labels.width,
-        "voxel_rotations": labels.rotations,
-        "voxel_rotation_mask": labels.mask,
-        "rotations_dropped": np.int64(labels.dropped),
+        **label_arrays(labels),
         "tsdf": volume.grid().numpy().astype(np.float16),
         "depth": np.round(depth / DEPTH_UNIT).astype(np.uint16),
         "intrinsic": np.array(

@@ -1,0 +1,151 @@
+"""``symgrasp data relabel``: a spread-label dataset's scenes with each grasp labelling its TCP's
+voxel alone, without simulating them again.
+
+Spread labels (``--label-spread``, `symgrasp.data.scenes.spread_labels`) put each surviving
+grasp at its TCP's voxel and at the free voxel centres its tolerance reaches. A scene file keeps
+those surviving grasps (``grasp_pose``, ``grasp_score``, ``grasp_width``), and spreading draws
+nothing from the scene's random stream, so the same scene generated without a spread has the
+same objects, grasps, camera, depth image and TSDF, and differs only in its voxel labels:
+`symgrasp.data.labels.voxelise` of those grasps. `relabel` writes that dataset from a finished
+spread one in milliseconds per scene instead of the scene's physics (≈ 1 s): an ablation of the
+labels on the very same scenes at the cost of one dataset.
+
+The labels come from the grasps as stored, in float32, where generation voxelised them in
+float64: a grasp whose TCP lies within float32 rounding (≈ 3e-8 m) of a voxel face, two scores
+equal in float32 but not in float64, or two rotations 5° apart to within rounding can be
+labelled otherwise (docs/data.md, "Relabelled datasets", measures how often). The manifest is
+the one generation writes for the configuration with no spread, plus ``derived_from``: the
+source folder, its dataset hash and spread, and this run's versions. The grasp databases are
+linked (copied where links fail) into ``db/``, so that the folder is a whole dataset.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from symgrasp.atomic import check_json, read_json, write_atomic
+from symgrasp.data.dataset import load_scene, scene_path
+from symgrasp.data.generate import DATASET, config_from_dict, dataset_manifest
+from symgrasp.data.labels import voxelise
+from symgrasp.data.scenes import label_arrays
+from symgrasp.folders import writes_folder
+from symgrasp.parallel.base import versions
+from symgrasp.sim.grippers import get_gripper
+
+NO_SPREAD = (0.0, 0.0, 0.0, 0.0)
+
+
+def relabelled(record: dict[str, np.ndarray], k_max: int) -> dict[str, np.ndarray]:
+    """The scene file's arrays ``record`` with its voxel labels made from its surviving grasps
+    alone (each at its TCP's voxel, up to ``k_max`` rotations per voxel); the other arrays as
+    they are, in the same order."""
+    labels = voxelise(
+        record["grasp_pose"].astype(np.float64),
+        record["grasp_score"],
+        record["grasp_width"],
+        k_max,
+    )
+    return {**record, **label_arrays(labels)}
+
+
+def _source(src: Path) -> dict[str, Any]:
+    """The manifest of the finished spread-label dataset ``src``; ValueError naming ``src``
+    otherwise."""
+    path = src / "manifest.json"
+    if not path.is_file():
+        raise ValueError(f"src must be a dataset folder with manifest.json, got {src}")
+    manifest = read_json(path, "dataset manifest", dict, ("scene_ids",))
+    if "config" in manifest and not any(config_from_dict(manifest["config"]).label_spread):
+        raise ValueError(
+            f"src {src} has no label spread: its labels already are each grasp's TCP voxel"
+        )
+    on_disk = len(list((src / "scenes").glob("scene_*.npz")))
+    if manifest.get("failed") or not manifest["scene_ids"] or on_disk > len(manifest["scene_ids"]):
+        raise ValueError(
+            f"src {src} is an unfinished dataset ({on_disk} scene files, "
+            f"{len(manifest['scene_ids'])} in its manifest); finish it with "
+            "`symgrasp data generate ... --resume` first"
+        )
+    check_json(manifest, path, "dataset manifest", dict, ("config", "seed", "gripper"))
+    return manifest
+
+
+@writes_folder(DATASET)
+def relabel(src: str | Path, out: str | Path, resume: bool = False) -> dict[str, Any]:
+    """Write to ``out`` the scenes of the finished spread-label dataset ``src`` with labels
+    without a spread (module doc); returns the manifest. ``resume`` continues an interrupted
+    run, skipping the scenes written.
+
+    Raises:
+        ValueError: ``src`` is not a finished dataset with a label spread; ``out`` is ``src``,
+            holds files that are not a dataset, or holds a dataset (without ``resume``, or one
+            not relabelled from ``src`` as it is now).
+    """
+    src, root = Path(src), Path(out)
+    if root.resolve() == src.resolve():
+        raise ValueError(f"out must be another folder than src, got {out}")
+    source = _source(src)
+    cfg = dataclasses.replace(config_from_dict(source["config"]), label_spread=NO_SPREAD)
+    hand = get_gripper(source["gripper"])
+    derived = {
+        "dataset": str(src.resolve()),
+        "dataset_hash": source.get("dataset_hash"),
+        "label_spread": source["config"]["label_spread"],
+        "versions": versions(),
+    }
+    manifest_path = root / "manifest.json"
+    if manifest_path.exists():
+        old = read_json(manifest_path, "dataset manifest", dict, ())
+        if not resume:
+            raise ValueError(f"out {root} already holds a dataset; pass resume=True (--resume)")
+        was = old.get("derived_from", {})
+        if (was.get("dataset"), was.get("dataset_hash")) != (
+            derived["dataset"],
+            derived["dataset_hash"],
+        ):
+            raise ValueError(
+                f"out {root} holds a dataset not relabelled from {src} as it is now (derived "
+                f"from {was.get('dataset')!r}, hash {was.get('dataset_hash')!r}); choose "
+                "another out (--out)"
+            )
+
+    def manifest(ids: list[int]) -> dict[str, Any]:
+        made = dataset_manifest(cfg, hand, source["seed"], ids, root, source["generated_with"])
+        return {**made, "derived_from": derived}
+
+    ids = [int(i) for i in source["scene_ids"]]
+    write_atomic(manifest_path, lambda f: json.dump(manifest([]), f, indent=1), mode="w")
+    _link_databases(src / "db", root / "db")
+    for i in tqdm(ids, desc="relabel", unit="scene"):
+        path = scene_path(root, i)
+        if resume and path.exists():
+            try:
+                load_scene(path)
+                continue
+            except ValueError as err:
+                print(f"rewriting {path}: {err}")
+        record = relabelled(load_scene(scene_path(src, i)), cfg.k_max)
+        write_atomic(path, lambda f, r=record: np.savez_compressed(f, **r))
+    done = manifest(ids)
+    write_atomic(manifest_path, lambda f: json.dump(done, f, indent=1), mode="w")
+    return done
+
+
+def _link_databases(src: Path, dst: Path) -> None:
+    """Hard-link (copy where that fails) every database file of ``src`` missing in ``dst``."""
+    dst.mkdir(parents=True, exist_ok=True)
+    for path in sorted(src.glob("*.npz")):
+        target = dst / path.name
+        if not target.exists():
+            try:
+                os.link(path, target)
+            except OSError:
+                shutil.copy2(path, target)
