@@ -1,28 +1,35 @@
 """`GraspNet` as a TorchScript graph: faster inference here, and a file other stacks can run.
 
 `trace` records the network's forward pass on one ``[1, 1, 40, 40, 40]`` TSDF and freezes it
-(weights inlined as constants, `torch.jit.freeze`). `optimize` then lets PyTorch fuse it for
-inference (`torch.jit.optimize_for_inference`: on the CPU, oneDNN convolutions with their
-ReLUs fused and the channels-last reorders dropped): the detector's forward pass takes
-≈ 0.6× the eager time on the 2-core CPU (`benchmarks/detect.py`), and its outputs differ from
-eager by float rounding only (≈ 5e-6 here; tests allow 1e-4).
+(weights inlined as constants, `torch.jit.freeze`). `optimize` makes the detector's faster
+graph (``GraspDetector(optimize=True)``). On the CPU, eager PyTorch runs most of these batch-1
+3D convolutions with its reference kernel (``slow_conv3d``); the optimised graph is a copy of
+the network whose every convolution calls oneDNN's (`torch.mkldnn_convolution`) on
+channels-last tensors, traced and frozen: on the 2-core CPU its forward pass takes ≈ 0.4× the
+eager time, where `torch.jit.optimize_for_inference` reached ≈ 0.6× (it keeps oneDNN's own
+tensor layout between convolutions and converts back and forth around every GroupNorm, and
+upsamples in the default layout; `benchmarks/detect.py`, docs/detect.md). Off the CPU the
+frozen graph is fused by `torch.jit.optimize_for_inference`. Outputs differ from eager by float
+rounding only (≈ 1e-5 here; tests allow 1e-4).
 
-`save_torchscript` writes the frozen graph with the facts a reader needs beside it
-(``symgrasp.json``: representation, channel layout, gripper, workspace, thresholds): a file
-``torch.jit.load`` (Python) or ``torch::jit::load`` (C++, LibTorch) runs without symgrasp.
-The optimised graph itself cannot be saved (PyTorch refuses to serialise its oneDNN
-constants); a reader calls `torch.jit.optimize_for_inference` on the loaded module instead.
-docs/detect.md, "Exported model", shows the decoding a reader does after the network.
+`save_torchscript` writes the frozen graph of the network itself (not the oneDNN copy, so that
+it runs on any device) with the facts a reader needs beside it (``symgrasp.json``:
+representation, channel layout, gripper, workspace, thresholds): a file ``torch.jit.load``
+(Python) or ``torch::jit::load`` (C++, LibTorch) runs without symgrasp; a reader may call
+`torch.jit.optimize_for_inference` on the loaded module. docs/detect.md, "Exported model",
+shows the decoding a reader does after the network.
 
 PyTorch 2.13 marks TorchScript deprecated (for `torch.compile` and `torch.export`), and this
 module silences those warnings: on the 2-core CPU `torch.compile` took 31 s to compile and ran
-the forward pass in 20.9 ms against the fused graph's 10.1 (medians, one process, load 1.2), and a file `torch.export` writes runs in C++
-only once compiled by AOTInductor for one machine. LibTorch still loads TorchScript.
+the forward pass in 20.9 ms against the fused graph's 10.1 (medians, one process, load 1.2),
+and a file `torch.export` writes runs in C++ only once compiled by AOTInductor for one machine.
+LibTorch still loads TorchScript.
 """
 
 from __future__ import annotations
 
 import contextlib
+import copy
 import json
 import warnings
 from collections.abc import Iterator
@@ -30,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 import torch
+from torch import nn
 
 from symgrasp.atomic import write_atomic
 from symgrasp.model.network import GraspNet, GraspOutput
@@ -56,10 +64,77 @@ def trace(model: GraspNet) -> torch.jit.ScriptModule:
         return torch.jit.freeze(torch.jit.trace(model, example))
 
 
-def optimize(module: torch.jit.ScriptModule) -> torch.jit.ScriptModule:
-    """A frozen graph (`trace`, or one `torch.jit.load` read) fused for inference."""
-    with _quiet():
-        return torch.jit.optimize_for_inference(module)
+def optimize(model: GraspNet) -> torch.jit.ScriptModule:
+    """``model`` (in eval mode) as the fastest inference graph for its device (module doc):
+    the same inputs and outputs as `trace`'s."""
+    device = next(model.parameters()).device
+    if device.type != "cpu" or not torch.backends.mkldnn.is_available():
+        with _quiet():
+            return torch.jit.optimize_for_inference(trace(model))
+    inference = copy.deepcopy(model)
+    for module in list(inference.modules()):
+        for name, child in list(module.named_children()):
+            if isinstance(child, nn.Conv3d):
+                setattr(module, name, _OneDNNConv3d(child))
+            elif isinstance(child, nn.GroupNorm):
+                setattr(module, name, ChannelsLastGroupNorm(child))
+    return trace(inference)
+
+
+class _OneDNNConv3d(nn.Module):
+    """A `nn.Conv3d`'s weights run by oneDNN on a channels-last copy of the input; the output is
+    channels-last too, which the trilinear upsampling after some of them needs to be fast (≈ 4×
+    the default layout's speed here)."""
+
+    def __init__(self, conv: nn.Conv3d) -> None:
+        super().__init__()
+        self.weight, self.bias = conv.weight, conv.bias
+        self.padding, self.stride = conv.padding, conv.stride
+        self.dilation, self.groups = conv.dilation, conv.groups
+
+    def forward(self, x: Tensor) -> Tensor:
+        x = x.contiguous(memory_format=torch.channels_last_3d)
+        return torch.mkldnn_convolution(
+            x, self.weight, self.bias, self.padding, self.stride, self.dilation, self.groups
+        )
+
+
+class ChannelsLastGroupNorm(nn.Module):
+    """A `nn.GroupNorm`'s weights applied to a channels-last ``[B, C, D, H, W]`` tensor, with
+    statistics as exact as the default layout's kernel gives.
+
+    PyTorch's CPU GroupNorm on channels-last tensors accumulates its statistics in one pass and
+    loses about three digits where a group's mean is large against its spread (≈ 2e-3 from a
+    float64 reference at mean 50, SD 3, against 2.5e-6 in the default layout;
+    tests/model/test_model_torchscript.py), enough to move the network's rotation outputs by
+    1e-3. Here each group's mean and variance are taken in two passes, float32 sums over W
+    only (≤ 40 terms) and float64 over the rest, then ``(x − mean) · rstd · γ + β``.
+    """
+
+    def __init__(self, norm: nn.GroupNorm) -> None:
+        super().__init__()
+        self.groups, self.eps = norm.num_groups, norm.eps
+        self.weight, self.bias = norm.weight, norm.bias
+
+    def forward(self, x: Tensor) -> Tensor:
+        b, c = x.shape[:2]
+        y = x.permute(0, 2, 3, 4, 1)  # [B, D, H, W, C]: contiguous for a channels-last x
+        n = y.numel() // (b * self.groups)
+        mean = self._group_sums(y) / n
+        d = y - self._per_channel(mean, c).float()
+        rstd = torch.rsqrt(self._group_sums(d * d) / n + self.eps)
+        scale = (self._per_channel(rstd, c) * self.weight.double()).float()
+        return torch.addcmul(self.bias, d, scale).permute(0, 4, 1, 2, 3)
+
+    def _group_sums(self, y: Tensor) -> Tensor:
+        """``[B, D, H, W, C]`` → each group's sum ``[B, groups]`` in float64."""
+        per_channel = y.sum(3).double().sum((1, 2))
+        return per_channel.view(y.shape[0], self.groups, -1).sum(-1)
+
+    def _per_channel(self, per_group: Tensor, channels: int) -> Tensor:
+        """``[B, groups]`` → ``[B, 1, 1, 1, C]``, each channel its group's value."""
+        repeated = per_group.repeat_interleave(channels // self.groups, dim=1)
+        return repeated.view(per_group.shape[0], 1, 1, 1, channels)
 
 
 def forward(module: torch.jit.ScriptModule, tsdf: Tensor) -> GraspOutput:
