@@ -24,6 +24,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+from collections.abc import Iterable
 from importlib.metadata import version
 from pathlib import Path
 from typing import Any
@@ -105,6 +106,22 @@ def _scene_task(scene_id: int) -> bytes:
     buffer = io.BytesIO()
     np.savez_compressed(buffer, **record)
     return buffer.getvalue()
+
+
+def scenes_to_write(root: Path, scene_ids: Iterable[int], resume: bool) -> list[int]:
+    """The ids of ``scene_ids`` to write into the dataset ``root``: all of them, or with
+    ``resume`` those whose file is missing or unreadable (each of those named on stdout)."""
+    todo = []
+    for i in scene_ids:
+        path = scene_path(root, i)
+        if resume and path.exists():
+            try:
+                load_scene(path)
+                continue
+            except ValueError as err:
+                print(f"rewriting {path}: {err}")
+        todo.append(i)
+    return todo
 
 
 def _write_bytes(path: Path, data: bytes) -> None:
@@ -211,16 +228,7 @@ def generate(
                 f"made (object {failed[0]['object']}: {failed[0]['error']})\n"
                 + failed[0]["traceback"]
             )
-        todo = []
-        for i in range(scenes):
-            path = scene_path(root, i)
-            if resume and path.exists():
-                try:
-                    load_scene(path)
-                    continue
-                except ValueError as err:
-                    print(f"regenerating {path}: {err}")
-            todo.append(i)
+        todo = scenes_to_write(root, range(scenes), resume)
         job = Job(_scene_task, _setup, (cfg, hand, seed, databases))
         run = {"scenes": 0, "versions": versions()}  # this run, in the record once it writes
 

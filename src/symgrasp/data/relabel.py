@@ -33,7 +33,7 @@ from tqdm import tqdm
 
 from symgrasp.atomic import check_json, read_json, write_atomic
 from symgrasp.data.dataset import load_scene, scene_path
-from symgrasp.data.generate import DATASET, config_from_dict, dataset_manifest
+from symgrasp.data.generate import DATASET, config_from_dict, dataset_manifest, scenes_to_write
 from symgrasp.data.labels import voxelise
 from symgrasp.data.scenes import label_arrays
 from symgrasp.folders import writes_folder
@@ -124,16 +124,9 @@ def relabel(src: str | Path, out: str | Path, resume: bool = False) -> dict[str,
     ids = [int(i) for i in source["scene_ids"]]
     write_atomic(manifest_path, lambda f: json.dump(manifest([]), f, indent=1), mode="w")
     _link_databases(src / "db", root / "db")
-    for i in tqdm(ids, desc="relabel", unit="scene"):
-        path = scene_path(root, i)
-        if resume and path.exists():
-            try:
-                load_scene(path)
-                continue
-            except ValueError as err:
-                print(f"rewriting {path}: {err}")
+    for i in tqdm(scenes_to_write(root, ids, resume), desc="relabel", unit="scene"):
         record = relabelled(load_scene(scene_path(src, i)), cfg.k_max)
-        write_atomic(path, lambda f, r=record: np.savez_compressed(f, **r))
+        write_atomic(scene_path(root, i), lambda f, r=record: np.savez_compressed(f, **r))
     done = manifest(ids)
     write_atomic(manifest_path, lambda f: json.dump(done, f, indent=1), mode="w")
     return done
