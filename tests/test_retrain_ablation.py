@@ -255,3 +255,49 @@ def test_the_campaign_writes_the_runs_and_folders_the_script_reads():
                              "--out": f"/root/bench/val-noise/{run}",
                              "--objects": "vgn-pile-train", "--seed": "1000000",
                              "--rounds": "200", "--noise": "dex", "--view": "side"}  # fmt: skip
+
+
+def test_every_final_run_plays_both_round_seed_ranges_before_their_collations(tmp_path):
+    """experiments/campaigns/retrain_cells.toml: the runs the collation waits for (the script's
+    own answer on no runs, with the plan's options) are retrain.toml's final runs, each selected,
+    then played on round seeds 0-99 and 100-199 before the two collations."""
+    steps = campaign_steps(
+        "experiments/campaigns/retrain.toml", "experiments/campaigns/retrain_cells.toml"
+    )
+    words = shlex.split(steps["retrained"]["run"])
+    words = words[words.index("experiments/declutter_table.py") :]
+    for flag, path in (("--runs", "runs"), ("--out", "cells"), ("--result", "table"),
+                       ("--figure", "figure.png"), ("--archive", "rounds.tar.gz"),
+                       ("--docs", "page.md")):  # fmt: skip
+        words[words.index(flag) + 1] = str(tmp_path / path)
+    (tmp_path / "page.md").write_text(
+        "<!-- declutter-table: begin -->\n<!-- declutter-table: end -->\n"
+    )
+    done = subprocess.run([sys.executable, *words], cwd=ROOT, capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(ROOT / "src")})  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    waiting = {
+        w.removesuffix(" (not selected)")
+        for w in json.loads((tmp_path / "table.json").read_text())["waiting"]
+    }
+    assert len(waiting) == 8  # 2 hands, bingham2d and rotmat6d, training seeds 0 and 1
+    for run in waiting:
+        assert steps[f"select-{run}"]["needs"] == [run]
+        assert f"--out /root/runs/{run}" in steps[run]["run"]
+        assert (
+            "--data /root/data/" + ("franka-both" if "franka" in run else "both")
+            in steps[run]["run"]
+        )
+        rep, seed = run.removeprefix("both-").removeprefix("franka-").rsplit("-s", 1)
+        for suffix, first in (("", None), ("-first-seed-100", "100")):
+            cells = steps[f"cells-{run}{suffix}"]
+            assert cells["needs"] == [f"select-{run}"]
+            assert f"cells-{run}{suffix}" in steps[f"retrained{suffix}"]["needs"]
+            flags = shlex.split(cells["run"])
+            assert flags[flags.index("--reps") + 1] == rep
+            assert flags[flags.index("--seeds") + 1] == seed
+            assert ("--first-seed" in flags) == (first is not None)
+            if first:
+                assert flags[flags.index("--first-seed") + 1] == first
+    assert "--first-seed 100" in steps["retrained-first-seed-100"]["run"]
+    assert "--first-seed" not in steps["retrained"]["run"]
