@@ -30,7 +30,7 @@ import numpy as np
 import torch
 from common import add_result_option
 
-from symgrasp.benchmark.runner import BOOTSTRAP
+from symgrasp.benchmark.runner import BOOTSTRAP, pooled_ratio
 from symgrasp.config import SceneConfig
 from symgrasp.data.scenes import random_camera
 from symgrasp.detect import GraspDetector
@@ -66,13 +66,12 @@ def matched(grasps: list, others: list) -> int:
 
 
 def pooled(hits: np.ndarray, totals: np.ndarray, seed: int = 0) -> tuple[float, float, float]:
-    """The pooled ratio sum(hits)/sum(totals) over scenes and its 95% bootstrap interval."""
+    """The pooled ratio sum(hits)/sum(totals) over scenes (`pooled_ratio`: NaN when nothing
+    was counted) and its 95% bootstrap interval."""
     rng = np.random.default_rng(seed)
     index = rng.integers(len(hits), size=(BOOTSTRAP, len(hits)))
-    with np.errstate(invalid="ignore"):
-        ratios = hits[index].sum(axis=1) / totals[index].sum(axis=1)
-    low, high = np.nanpercentile(ratios, [2.5, 97.5])
-    return float(hits.sum() / max(totals.sum(), 1)), float(low), float(high)
+    low, high = np.nanpercentile(pooled_ratio(hits[index], totals[index]), [2.5, 97.5])
+    return float(pooled_ratio(hits, totals)), float(low), float(high)
 
 
 def main() -> None:
