@@ -132,6 +132,14 @@ def add_table1_options(parser: argparse.ArgumentParser, baselines: str = "") -> 
                         help="objects per round (default: 5)")  # fmt: skip
 
 
+def add_mode_options(parser: argparse.ArgumentParser, play: str, collate: str) -> None:
+    """``--play-only`` and ``--collate-only``, at most one of them (a campaign plays each cell in
+    a step of its own and collates once at the end); ``play`` and ``collate`` are their help."""
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--play-only", action="store_true", help=play)
+    mode.add_argument("--collate-only", action="store_true", help=collate)
+
+
 def table1_rounds(
     model: str, objects: str, scene: str, baselines: str | Path, rounds: int, agree: dict[str, Any]
 ) -> tuple[list[dict[str, Any]] | None, Path]:

@@ -66,7 +66,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from common import GRIPPERS, SHIPPED, add_result_option, update_page
+from common import GRIPPERS, SHIPPED, add_mode_options, add_result_option, update_page
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.cells import Cell
@@ -507,12 +507,9 @@ def main() -> None:
                         "-first-seed-F")  # fmt: skip
     add_parallel_options(parser, "rounds")
     parser.set_defaults(workers=2)
-    mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--collate-only", action="store_true",
-                      help="tabulate the cells already played; play none")  # fmt: skip
-    mode.add_argument("--play-only", action="store_true",
-                      help="play the cells and write nothing (a campaign step per run); an "
-                      "error when a cell's run has not been selected")  # fmt: skip
+    add_mode_options(parser, "play the cells and write nothing (a campaign step per run); an "
+                     "error when a cell's run has not been selected",
+                     "tabulate the cells already played; play none")  # fmt: skip
     parser.add_argument("--out", default="out/bench/table", help="folder of the cells")
     add_result_option(parser, "declutter")
     parser.add_argument("--figure", default="docs/figures/declutter_comparison.png",

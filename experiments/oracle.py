@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import add_result_option, add_table1_options
+from common import add_mode_options, add_result_option, add_table1_options
 from peers_table import baseline_rounds, cell_name
 
 from symgrasp.benchmark.cells import objects_folder
@@ -223,12 +223,9 @@ def main() -> None:
     parser.add_argument("--cells", nargs="+", default=None, metavar="HAND/OBJECTS",
                         choices=[cell_name(c) for c in CELLS],
                         help="the cells to play or collate (default: all: %(choices)s)")  # fmt: skip
-    mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--play-only", action="store_true",
-                      help="play the cells, write no result")  # fmt: skip
-    mode.add_argument("--collate-only", action="store_true",
-                      help="play nothing: collate the rounds that are there (an unfinished "
-                      "cell on those it has)")  # fmt: skip
+    add_mode_options(parser, "play the cells, write no result",
+                     "play nothing: collate the rounds that are there (an unfinished cell on "
+                     "those it has)")  # fmt: skip
     add_parallel_options(parser, "rounds")
     add_result_option(parser, "oracle")
     args = parse_args(parser, outputs=("out", "baselines", "result"),

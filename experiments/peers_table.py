@@ -38,7 +38,13 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option, add_table1_options, table1_rounds, update_page
+from common import (
+    add_mode_options,
+    add_result_option,
+    add_table1_options,
+    table1_rounds,
+    update_page,
+)
 from declutter_table import PUBLISHED
 
 from symgrasp.benchmark.cells import objects_folder
@@ -176,11 +182,8 @@ def main() -> None:
     parser.add_argument("--cells", nargs="+", default=None, metavar="HAND/OBJECTS",
                         choices=[cell_name(c) for c in CELLS],
                         help="the cells to play or collate (default: all: %(choices)s)")  # fmt: skip
-    mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--play-only", action="store_true",
-                      help="play the cells and their baselines, write no result")  # fmt: skip
-    mode.add_argument("--collate-only", action="store_true",
-                      help="play nothing: collate what is there, list what is missing")  # fmt: skip
+    add_mode_options(parser, "play the cells and their baselines, write no result",
+                     "play nothing: collate what is there, list what is missing")  # fmt: skip
     parser.add_argument("--docs", type=Path, default=Path("docs/peers.md"),
                         help="page whose text between the peers-table markers is replaced "
                         "(default: %(default)s)")  # fmt: skip

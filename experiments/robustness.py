@@ -45,7 +45,14 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from common import SHIPPED, add_result_option, add_table1_options, table1_rounds, update_page
+from common import (
+    SHIPPED,
+    add_mode_options,
+    add_result_option,
+    add_table1_options,
+    table1_rounds,
+    update_page,
+)
 
 from symgrasp.benchmark.cells import objects_folder
 from symgrasp.benchmark.compare import paired_change, percent_change
@@ -208,11 +215,8 @@ def main() -> None:
                         default=list(CONDITIONS),
                         help="what the cameras see (default: all: %(choices)s; clean is "
                         "always collated, the others' pairing)")  # fmt: skip
-    mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--play-only", action="store_true",
-                      help="play the conditions, write no result")  # fmt: skip
-    mode.add_argument("--collate-only", action="store_true",
-                      help="play nothing: collate what is there, list what is missing")  # fmt: skip
+    add_mode_options(parser, "play the conditions, write no result",
+                     "play nothing: collate what is there, list what is missing")  # fmt: skip
     parser.add_argument("--docs", type=Path, default=Path("docs/results.md"),
                         help="page whose text between the robustness-table markers is replaced "
                         "(default: %(default)s)")  # fmt: skip
