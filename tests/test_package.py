@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -155,3 +156,15 @@ def test_a_device_symgrasp_does_not_run_on_is_refused_naming_the_choices(name):
     with pytest.raises(ValueError, match="device must be 'auto', 'cpu' or 'cuda"):
         resolve_device(name)
     assert resolve_device("cpu").type == "cpu"
+
+
+def test_the_version_is_written_once():
+    """pyproject.toml reads the version from ``symgrasp.__version__``: the installed metadata,
+    datasets' manifests and checkpoints all say the same."""
+    import importlib.metadata
+
+    import symgrasp
+
+    assert importlib.metadata.version("symgrasp") == symgrasp.__version__
+    pyproject = Path(__file__).resolve().parents[1] / "pyproject.toml"
+    assert 'attr = "symgrasp.__version__"' in pyproject.read_text()

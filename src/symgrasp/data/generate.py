@@ -25,12 +25,12 @@ import dataclasses
 import io
 import json
 from collections.abc import Iterable
-from importlib.metadata import version
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+import symgrasp
 from symgrasp.atomic import read_json, write_atomic
 from symgrasp.config import SEED_MAX, DatabaseConfig, ParallelConfig, SceneConfig, check_range
 from symgrasp.data.dataset import dataset_hash, load_scene, scene_path
@@ -74,7 +74,7 @@ def dataset_manifest(
         "scene_ids": scene_ids,
         "seed": seed,
         "dataset_hash": dataset_hash(root, scene_ids),
-        "symgrasp_version": version("symgrasp"),
+        "symgrasp_version": symgrasp.__version__,
         "config": dataclasses.asdict(cfg),
         "generated_with": generated_with,
     }
