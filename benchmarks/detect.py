@@ -6,7 +6,7 @@
 Renders one 640×480 depth image of a 5-object household-test pile (seed 0) from the default
 camera, then times ``GraspDetector.detect`` on it, per stage (TSDF fusion, network, decoding)
 as the detector reports them, plus the whole call, for two detectors of the same model: the
-network run eagerly (the default) and as a TorchScript graph fused for inference
+network run eagerly (the default) and as a TorchScript graph made for inference
 (``optimize=True``). The two alternate in blocks of ``--block`` calls, so that a change of the
 machine's load falls on both, for ``--repeats`` calls each after a warm-up. Both must return
 the same grasps. Target: ≤ 15 ms per image (median) on the 2-core CPU, for the optimised
@@ -87,7 +87,7 @@ def main() -> None:
     median = {p: {s: statistics.median(v) for s, v in t.items()} for p, t in times.items()}
     result = {
         "benchmark": "GraspDetector.detect: one 640×480 depth image to a ranked grasp list, "
-        "the network eager and optimized (TorchScript, fused for inference)",
+        "the network eager and optimized (TorchScript, made for inference)",
         "command": "PYTHONPATH=src python benchmarks/detect.py "
         f"--model {args.model} --repeats {args.repeats} --block {args.block} "
         f"--device {args.device}",

@@ -162,7 +162,7 @@ def add_detector_options(parser: argparse.ArgumentParser, planners: bool = False
     parser.add_argument(
         "--optimize",
         action="store_true",
-        help="run the network as a TorchScript graph fused for inference: ≈ 0.6× the forward "
+        help="run the network as a TorchScript graph made for inference: ≈ 0.45× the forward "
         "time on a CPU, outputs equal up to float rounding (docs/detect.md, 'Latency')",
     )
     parser.add_argument("--device", default="auto", help="auto, cpu or cuda (default: auto)")

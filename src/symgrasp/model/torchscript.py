@@ -21,7 +21,7 @@ shows the decoding a reader does after the network.
 
 PyTorch 2.13 marks TorchScript deprecated (for `torch.compile` and `torch.export`), and this
 module silences those warnings: on the 2-core CPU `torch.compile` took 31 s to compile and ran
-the forward pass in 20.9 ms against the fused graph's 10.1 (medians, one process, load 1.2),
+the forward pass in 20.9 ms against `optimize_for_inference`'s graph's 10.1 (medians, one process, load 1.2),
 and a file `torch.export` writes runs in C++ only once compiled by AOTInductor for one machine.
 LibTorch still loads TorchScript.
 """

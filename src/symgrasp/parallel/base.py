@@ -13,6 +13,8 @@ from dataclasses import dataclass
 from importlib.metadata import version
 from typing import Any
 
+import symgrasp
+
 PACKAGES = ("numpy", "scipy", "torch", "mujoco", "trimesh")
 """The packages besides symgrasp that compute a task's result (a scene, a database, a
 declutter round)."""
@@ -22,8 +24,6 @@ def versions() -> dict[str, str]:
     """The versions that decide a task's bytes: Python, zlib (it compresses the scene files),
     symgrasp (its own ``__version__``, so that a checkout run from ``src/`` needs no installed
     metadata) and `PACKAGES`."""
-    import symgrasp
-
     return {
         "python": platform.python_version(),
         "zlib": zlib.ZLIB_RUNTIME_VERSION,
