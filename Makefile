@@ -51,6 +51,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/detect.py
 	$(PY) benchmarks/serve.py
 	$(PY) benchmarks/grasp_db.py || [ $$? -eq 66 ]  # 66: VGN's meshes not fetched
+	$(PY) benchmarks/scene_labels.py || [ $$? -eq 66 ]
 
 clean:
 	rm -rf $(VENV) build dist src/*.egg-info .pytest_cache .ruff_cache

@@ -32,6 +32,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "benchmarks/detect": ("detect.json", "median_ms"),
     "benchmarks/serve": ("serve.json", "cells"),
     "benchmarks/grasp_db": ("grasp_db.json", "summary"),
+    "benchmarks/scene_labels": ("scene_labels.json", "summary"),
     "experiments/declutter_table": ("declutter.json", "cells"),
     "experiments/validity_sweep": ("validity_sweep.json", "cells"),
     "experiments/validity_calibration": ("validity_calibration.json", "cells"),

@@ -6,10 +6,12 @@ import numpy as np
 import pytest
 
 from symgrasp.data import grasp_db
+from symgrasp.data.directions import interpolation_support
 from symgrasp.data.grasp_db import (
     GRAVITY,
     DatabaseConfig,
     GraspDatabase,
+    OnDemandDatabase,
     antipodal_pairs,
     build_database,
     cached_database,
@@ -143,6 +145,36 @@ def test_the_database_is_the_one_of_ramps_stepped_through_the_world(database, mo
     _assert_same(build_database(_box(), FRANKA, CFG, seed=3), database)
 
 
+def test_scores_measured_on_demand_in_any_order_are_the_databases(database):
+    """Each score measured alone, in a shuffled order of (grasp, direction), equals the whole
+    database's (ramps measured grasp by grasp): a ramp depends on nothing measured before."""
+    lazy = OnDemandDatabase(_box(), FRANKA, CFG, seed=3)
+    held = np.flatnonzero(lazy.held)
+    assert np.isnan(lazy.score[held]).all() and not np.isnan(lazy.score[~lazy.held]).any()
+    pairs = [(g, k) for g in held for k in range(CFG.directions)]
+    for i in np.random.default_rng(0).permutation(len(pairs)):
+        lazy.measure(*pairs[i])
+    for field in ("T_object_tcp", "width", "contact_force", "held", "resisted_force", "score"):
+        assert np.array_equal(getattr(lazy, field), getattr(database, field)), field
+
+
+def test_score_along_measures_only_the_rows_and_directions_it_reads(database):
+    lazy = OnDemandDatabase(_box(), FRANKA, CFG, seed=3)
+    up = np.array([0.3, -0.2, 1.0])  # between directions: three are read
+    rows = np.array([0, 2])
+    along = lazy.score_along(up, rows)
+    expected = database.score_along(up)
+    assert np.array_equal(along[rows], expected[rows])
+    assert np.isnan(np.delete(along, rows)).all()
+    measured = ~np.isnan(lazy.score[lazy.held])
+    assert measured.sum() == 3 * len(rows)
+    assert set(np.flatnonzero(measured.any(axis=0))) == set(
+        interpolation_support(lazy.directions, up)
+    )
+    on_one = lazy.directions[5]  # on a stored direction: that one alone
+    assert np.array_equal(lazy.score_along(on_one, rows)[rows], database.score[lazy.held][rows, 5])
+
+
 @pytest.mark.parametrize("gripper", ["franka", "robotiq-2f85"])
 def test_so_is_a_database_on_a_vgn_mesh(gripper, vgn_data, monkeypatch):
     monkeypatch.setenv(DATA_ENV, str(vgn_data))
@@ -150,6 +182,10 @@ def test_so_is_a_database_on_a_vgn_mesh(gripper, vgn_data, monkeypatch):
     assert len(obj.parts) == 3  # a mesh of several convex parts
     hand, cfg = get_gripper(gripper), DatabaseConfig(grasps=3, surface_points=400, directions=8)
     fast = build_database(obj, hand, cfg, seed=1)
+    lazy = OnDemandDatabase(obj, hand, cfg, seed=1)
+    for k in (5, 0, 7, 2, 1, 6, 3, 4):  # direction by direction, out of order
+        lazy.measure(np.flatnonzero(lazy.held)[::-1], [k])
+    assert np.array_equal(lazy.score, fast.score)
     monkeypatch.setattr(grasp_db, "pull_out_forces", stepwise_pull_out_forces)
     _assert_same(build_database(obj, hand, cfg, seed=1), fast)
     assert fast.held.sum() == 3 and 0 < fast.score[fast.held].mean() < 1

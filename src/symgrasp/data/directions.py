@@ -27,6 +27,20 @@ def interpolate(values: np.ndarray, directions: np.ndarray, query: np.ndarray) -
     Inverse-angle weighting of the three directions nearest to ``query``: exact at a stored
     direction, continuous in between.
     """
+    nearest, angle = _nearest(directions, query)
+    if len(nearest) == 1:
+        return values[..., nearest[0]]
+    w = 1.0 / angle
+    return values[..., nearest] @ (w / w.sum())
+
+
+def interpolation_support(directions: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """Indices of the ``directions`` (K, 3) that `interpolate` reads at ``query`` (3,): the
+    three nearest, or the one it lies on."""
+    return _nearest(directions, query)[0]
+
+
+def _nearest(directions: np.ndarray, query: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     q = np.asarray(query, dtype=float)
     if q.shape != (3,) or np.linalg.norm(q) == 0:
         raise ValueError(f"query must be a non-zero 3-vector, got shape {q.shape}")
@@ -34,6 +48,5 @@ def interpolate(values: np.ndarray, directions: np.ndarray, query: np.ndarray) -
     angle = np.arccos(np.clip(directions @ q, -1.0, 1.0))
     nearest = np.argsort(angle)[:3]
     if angle[nearest[0]] < 1e-9:
-        return values[..., nearest[0]]
-    w = 1.0 / angle[nearest]
-    return values[..., nearest] @ (w / w.sum())
+        nearest = nearest[:1]
+    return nearest, angle[nearest]

@@ -27,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from symgrasp.atomic import write_atomic
 from symgrasp.config import DatabaseConfig
-from symgrasp.data.directions import fibonacci_directions
+from symgrasp.data.directions import fibonacci_directions, interpolate, interpolation_support
 from symgrasp.sim.execute import pull_out_forces
 from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.objects import ObjectSpec, surface_samples
@@ -66,6 +66,13 @@ class GraspDatabase:
 
     def __len__(self) -> int:
         return len(self.width)
+
+    def score_along(self, query: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+        """The held grasps' scores (H,) along ``query`` (3,), a direction in the object frame
+        (`symgrasp.data.directions.interpolate`). ``rows`` (indices into the held grasps)
+        names those the caller will read: every score is known here, so all are returned
+        (`OnDemandDatabase` measures only those)."""
+        return interpolate(self.score[self.held], self.directions, query)
 
     def save(self, path: str | Path) -> None:
         """Write atomically (`symgrasp.atomic.write_atomic`)."""
@@ -193,63 +200,140 @@ def build_database(
 ) -> GraspDatabase:
     """Sample, close and score grasps on ``obj`` until ``cfg.grasps`` are held (or
     ``cfg.max_candidates`` closures were tried); closures that hold nothing are kept with
-    ``held`` False and zero scores. Deterministic for a given seed."""
-    rng = np.random.default_rng(seed)
-    T_world_object = np.eye(4)
-    T_world_object[:3, 3] = FLOAT_POSITION
-    world = World([obj], T_world_object[None], gripper=gripper)
-    world.set_gravity(np.zeros(3))
-    start = world.snapshot()
-    dirs = fibonacci_directions(cfg.directions)
-    weight = obj.mass * GRAVITY
-    max_force = cfg.score_clip * weight
+    ``held`` False and zero scores. Deterministic for a given seed. The closures and scores
+    of `OnDemandDatabase`, every score measured."""
+    return OnDemandDatabase(obj, gripper, cfg, seed).complete()
 
-    poses, widths, forces, held, resisted = [], [], [], [], []
-    tried = placed = 0
-    # ``placed`` also counts candidates whose open hand starts in collision, so an object
-    # that admits no collision-free placement cannot loop forever
-    while (
-        sum(held) < cfg.grasps and tried < cfg.max_candidates and placed < 10 * cfg.max_candidates
-    ):
-        points, normals = surface_samples(obj, cfg.surface_points, rng)
-        mid, line = antipodal_pairs(points, normals, obj.friction, gripper.max_width, rng)
-        if not len(mid):
-            break
-        outward = side_normals(mid, line, points, normals)
-        for T_object_tcp in randomised_frames(mid, line, outward, cfg, rng):
-            if sum(held) >= cfg.grasps or tried >= cfg.max_candidates:
+
+class OnDemandDatabase:
+    """The database `build_database` makes, whose scores are measured when first read.
+
+    The closures are made at once (same seed: the same candidates and settled grasps) and the
+    settled state of each held grasp is kept; the score of grasp ``g`` along direction ``k`` is
+    measured from that state the first time it is read (`measure`). A force ramp starts from
+    its grasp's settled state alone (`symgrasp.sim.execute.pull_out_forces`), so a score does
+    not depend on which others were measured before and equals `build_database`'s bit for bit.
+
+    Why: a scene reads a grasp's score only along the directions nearest its gravity
+    (`score_along`: three of K) and only for the grasps its collision check keeps (≈ 7 %),
+    while the ramps are 70–89 % of a whole database's time (docs/data.md). A database read by
+    a few scenes, as the oracle's (`symgrasp.peers.oracle`: every object a round draws is new),
+    costs its closures and a small part of its ramps.
+
+    Attributes: those of `GraspDatabase`; ``resisted_force`` and ``score`` are NaN where a
+    held grasp was not measured yet. The object's world stays in memory (one MuJoCo model).
+    """
+
+    def __init__(
+        self,
+        obj: ObjectSpec,
+        gripper: GripperSpec,
+        cfg: DatabaseConfig = DatabaseConfig(),
+        seed: int = 0,
+    ) -> None:
+        rng = np.random.default_rng(seed)
+        T_world_object = np.eye(4)
+        T_world_object[:3, 3] = FLOAT_POSITION
+        world = World([obj], T_world_object[None], gripper=gripper)
+        world.set_gravity(np.zeros(3))
+        start = world.snapshot()
+        poses, widths, forces, held, settled = [], [], [], [], []
+        tried = placed = 0
+        # ``placed`` also counts candidates whose open hand starts in collision, so an object
+        # that admits no collision-free placement cannot loop forever
+        while (
+            sum(held) < cfg.grasps
+            and tried < cfg.max_candidates
+            and placed < 10 * cfg.max_candidates
+        ):
+            points, normals = surface_samples(obj, cfg.surface_points, rng)
+            mid, line = antipodal_pairs(points, normals, obj.friction, gripper.max_width, rng)
+            if not len(mid):
                 break
-            placed += 1
-            world.restore(start)
-            world.set_hand_pose(T_world_object @ T_object_tcp)
-            if world.hand_in_collision():
-                continue  # the open hand would start inside the object
-            tried += 1
-            world.actuate(close=True)
-            T_wo = world.object_poses()[0]
-            poses.append(np.linalg.inv(T_wo) @ world.hand_pose())
-            widths.append(world.finger_opening())
-            forces.append(world.hand_contact_force())
-            held.append(bool(world.objects_in_hand()))
-            if not held[-1]:
-                resisted.append(np.zeros(len(dirs)))
+            outward = side_normals(mid, line, points, normals)
+            for T_object_tcp in randomised_frames(mid, line, outward, cfg, rng):
+                if sum(held) >= cfg.grasps or tried >= cfg.max_candidates:
+                    break
+                placed += 1
+                world.restore(start)
+                world.set_hand_pose(T_world_object @ T_object_tcp)
+                if world.hand_in_collision():
+                    continue  # the open hand would start inside the object
+                tried += 1
+                world.actuate(close=True)
+                T_wo = world.object_poses()[0]
+                poses.append(np.linalg.inv(T_wo) @ world.hand_pose())
+                widths.append(world.finger_opening())
+                forces.append(world.hand_contact_force())
+                held.append(bool(world.objects_in_hand()))
+                settled.append((world.snapshot(), T_wo[:3, :3]) if held[-1] else None)
+        n = len(poses)
+        self.T_object_tcp = np.asarray(poses).reshape(n, 4, 4)
+        self.width = np.asarray(widths, dtype=float)
+        self.contact_force = np.asarray(forces, dtype=float)
+        self.held = np.asarray(held, dtype=bool)
+        self.directions = fibonacci_directions(cfg.directions)
+        self.candidates = tried
+        self.resisted_force = np.where(self.held[:, None], np.nan, np.zeros((n, cfg.directions)))
+        self._cfg, self._weight, self._world, self._settled = (
+            cfg,
+            obj.mass * GRAVITY,
+            world,
+            settled,
+        )
+        self._rescore()
+
+    def __len__(self) -> int:
+        return len(self.width)
+
+    def _rescore(self) -> None:
+        # over the whole (N, K) array, as build_database always scored: NumPy's vectorised
+        # log1p may round an element differently in another position or array size
+        self.score = rejection_score(self.resisted_force, self._weight, self._cfg.score_clip)
+
+    def measure(self, grasps: np.ndarray, directions: np.ndarray) -> None:
+        """Measure the scores of ``grasps`` (indices into all N) along ``directions`` (indices
+        into K) that are not measured yet; grasps that hold nothing score zero already."""
+        directions = np.asarray(directions, dtype=int).reshape(-1)
+        max_force = self._cfg.score_clip * self._weight
+        changed = False
+        for g in np.asarray(grasps, dtype=int).reshape(-1):
+            missing = directions[np.isnan(self.resisted_force[g, directions])]
+            if not len(missing):
                 continue
-            pulls = np.array([T_wo[:3, :3] @ u for u in dirs])  # object frame → world
-            resisted.append(
-                pull_out_forces(world, 0, pulls, max_force, max_force / cfg.ramp_time, cfg.slip)
+            state, R_world_object = self._settled[g]
+            self._world.restore(state)
+            # object frame → world, one product per direction as ever (the same bits)
+            pulls = np.array([R_world_object @ u for u in self.directions[missing]])
+            self.resisted_force[g, missing] = pull_out_forces(
+                self._world, 0, pulls, max_force, max_force / self._cfg.ramp_time, self._cfg.slip
             )
-    n = len(poses)
-    resisted_arr = np.asarray(resisted, dtype=float).reshape(n, cfg.directions)
-    return GraspDatabase(
-        T_object_tcp=np.asarray(poses).reshape(n, 4, 4),
-        width=np.asarray(widths, dtype=float),
-        contact_force=np.asarray(forces, dtype=float),
-        held=np.asarray(held, dtype=bool),
-        resisted_force=resisted_arr,
-        score=rejection_score(resisted_arr, weight, cfg.score_clip),
-        directions=dirs,
-        candidates=tried,
-    )
+            changed = True
+        if changed:
+            self._rescore()
+
+    def score_along(self, query: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+        """`GraspDatabase.score_along`, measuring first what it reads of ``rows`` (indices
+        into the held grasps; all if None); the other held grasps' entries may be NaN."""
+        held = np.flatnonzero(self.held)
+        self.measure(
+            held if rows is None else held[rows], interpolation_support(self.directions, query)
+        )
+        return interpolate(self.score[self.held], self.directions, query)
+
+    def complete(self) -> GraspDatabase:
+        """The whole database, every score measured."""
+        self.measure(np.flatnonzero(self.held), np.arange(len(self.directions)))
+        return GraspDatabase(
+            T_object_tcp=self.T_object_tcp,
+            width=self.width,
+            contact_force=self.contact_force,
+            held=self.held,
+            resisted_force=self.resisted_force,
+            score=self.score,
+            directions=self.directions,
+            candidates=self.candidates,
+        )
 
 
 def database_key(obj: ObjectSpec, gripper: GripperSpec, cfg: DatabaseConfig, seed: int) -> str:

@@ -29,8 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from symgrasp.config import SceneConfig
-from symgrasp.data.directions import interpolate
-from symgrasp.data.grasp_db import GraspDatabase
+from symgrasp.data.grasp_db import GraspDatabase, OnDemandDatabase
 from symgrasp.data.labels import VoxelLabels, spread_poses, voxelise
 from symgrasp.objects.sets import ObjectSource, resolve
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, noisy_depth, orbit_extrinsic
@@ -93,21 +92,22 @@ def random_camera(cfg: SceneConfig, rng: np.random.Generator) -> np.ndarray:
 def scene_grasps(
     objects: list[ObjectSpec],
     poses: np.ndarray,
-    databases: list[GraspDatabase],
+    databases: list[GraspDatabase] | list[OnDemandDatabase],
     cfg: SceneConfig,
     hand: GripperSpec,
     rng: np.random.Generator,
 ) -> dict[str, np.ndarray]:
     """Every held database grasp moved into the scene, with its score along world gravity,
     and whether the open ``hand`` collides there (``collides``): arrays over all G grasps; and
-    the scene's surface samples that the check used (``points``, (P, 3) world frame)."""
-    T, score, width, owner = [], [], [], []
+    the scene's surface samples that the check used (``points``, (P, 3) world frame).
+
+    The scores are read after the collision check, naming the grasps it keeps: an
+    `OnDemandDatabase` measures only those (the others' scores may then be NaN)."""
+    T, width, owner = [], [], []
     points = []
     for i, (obj, T_wo, db) in enumerate(zip(objects, poses, databases, strict=True)):
         held = db.held
         T.append(T_wo @ db.T_object_tcp[held])
-        gravity = T_wo[:3, :3].T @ np.array([0.0, 0.0, -1.0])
-        score.append(interpolate(db.score[held], db.directions, gravity))
         width.append(db.width[held])
         owner.append(np.full(int(held.sum()), i))
         area = float(obj.mesh().area)
@@ -115,12 +115,21 @@ def scene_grasps(
         points.append(p @ T_wo[:3, :3].T + T_wo[:3, 3])
     T_all = np.concatenate(T).reshape(-1, 4, 4) if T else np.zeros((0, 4, 4))
     cloud = np.concatenate(points) if points else np.zeros((0, 3))
+    owner_all = np.concatenate(owner) if owner else np.zeros(0, dtype=int)
+    collides = hand_collides(T_all, hand, cloud, tolerance=-cfg.clearance)
+    score = [
+        db.score_along(
+            T_wo[:3, :3].T @ np.array([0.0, 0.0, -1.0]),  # world gravity in the object frame
+            np.flatnonzero(~collides[owner_all == i]),
+        )
+        for i, (T_wo, db) in enumerate(zip(poses, databases, strict=True))
+    ]
     return {
         "T_world_tcp": T_all,
         "score": np.concatenate(score) if score else np.zeros(0),
         "width": np.concatenate(width) if width else np.zeros(0),
-        "object": np.concatenate(owner) if owner else np.zeros(0, dtype=int),
-        "collides": hand_collides(T_all, hand, cloud, tolerance=-cfg.clearance),
+        "object": owner_all,
+        "collides": collides,
         "points": cloud,
     }
 

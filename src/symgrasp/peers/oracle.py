@@ -3,7 +3,7 @@ detector is read against (issue 36).
 
 In each declutter state it reads the simulator (``Observation.world``: which objects are on
 the table and their poses), takes each object's grasp database (`symgrasp.data.grasp_db`,
-cached, built on first use), moves the held grasps by the object's pose, scores them along
+built on first use), moves the held grasps by the object's pose, scores them along
 world gravity and drops those whose open hand hits the table or any object, exactly as a
 training scene is labelled (`symgrasp.data.scenes.scene_grasps`); grasps whose TCP lies outside
 the 40³ workspace are dropped too, as `symgrasp.data.labels.voxelise` drops them. What remains
@@ -12,8 +12,10 @@ grasps; the benchmark then plays them as any planner's (checked against the obse
 executed, failures diagnosed).
 
 The cost is the databases: every object a round draws is a new one (a mesh set's objects are
-scaled per draw, `symgrasp.objects.sets.VGN_SCALE`), ≈ 0.35 s per held grasp on the 2-core
-development machine (docs/data.md), so ``grasps`` sets the price of a round. The defaults are
+scaled per draw, `symgrasp.objects.sets.VGN_SCALE`), so they are `OnDemandDatabase`s kept in
+memory: closed at once, each grasp scored only along the directions a state reads and only once
+it survives the collision check, the same scores `build_database` gives, bit for bit
+(docs/data.md, "Scoring what is read"); ``grasps`` sets the price of a round. The defaults are
 the databases the shipped models were trained on (`symgrasp.config.TRAINING_DATABASE`).
 """
 
@@ -22,47 +24,24 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import os
-import stat
-from pathlib import Path
+from collections import OrderedDict
 
 import numpy as np
 
 from symgrasp.config import TRAINING_DATABASE, DatabaseConfig, SceneConfig
-from symgrasp.data.grasp_db import GraspDatabase, cached_database, database_path
+from symgrasp.data.grasp_db import OnDemandDatabase, database_key
 from symgrasp.data.labels import voxel_of
 from symgrasp.data.scenes import scene_grasps
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.planner import Observation
 from symgrasp.names import ORACLE, ORACLE_GRIPPER
-from symgrasp.objects.folder import data_folder, user_folder
 from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.sim.objects import ObjectSpec
 from symgrasp.workspace import RESOLUTION
 
-CACHE = Path("cache") / "grasp_db"
-"""Where the oracle's databases are cached, under the data folder, else the per-user folder."""
-
-
-def cache_folder() -> Path:
-    """The first of ``<data folder>/cache/grasp_db`` and ``<user folder>/cache/grasp_db`` that
-    may be written (`writable`), made if missing: the data folder may be read-only."""
-    for folder in dict.fromkeys((data_folder() / CACHE, user_folder() / CACHE)):
-        if writable(folder):
-            folder.mkdir(parents=True, exist_ok=True)
-            return folder
-    raise ValueError(
-        f"no grasp database cache can be written at {data_folder() / CACHE} or "
-        f"{user_folder() / CACHE}; name one (cache=…)"
-    )
-
-
-def writable(folder: Path) -> bool:
-    """Whether ``folder``, or its nearest existing ancestor where it is to be made, may be
-    written: by this process (`os.access`) and by its owner's mode bits, so that a folder
-    marked read-only stays so for root too, whom `os.access` never refuses."""
-    existing = next(p for p in (folder, *folder.parents) if p.exists())
-    return os.access(existing, os.W_OK) and bool(existing.stat().st_mode & stat.S_IWUSR)
+KEEP = 16
+"""Databases the oracle keeps in memory (the most recently read): more than a scene's objects,
+so the objects of a round are closed once; a new round's objects are new ones."""
 
 
 class OraclePlanner:
@@ -73,12 +52,11 @@ class OraclePlanner:
         grasps: held grasps per object database (`DatabaseConfig.grasps`; default the
             training data's, `symgrasp.config.TRAINING_DATABASE`).
         directions: disturbance directions K of the score (`DatabaseConfig.directions`).
-        cache: folder of the databases (default `cache_folder`); not part of what the oracle
-            is, so not recorded in its ``version`` (the SHA-256 of its database configuration,
-            clearance, surface spacing and seed: a benchmark resumed with other databases is
-            refused).
         seed: seed of each database's sampling and of the surface samples of the collision
             check.
+
+    ``version`` is the SHA-256 of its database configuration, clearance, surface spacing and
+    seed: a benchmark resumed with other databases is refused.
     """
 
     name = ORACLE
@@ -89,13 +67,11 @@ class OraclePlanner:
         *,
         grasps: int = TRAINING_DATABASE.grasps,
         directions: int = TRAINING_DATABASE.directions,
-        cache: str | Path | None = None,
         seed: int = 0,
     ) -> None:
         self.gripper = gripper if isinstance(gripper, GripperSpec) else get_gripper(gripper)
         self.database = DatabaseConfig(grasps=int(grasps), directions=int(directions))
         self.labelling = SceneConfig(database=self.database)
-        self.cache = None if cache is None else Path(cache)
         self.seed = int(seed)
         record = {
             "database": dataclasses.asdict(self.database),
@@ -104,7 +80,7 @@ class OraclePlanner:
             "seed": self.seed,
         }
         self.version = hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()
-        self._databases: dict[Path, GraspDatabase] = {}
+        self._databases: OrderedDict[str, OnDemandDatabase] = OrderedDict()
 
     def __repr__(self) -> str:
         return (
@@ -112,15 +88,15 @@ class OraclePlanner:
             f"directions={self.database.directions})"
         )
 
-    def database_of(self, obj: ObjectSpec) -> GraspDatabase:
-        """``obj``'s database for the hand: from memory, the cache, or built now."""
-        folder = self.cache or cache_folder()
-        path = database_path(folder, obj, self.gripper, self.database, self.seed)
-        if path not in self._databases:
-            self._databases[path] = cached_database(
-                obj, self.gripper, folder, self.database, self.seed
-            )
-        return self._databases[path]
+    def database_of(self, obj: ObjectSpec) -> OnDemandDatabase:
+        """``obj``'s database for the hand, closed on first use and scored as read."""
+        key = database_key(obj, self.gripper, self.database, self.seed)
+        if key not in self._databases:
+            self._databases[key] = OnDemandDatabase(obj, self.gripper, self.database, self.seed)
+            while len(self._databases) > KEEP:
+                self._databases.popitem(last=False)
+        self._databases.move_to_end(key)
+        return self._databases[key]
 
     def plan(self, observation: Observation) -> list[Grasp]:
         """The collision-free database grasps of the objects on the table now, best score
