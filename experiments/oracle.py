@@ -10,8 +10,9 @@ experiments/results/oracle.{json,md} and docs/results.md ("The ceiling").
   --oracle-grasps G``; `symgrasp.peers.oracle`): per hand, ``vgn-pile-test`` (pile),
   ``vgn-packed-test`` (packed) and ``large-box`` (pile), round seeds 0…, 5 objects, failure
   diagnosis on, each in ``--out/HAND/oracle-gG[-kK]/OBJECTS[-packed]`` (a finished cell is read,
-  an unfinished one resumed). Every drawn object needs its own database (≈ 10 s at 150 grasps
-  on the 2-core development machine), so a cell of 100 rounds takes about an hour and a half.
+  an unfinished one resumed). Every drawn object needs its own database, scored on demand
+  (`symgrasp.data.grasp_db.OnDemandDatabase`), so a pile round takes ≈ 15–20 s and a cell of 100
+  rounds ≈ 30 min on one core of the 2-core development machine.
 - **The baseline**: the shipped ``bingham2d-HAND`` on the same rounds, Table 1's cell of its
   training seed read from ``--baselines`` (``mkdir -p out/bench/table && tar xzf
   experiments/results/declutter_rounds.tar.gz -C out/bench/table``), else played into
@@ -20,7 +21,7 @@ experiments/results/oracle.{json,md} and docs/results.md ("The ceiling").
   the rounds it has: a preliminary ceiling, marked so), its SR and CR with 95 % bootstrap
   intervals, the baseline's on the same rounds and oracle − baseline paired round by round
   (`symgrasp.benchmark.compare`), how each one's rounds ended (`end_cause`), the oracle's failure
-  modes and its planning seconds per round (the databases built in it included).
+  modes and its planning seconds per round (the databases made in it included).
 
 ``--quick``: one round of 2 objects on the large box with the Franka hand and databases of 10
 grasps and 4 directions, its baseline played.
