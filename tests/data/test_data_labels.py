@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from symgrasp.config import DatabaseConfig, SceneConfig
 from symgrasp.data.generate import config_from_dict
-from symgrasp.data.grasp_db import build_database
+from symgrasp.data.grasp_db import OnDemandDatabase, build_database
 from symgrasp.data.labels import (
     added_voxels,
     spread_poses,
@@ -196,6 +196,23 @@ def test_the_default_labels_are_todays_to_the_byte(tiny):
     assert np.array_equal(record["voxel_index"], today.voxel_index.astype(np.int16))
     assert record["voxel_rotations"].tobytes() == today.rotations.tobytes()
     assert record["voxel_score"].tobytes() == today.score.tobytes()
+
+
+def test_a_scene_labelled_from_databases_scored_on_demand_is_the_same_scene(tiny):
+    """The same labels, survivor by survivor, from databases that measure only what the scene
+    reads: the collision check first, then the survivors' scores along gravity."""
+    cfg, pool, databases = tiny
+    whole, _ = labelled_scene(0, cfg, FRANKA, pool, databases)
+    lazy_dbs = [
+        OnDemandDatabase(o, FRANKA, cfg.database, seed=k) for k, o in enumerate(pool.objects)
+    ]
+    lazy, _ = labelled_scene(0, cfg, FRANKA, pool, lazy_dbs)
+    ok = whole.survivors
+    assert np.array_equal(lazy.survivors, ok) and ok.any()
+    assert np.array_equal(lazy.grasps["score"][ok], whole.grasps["score"][ok])
+    assert np.isnan(lazy.grasps["score"][~ok]).all()  # read nowhere, so never measured
+    for field in dataclasses.fields(whole.labels):
+        assert np.array_equal(getattr(lazy.labels, field.name), getattr(whole.labels, field.name))
 
 
 def test_spread_scene_labels_pass_the_collision_check_and_keep_todays(tiny):
