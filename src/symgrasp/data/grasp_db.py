@@ -275,12 +275,10 @@ class OnDemandDatabase:
         self.directions = fibonacci_directions(cfg.directions)
         self.candidates = tried
         self.resisted_force = np.where(self.held[:, None], np.nan, np.zeros((n, cfg.directions)))
-        self._cfg, self._weight, self._world, self._settled = (
-            cfg,
-            obj.mass * GRAVITY,
-            world,
-            settled,
-        )
+        self._cfg = cfg
+        self._weight = obj.mass * GRAVITY
+        self._world = world
+        self._settled = settled  # (snapshot, R_world_object) of each held grasp, else None
         self._rescore()
 
     def __len__(self) -> int:
