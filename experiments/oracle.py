@@ -15,8 +15,9 @@ experiments/results/oracle.{json,md} and docs/results.md ("The ceiling").
   rounds ≈ 30 min on one core of the 2-core development machine.
 - **The baseline**: the shipped ``bingham2d-HAND`` on the same rounds, Table 1's cell of its
   training seed read from ``--baselines`` (``mkdir -p out/bench/table && tar xzf
-  experiments/results/declutter_rounds.tar.gz -C out/bench/table``), else played into
-  ``--out/HAND/bingham2d/OBJECTS[-packed]``.
+  experiments/results/declutter_rounds.tar.gz -C out/bench/table``), else played with the
+  oracle's cell into ``--out/HAND/bingham2d/OBJECTS[-packed]`` (Table 1 has no Robotiq packed
+  cell); collating plays nothing.
 - **The table**: per cell, the rounds the oracle finished (an unfinished cell is collated on
   the rounds it has: a preliminary ceiling, marked so), its SR and CR with 95 % bootstrap
   intervals, the baseline's on the same rounds and oracle − baseline paired round by round
@@ -149,7 +150,7 @@ def collate(args: argparse.Namespace, cells: list[tuple[str, str, str]]) -> list
         cell["oracle_planning_s_per_round"] = {
             "median": float(np.median(planning)), "max": float(np.max(planning)),
         }  # fmt: skip
-        base, source = baseline_rounds(BASELINE, hand, objects, scene, args, play=args.quick)
+        base, source = baseline_rounds(BASELINE, hand, objects, scene, args, play=False)
         if base is not None:
             ours, theirs = common_rounds(rounds, base)
             cell["baseline"] = {
@@ -241,6 +242,7 @@ def main() -> None:
             run_or_reuse(
                 oracle_config(hand, objects, scene, args), folder, parallel_from_args(args)
             )
+            baseline_rounds(BASELINE, hand, objects, scene, args, play=True)  # if not Table 1's
     if args.play_only:
         return
     collated = collate(args, cells)
