@@ -58,10 +58,18 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from common import PAPER_HAND, SHIPPED, add_result_option, wilson
+from common import (
+    GAP_TARGET,
+    PAPER_HAND,
+    SHIPPED,
+    add_result_option,
+    percent_mean,
+    sensing_gap,
+    verdict,
+    wilson,
+)
 
 from symgrasp.atomic import read_json
-from symgrasp.benchmark.compare import paired_change
 from symgrasp.benchmark.declutter import NONE_FOUND
 from symgrasp.benchmark.runner import MODEL_SHA, read_rounds, recorded_config, summarise
 from symgrasp.benchmark.seeds import common_rounds, seed_contrast, seed_lead, seed_ratios
@@ -82,8 +90,6 @@ CONDITIONS = {
 """What the cameras saw in each set of a run's rounds: `BenchmarkConfig`'s sensing fields."""
 BASELINE = "today"
 """The arm every other one is compared with: today's labels and images."""
-GAP_TARGET = 0.03
-"""Issue 39: under noise and the side view, SR and CR within 3 points of the clean numbers."""
 NONE_FOUND_TARGET = 0.10
 """Issue 36: at most 10 % of the rounds ended because no grasp was found."""
 
@@ -188,18 +194,6 @@ def ended_none_found(rounds: list[dict]) -> int:
                and r["attempts"][-1]["outcome"] == NONE_FOUND)  # fmt: skip
 
 
-def verdict(
-    low: float, high: float, lowest: float = -float("inf"), highest: float = float("inf")
-) -> str:
-    """Whether an interval [low, high] meets a target range [lowest, highest]: ``met`` when it
-    lies inside, ``missed`` when it lies outside, ``undecided`` when it straddles a bound."""
-    if lowest <= low and high <= highest:
-        return "met"
-    if high < lowest or low > highest:
-        return "missed"
-    return "undecided"
-
-
 def arm_cell(rounds: dict, arm: str, condition: str) -> dict[str, Any]:
     """One arm in one condition: the seeds played, SR and CR over them (`seed_ratios`), each
     seed's summary, and the rounds ``none_found`` ended against `NONE_FOUND_TARGET`."""
@@ -263,33 +257,18 @@ def effects(rounds: dict, condition: str) -> list[dict[str, Any]]:
 
 
 def gap(rounds: dict, arm: str) -> dict[str, Any] | None:
-    """``noise-side`` − ``clean`` of ``arm``'s runs that played both, on the rounds each of them
-    finished in both: the change of the means over seeds with one draw of training seeds for
-    both conditions (`seed_contrast`), each seed's own paired change (`paired_change`), and
-    issue 39's target (`GAP_TARGET`); None when no run played both."""
+    """``noise-side`` − ``clean`` of ``arm``'s runs that played both (`sensing_gap`: the change
+    of the means over seeds, each seed's own paired change, issue 39's target); None when no
+    run played both."""
     seeds = sorted(set(arm_runs(rounds, arm, "clean")) & set(arm_runs(rounds, arm, "noise-side")))
     if not seeds:
         return None
     noisy = list(arm_runs(rounds, arm, "noise-side", seeds).values())
     clean = list(arm_runs(rounds, arm, "clean", seeds).values())
-    shared = common_rounds(*noisy, *clean)
-    change = seed_contrast(
-        [shared[: len(seeds)], shared[len(seeds) :]], [1.0, -1.0], trained=[0, 0]
-    )
-    per_seed = {str(s): paired_change(*common_rounds(a, b))
-                for s, a, b in zip(seeds, noisy, clean, strict=True)}  # fmt: skip
-    targets = [
-        verdict(*change[name][1:], lowest=-GAP_TARGET) for name in ("success_ratio", "clear_ratio")
-    ]
-    target = "missed" if "missed" in targets else "met" if targets == ["met"] * 2 else "undecided"
-    return {"arm": arm, "seeds": seeds, "rounds": len(shared[0]), "change": change,
-            "per_seed": per_seed, "target": target}  # fmt: skip
-
-
-def _percent(ratios: list[float]) -> str:
-    """``mean [low, high]`` in percent."""
-    mean, low, high = (100 * v for v in ratios)
-    return f"{mean:.1f} [{low:.1f}, {high:.1f}]"
+    found = sensing_gap(noisy, clean)
+    return {"arm": arm, "seeds": seeds, "rounds": found["rounds"], "change": found["change"],
+            "per_seed": dict(zip(map(str, seeds), found["per_run"], strict=True)),
+            "target": found["target"]}  # fmt: skip
 
 
 def _signed(change: list[float]) -> str:
@@ -322,7 +301,7 @@ def markdown(cells: list[dict], effects_: list[dict], gaps: list[dict], runs: li
         for name in ("success_ratio", "clear_ratio"):
             each = " / ".join(f"{100 * c['per_seed'][str(s)][name]:.1f}" if str(s) in c["per_seed"]
                               else "–" for s in seeds)  # fmt: skip
-            values.append(f"{_percent(c['ratios'][name])} ({each})")
+            values.append(f"{percent_mean(c['ratios'][name])} ({each})")
         n = c["none_found"]
         low, high = n["ci95"]
         values.append(f"{n['rounds']} of {n['of']} ({100 * n['share']:.1f} %) [{100 * low:.1f}, "

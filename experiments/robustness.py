@@ -1,36 +1,49 @@
-"""The shipped detectors under the field's observations: depth noise, GIGA's side view, both, and
-VGN's six views, each paired with today's clean fixed view on the same rounds →
+"""Detectors under the field's observations: depth noise, GIGA's side view, both, and VGN's six
+views, each paired with today's clean fixed view on the same rounds →
 experiments/results/robustness.{json,md} and docs/results.md (between its robustness markers).
 
     SYMGRASP_DATA=DIR PYTHONPATH=src python experiments/robustness.py [--out out/bench/robustness] \\
         [--baselines out/bench/table] [--models M ...] [--sets OBJECTS:SCENE ...] \\
-        [--conditions C ...] [--rounds 100] [--workers 1] [--play-only | --collate-only] \\
-        [--quick [DIR]]
+        [--conditions C ...] [--rounds 100] [--first-seed 0] [--workers 1] \\
+        [--play-only | --collate-only] [--quick [DIR]]
 
-- **Cells**: each shipped model of ``--models`` (default the ``bingham2d`` and ``rotmat6d`` of
-  both hands) on each set of ``--sets`` (default ``vgn-pile-test`` as a pile and
-  ``vgn-packed-test`` packed), ``--rounds`` rounds of 5 objects from round seed 0 with failure
-  diagnosis: Table 1's rounds.
+- **Cells**: each model of ``--models`` (default the shipped ``bingham2d`` and ``rotmat6d`` of
+  both hands; a training run's checkpoint file is a model too) on each set of ``--sets``
+  (default ``vgn-pile-test`` as a pile and ``vgn-packed-test`` packed), ``--rounds`` rounds of 5
+  objects from round seed ``--first-seed`` with failure diagnosis: Table 1's rounds by default
+  (0–99), those no choice was made on with ``--first-seed 100``.
 - **Conditions** (`CONDITIONS`, ``symgrasp bench declutter --noise --view --views``;
   docs/benchmark.md, "Sensing"): ``clean`` (one noiseless image from the fixed camera: Table
   1's), ``noise`` (the ``dex`` depth noise), ``side`` (GIGA's side view), ``noise-side``
   (both: GIGA's published setting), ``circle6`` (VGN's six views, noiseless). Each condition
-  of a cell plays into ``--out/HAND/REP/OBJECTS[-packed]/CONDITION`` (a finished one is read,
-  an unfinished one resumed).
-- **Clean rounds reused**: a shipped model replays the Table 1 cell of its training seed round
-  for round (tests/benchmark/test_benchmark_shipped_replay.py), so its clean rounds are that
-  cell's in ``--baselines`` (the Table 1 rounds unpacked: ``mkdir -p out/bench/table && tar
-  xzf experiments/results/declutter_rounds.tar.gz -C out/bench/table``) when it recorded the
-  same configuration but the model file; otherwise (Table 1 has no Robotiq packed cell) they are
-  played into ``--out/…/clean``.
+  of a cell plays into ``--out/HAND/REP/OBJECTS[-packed]/CONDITION`` for a shipped model and
+  ``--out/HAND/REP/sSEED/OBJECTS[-packed]/CONDITION`` for a checkpoint of training seed SEED
+  (`symgrasp.benchmark.cells`' layout; ``OBJECTS…-first-seed-F`` from another first round seed
+  F), a finished one read, an unfinished one resumed.
+- **Clean rounds reused**: a model's clean rounds are its Table 1 cell's in ``--baselines``
+  (the cell of its hand, representation and training seed, `symgrasp.benchmark.cells`) when
+  that cell recorded the same configuration but the model file: a shipped model replays the
+  cell of its training run round for round (tests/benchmark/test_benchmark_shipped_replay.py),
+  so for the shipped models ``--baselines`` is Table 1's rounds unpacked (``mkdir -p
+  out/bench/table && tar xzf experiments/results/declutter_rounds.tar.gz -C out/bench/table``),
+  for a campaign's runs the folder its table played them into. Otherwise (Table 1 has no
+  Robotiq packed cell) they are played into ``--out/…/clean``.
 - **The table**: per cell and condition, SR and CR with 95 % bootstrap intervals over rounds,
   the paired change from clean on the rounds both finished (`symgrasp.benchmark.compare`), the
   share of executed grasps whose hand hit something at the pre-grasp or on the way in, and the
   rounds that ended because no grasp was found.
+- **Over training seeds**: where ``--models`` holds checkpoints of two or more training seeds of
+  one hand and representation, a second table gives, per set and condition, SR and CR as the
+  mean over those seeds with an interval over seeds and rounds (`symgrasp.benchmark.seeds`),
+  the change from clean of the same runs on the same rounds against issue 39's target (within
+  3 points: `common.sensing_gap`), and, under noise from the side view on VGN's scenes, the
+  single-view VGN that GIGA published (``declutter_table.PUBLISHED``), which issue 39 asks to
+  beat.
 
 A campaign plays each condition of each cell in a step of one core (``--play-only --models M
 --sets S --conditions C``) and collates at the end (``--collate-only``;
-experiments/campaigns/robustness.toml). ``--quick``: one round of 2 household-test objects with
+experiments/campaigns/robustness.toml for the shipped models, retrain_cells.toml for the
+retrained ones). ``--quick``: one round of 2 household-test objects with
 the shipped Robotiq model in every condition, its clean rounds played, a copy of the page
 updated.
 """
@@ -41,7 +54,9 @@ import argparse
 import dataclasses
 import json
 import os
+import shlex
 import shutil
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -50,16 +65,21 @@ from common import (
     add_mode_options,
     add_result_option,
     add_table1_options,
+    percent_mean,
+    sensing_gap,
     table1_rounds,
     update_page,
+    verdict,
 )
+from declutter_table import PUBLISHED
 
-from symgrasp.benchmark.cells import objects_folder
+from symgrasp.benchmark.cells import Cell, objects_folder
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import percent_with_interval, run_or_reuse, saved_rounds, summarise
-from symgrasp.benchmark.seeds import common_rounds
+from symgrasp.benchmark.seeds import common_rounds, seed_ratios
 from symgrasp.config import BenchmarkConfig
-from symgrasp.detect.pretrained import trained_for
+from symgrasp.detect.pretrained import resolve_model
+from symgrasp.model.checkpoint import load_checkpoint, trained_gripper
 from symgrasp.names import PRETRAINED
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 from symgrasp.scripts import cpu_model, parse_args, run_main, write_result
@@ -83,6 +103,49 @@ COLLISIONS = ("pregrasp_collision", "approach_collision")
 """Outcomes of a hand that hit something before it closed (`symgrasp.sim.execute.Outcome`)."""
 BEGIN, END = "<!-- robustness-table: begin -->", "<!-- robustness-table: end -->"
 """The markers of ``--docs`` between which the table goes."""
+FIELD = "noise-side"
+"""The condition of the field's published single-view numbers (GIGA's Table I)."""
+FIELD_PEER = "VGN (single view)"
+"""The published detector issue 39 asks the trained detectors to beat on VGN's scenes."""
+FIELD_SETS = {("vgn-pile-test", "pile"), ("vgn-packed-test", "packed")}
+"""The sets those numbers were measured on: VGN's test scenes."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Model:
+    """A detector of ``--models``: a shipped model's name or a checkpoint file, and what its
+    checkpoint says it is."""
+
+    name: str
+    """As given: a shipped name, or the checkpoint's resolved path."""
+    hand: str
+    rep: str
+    seed: int
+    """Its training seed."""
+
+    @property
+    def shipped(self) -> bool:
+        return self.name in PRETRAINED
+
+    @property
+    def label(self) -> str:
+        """The shipped name, or the run's folder name (and the file, unless ``best.pt``)."""
+        if self.shipped:
+            return self.name
+        path = Path(self.name)
+        return path.parent.name + ("" if path.name == "best.pt" else f"/{path.name}")
+
+
+def parse_model(text: str) -> Model:
+    """A shipped model's name or a checkpoint file → `Model`."""
+    try:
+        path = resolve_model(text)
+        state = load_checkpoint(path)
+    except (ValueError, OSError, KeyError) as error:
+        raise argparse.ArgumentTypeError(f"--models: {error}") from None
+    name = text if text in PRETRAINED and not Path(text).is_file() else str(path.resolve())
+    return Model(name, trained_gripper(state).name, state["representation"],
+                 int(state["config"]["seed"]))  # fmt: skip
 
 
 def parse_set(text: str) -> tuple[str, str]:
@@ -94,31 +157,39 @@ def parse_set(text: str) -> tuple[str, str]:
 
 
 def config(
-    model: str, objects: str, scene: str, condition: str, args: argparse.Namespace
+    model: Model, objects: str, scene: str, condition: str, args: argparse.Namespace
 ) -> BenchmarkConfig:
     """The benchmark of ``model`` on the cell's rounds in ``condition``."""
-    return BenchmarkConfig(model=model, objects=objects, scene=scene, rounds=args.rounds,
-                           num_objects=args.num_objects, **CONDITIONS[condition])  # fmt: skip
+    return BenchmarkConfig(model=model.name, objects=objects, scene=scene, rounds=args.rounds,
+                           seed=args.first_seed, num_objects=args.num_objects,
+                           **CONDITIONS[condition])  # fmt: skip
 
 
-def folder(model: str, objects: str, scene: str, condition: str, args: argparse.Namespace) -> Path:
-    """Where a condition of a cell plays: ``--out/HAND/REP/OBJECTS[-packed]/CONDITION``."""
-    rep, hand = trained_for(model)
-    return args.out / hand.name / rep / objects_folder(objects, scene) / condition
+def folder(
+    model: Model, objects: str, scene: str, condition: str, args: argparse.Namespace
+) -> Path:
+    """Where a condition of a cell plays (module docstring)."""
+    if model.shipped:
+        last = objects_folder(objects, scene)
+        if args.first_seed:
+            last += f"-first-seed-{args.first_seed}"
+        return args.out / model.hand / model.rep / last / condition
+    cell = Cell(model.hand, model.rep, model.seed, objects, scene, first_seed=args.first_seed)
+    return cell.folder(args.out) / condition
 
 
-def clean_rounds(model: str, objects: str, scene: str, args: argparse.Namespace) -> tuple:
-    """The clean rounds of the shipped ``model`` from the Table 1 cell of its training seed in
-    ``--baselines`` and that folder, when the cell recorded the clean configuration (but the
-    model file, a training run's, which the shipped model replays) and holds every round; else
-    (None, its folder)."""
+def clean_rounds(model: Model, objects: str, scene: str, args: argparse.Namespace) -> tuple:
+    """The clean rounds of ``model`` from its Table 1 cell in ``--baselines`` and that folder,
+    when the cell recorded the clean configuration (but the model file) and holds every round;
+    else (None, its folder)."""
     wanted = json.loads(json.dumps(dataclasses.asdict(config(model, objects, scene, CLEAN, args))))
     ignored = ("model", "rounds", "pictures")
     agree = {k: v for k, v in wanted.items() if k not in ignored}
-    return table1_rounds(model, objects, scene, args.baselines, args.rounds, agree)
+    return table1_rounds(model.name, objects, scene, args.baselines, args.rounds, agree,
+                         first_seed=args.first_seed)  # fmt: skip
 
 
-def rounds_of(model: str, objects: str, scene: str, condition: str, args: argparse.Namespace,
+def rounds_of(model: Model, objects: str, scene: str, condition: str, args: argparse.Namespace,
               play: bool) -> tuple[list[dict[str, Any]] | None, Path]:  # fmt: skip
     """A condition's rounds and where they are (clean: Table 1's when it holds them); played
     or resumed when ``play``, else None when not all there."""
@@ -151,24 +222,76 @@ def counts(rounds: list[dict[str, Any]]) -> dict[str, Any]:
     }  # fmt: skip
 
 
-def collate(args: argparse.Namespace) -> list[dict[str, Any]]:
-    """Every cell and condition: its numbers, or that it is waiting."""
-    cells = []
+def collate(args: argparse.Namespace) -> tuple[list[dict[str, Any]], dict]:
+    """Every cell and condition: its numbers, or that it is waiting; and the rounds found, by
+    (model, objects, scene, condition)."""
+    cells, found = [], {}
     for model in args.models:
         for objects, scene in args.sets:
             clean, _ = rounds_of(model, objects, scene, CLEAN, args, play=False)
             for condition in args.conditions:
                 rounds, where = rounds_of(model, objects, scene, condition, args, play=False)
-                cell = {"model": model, "objects": objects, "scene": scene,
+                cell = {"model": model.label, "hand": model.hand, "rep": model.rep,
+                        "training_seed": model.seed, "objects": objects, "scene": scene,
                         "condition": condition, **CONDITIONS[condition], "source": str(where)}  # fmt: skip
                 if rounds is None:
                     cells.append({**cell, "waiting": True})
                     continue
+                found[model, objects, scene, condition] = rounds
                 cell.update(counts(rounds))
                 if clean is not None and condition != CLEAN:
                     cell["minus_clean"] = paired(rounds, clean)
                 cells.append(cell)
-    return cells
+    return cells, found
+
+
+def over_seeds(found: dict, args: argparse.Namespace) -> list[dict[str, Any]]:
+    """Per hand and representation with checkpoints of two or more training seeds in
+    ``--models``, per set and condition that all of them played: SR and CR as the mean over the
+    seeds (`seed_ratios`), the change from clean (`sensing_gap`) and, under `FIELD` on VGN's
+    scenes, the published `FIELD_PEER` with whether the interval lies above it."""
+    groups: dict[tuple[str, str], list[Model]] = {}
+    for model in args.models:
+        if not model.shipped:
+            groups.setdefault((model.hand, model.rep), []).append(model)
+    rows = []
+    for (hand, rep), models in groups.items():
+        if len({m.seed for m in models}) < 2:
+            continue
+        for objects, scene in args.sets:
+            clean = [found.get((m, objects, scene, CLEAN)) for m in models]
+            for condition in args.conditions:
+                runs = [found.get((m, objects, scene, condition)) for m in models]
+                row: dict[str, Any] = {"hand": hand, "rep": rep, "objects": objects,
+                                       "scene": scene, "condition": condition,
+                                       "runs": [m.label for m in models],
+                                       "seeds": [m.seed for m in models]}  # fmt: skip
+                if any(r is None for r in runs):
+                    rows.append({**row, "waiting": True})
+                    continue
+                shared = common_rounds(*runs)
+                row["rounds"] = len(shared[0])
+                row["ratios"] = seed_ratios(shared)
+                if condition != CLEAN and all(c is not None for c in clean):
+                    row["minus_clean"] = sensing_gap(runs, clean)
+                if condition == FIELD and (objects, scene) in FIELD_SETS:
+                    row["published"] = published(row["ratios"], scene)
+                rows.append(row)
+    return rows
+
+
+def published(ratios: dict[str, list[float]], scene: str) -> dict[str, Any]:
+    """`FIELD_PEER`'s published SR and CR on VGN's ``scene`` (mean ± SD, percent) and whether
+    ``ratios``' intervals lie above its means (`verdict`)."""
+    numbers = next(p for name, p, _ in PUBLISHED if name == FIELD_PEER)[scene]
+    result: dict[str, Any] = {
+        "peer": FIELD_PEER,
+        "source": "GIGA (Jiang et al., RSS 2021), Table I",
+    }
+    for name, text in zip(("success_ratio", "clear_ratio"), numbers, strict=True):
+        mean = float(text.split()[0]) / 100
+        result[name] = {"published": text, "above": verdict(*ratios[name][1:], lowest=mean)}
+    return result
 
 
 def paired(rounds: list[dict[str, Any]], clean: list[dict[str, Any]]) -> dict[str, Any]:
@@ -200,14 +323,45 @@ def table(cells: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def seeds_table(rows: list[dict[str, Any]]) -> str:
+    """Markdown: one row per hand, representation, set and condition over training seeds."""
+    if not rows:
+        return ""
+    lines = ["| hand | rep (training seeds) | objects (scene) | condition | SR % [95 %, seeds and "
+             "rounds] | CR % | SR − clean | CR − clean | within 3 points | "
+             f"{FIELD_PEER}, published SR / CR (above?) |", "|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    for r in rows:
+        where = (f"| {r['hand']} | `{r['rep']}` ({' / '.join(map(str, r['seeds']))}) | "
+                 f"{r['objects']} ({r['scene']}) | {r['condition']} |")  # fmt: skip
+        if r.get("waiting"):
+            lines.append(where + " waiting |" + " |" * 5)
+            continue
+        gap = r.get("minus_clean")
+        peer = r.get("published")
+        lines.append(
+            f"{where} {percent_mean(r['ratios']['success_ratio'])} | "
+            f"{percent_mean(r['ratios']['clear_ratio'])} | "
+            + (f"{percent_change(gap['change']['success_ratio'])} | "
+               f"{percent_change(gap['change']['clear_ratio'])} | {gap['target']} |"
+               if gap else "– | – | – |")
+            + (f" {peer['success_ratio']['published']} ({peer['success_ratio']['above']}) / "
+               f"{peer['clear_ratio']['published']} ({peer['clear_ratio']['above']}) |"
+               if peer else " – |")
+        )  # fmt: skip
+    return "\n".join(lines) + "\n"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/bench/robustness"),
                         help="where the conditions (and clean rounds not in --baselines) are "
                         "played (default: %(default)s)")  # fmt: skip
     add_table1_options(parser, baselines=": the clean rounds")
-    parser.add_argument("--models", nargs="+", choices=PRETRAINED, default=list(MODELS),
-                        help="shipped models (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--models", nargs="+", default=list(MODELS), metavar="MODEL",
+                        help="shipped models (" + ", ".join(PRETRAINED) + ") or checkpoint "
+                        "files, e.g. a training run's best.pt: the checkpoints of several "
+                        "training seeds of one hand and representation are also collated over "
+                        "those seeds (default: %(default)s)")  # fmt: skip
     parser.add_argument("--sets", nargs="+", type=parse_set, default=[parse_set(s) for s in SETS],
                         metavar="OBJECTS:SCENE",
                         help="object sets and their scene (default: " + " ".join(SETS) + ")")  # fmt: skip
@@ -215,6 +369,9 @@ def main() -> None:
                         default=list(CONDITIONS),
                         help="what the cameras see (default: all: %(choices)s; clean is "
                         "always collated, the others' pairing)")  # fmt: skip
+    parser.add_argument("--first-seed", type=int, default=0,
+                        help="round seed of each cell's first round (default: %(default)s, "
+                        "Table 1's rounds; 100: rounds no choice was made on)")  # fmt: skip
     add_mode_options(parser, "play the conditions, write no result",
                      "play nothing: collate what is there, list what is missing")  # fmt: skip
     parser.add_argument("--docs", type=Path, default=Path("docs/results.md"),
@@ -228,6 +385,12 @@ def main() -> None:
                       also="a copy of the page")  # fmt: skip
     if args.quick:  # the page's copy, so that its markers are still checked
         shutil.copyfile(parser.get_default("docs"), args.docs)
+    if args.first_seed < 0:
+        parser.error(f"--first-seed: expected a round seed ≥ 0, got {args.first_seed}")
+    try:
+        args.models = list(dict.fromkeys(parse_model(m) for m in args.models))
+    except argparse.ArgumentTypeError as error:
+        parser.error(str(error))
     if not args.play_only and CLEAN not in args.conditions:
         args.conditions = [CLEAN, *args.conditions]
 
@@ -235,26 +398,33 @@ def main() -> None:
         for model in args.models:
             for objects, scene in args.sets:
                 for condition in args.conditions:
-                    print(f"{model} on {objects} ({scene}), {condition}")
+                    print(f"{model.label} on {objects} ({scene}), {condition}")
                     rounds_of(model, objects, scene, condition, args, play=True)
     if args.play_only:
         return
-    cells = collate(args)
-    text = table(cells)
+    cells, found = collate(args)
+    rows = over_seeds(found, args)
+    text = table(cells) + ("\nOver training seeds (change from clean: the same runs on the same "
+                           "rounds; within 3 points is issue 39's target):\n\n" + seeds_table(rows)
+                           if rows else "")  # fmt: skip
     print(text, end="")
+    command = shlex.join(["SYMGRASP_DATA=../shared", "PYTHONPATH=src", "python",
+                          "experiments/robustness.py", *sys.argv[1:]])  # fmt: skip
     load = os.getloadavg()[0]
-    update_page(args.docs, BEGIN, END, f"{args.rounds} rounds a cell, collated by `SYMGRASP_DATA=../shared "
-                f"PYTHONPATH=src python experiments/robustness.py` ({cpu_model()}, load "
-                f"{load:.1f}; a round's outcomes do not depend on the load: each is a pure "
-                "function of its seed):\n\n" + text)  # fmt: skip
+    first, last = args.first_seed, args.first_seed + args.rounds - 1
+    update_page(args.docs, BEGIN, END, f"{args.rounds} rounds a cell (round seeds {first}–{last}), "
+                f"collated by `{command}` ({cpu_model()}, load {load:.1f}; a round's outcomes do "
+                "not depend on the load: each is a pure function of its seed):\n\n" + text)  # fmt: skip
     write_result(
         args.result,
-        "The shipped detectors under depth noise, GIGA's side view, both and VGN's six views, "
-        "paired with the clean fixed view on the same rounds",
-        "SYMGRASP_DATA=../shared PYTHONPATH=src python experiments/robustness.py",
+        "Detectors under depth noise, GIGA's side view, both and VGN's six views, paired with "
+        "the clean fixed view on the same rounds",
+        command,
         cells,
         text,
+        over_seeds=rows,
         rounds=args.rounds,
+        first_seed=args.first_seed,
         num_objects=args.num_objects,
         conditions={name: CONDITIONS[name] for name in args.conditions},
     )

@@ -301,3 +301,40 @@ def test_every_final_run_plays_both_round_seed_ranges_before_their_collations(tm
                 assert flags[flags.index("--first-seed") + 1] == first
     assert "--first-seed 100" in steps["retrained-first-seed-100"]["run"]
     assert "--first-seed" not in steps["retrained"]["run"]
+
+
+def test_every_final_run_plays_the_robustness_conditions_after_its_unseen_cells():
+    """retrain_cells.toml's robustness steps: each final run plays VGN's pile and packed test
+    scenes once, on round seeds 100-199 after its Table 1 cells there (whose clean rounds they
+    pair with: --baselines is the cells' --out), and the collation waits for all of them and
+    collates those eight runs."""
+    steps = campaign_steps(
+        "experiments/campaigns/retrain.toml", "experiments/campaigns/retrain_cells.toml"
+    )
+    cells_out = shlex.split(steps["retrained-first-seed-100"]["run"])
+    cells_out = cells_out[cells_out.index("--out") + 1]
+    collation = shlex.split(steps["robustness-retrained"]["run"])
+    models = collation[collation.index("--models") + 1 : collation.index("--docs")]
+    runs = {Path(m).parent.name for m in models}
+    assert len(models) == len(runs) == 8
+    assert runs == {s.removeprefix("select-") for s in steps if s.startswith("select-both-")}
+    played = []
+    for name, step in steps.items():
+        if not name.startswith("robustness-") or name == "robustness-retrained":
+            continue
+        flags = shlex.split(step["run"])
+        assert "--play-only" in flags and step["cores"] == 1
+        (model,) = flags[flags.index("--models") + 1 : flags.index("--sets")]
+        run = Path(model).parent.name
+        assert model in models
+        assert set(step["needs"]) == {f"select-{run}", f"cells-{run}-first-seed-100"}
+        for words in (flags, collation):
+            assert words[words.index("--first-seed") + 1] == "100"
+            assert words[words.index("--baselines") + 1] == cells_out
+        played.append((run, flags[flags.index("--sets") + 1]))
+    assert sorted(played) == sorted(
+        (run, s) for run in runs for s in ("vgn-pile-test:pile", "vgn-packed-test:packed")
+    )
+    assert set(steps["robustness-retrained"]["needs"]) == {
+        n for n in steps if n.startswith("robustness-") and n != "robustness-retrained"
+    }

@@ -11,6 +11,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from conftest import campaign_steps
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -94,3 +95,92 @@ def test_the_clean_rounds_are_table_1s_where_it_recorded_the_same_configuration(
     clean = clean_cell(tmp_path)
     assert clean["source"] == str(tmp_path / "robustness" / "robotiq-2f85" / "bingham2d"
                                   / "household-test" / "clean")  # fmt: skip
+
+
+def _round(seed, successes, executed, objects=5):
+    def attempt(outcome):
+        return {"outcome": outcome, "mode": outcome, "target": "box", "score": 1.0,
+                "confidence": 20.0, "candidates": 3, "rejected": 0, "planning_s": 0.1}  # fmt: skip
+
+    attempts = [attempt("success")] * successes + [attempt("slipped")] * (executed - successes)
+    return {"seed": seed, "objects": objects, "renderer": "gl", "successes": successes,
+            "executed": executed, "attempts": attempts}  # fmt: skip
+
+
+def _write(folder, config, rounds):
+    folder.mkdir(parents=True)
+    (folder / "config.json").write_text(json.dumps(config))
+    (folder / "rounds.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rounds))
+
+
+def test_training_runs_collate_over_their_seeds_against_the_target_and_vgns_numbers(tmp_path):
+    import torch
+
+    from symgrasp.detect.pretrained import shipped_path
+
+    # two training runs of one hand and representation: the shipped Robotiq model as seeds 0 and 1
+    state = torch.load(shipped_path("bingham2d-robotiq-2f85"), weights_only=False)
+    models = []
+    for seed in (0, 1):
+        state["config"]["seed"] = seed
+        path = tmp_path / "runs" / f"both-bingham2d-s{seed}" / "best.pt"
+        path.parent.mkdir(parents=True)
+        torch.save(state, path)
+        models.append(path)
+    # 3 rounds from round seed 100: clean in the runs' table cells, noise + side view played
+    fields = {"objects": "vgn-pile-test", "mesh_unit": "auto", "scene": "pile", "num_objects": 5,
+              "rounds": 3, "seed": 100, "options": [], "diagnose": True, "pictures": False,
+              "noise": "none", "view": "fixed", "views": 1}  # fmt: skip
+    clean = {0: [(4, 5), (3, 4), (5, 5)], 1: [(2, 4), (4, 5), (3, 3)]}  # (successes, executed)
+    noisy = {0: [(2, 5), (3, 5), (2, 5)], 1: [(2, 5), (2, 4), (2, 5)]}
+    for seed, path in enumerate(models):
+        cell = tmp_path / "table" / "robotiq-2f85" / "bingham2d" / f"s{seed}"
+        _write(cell / "vgn-pile-test-first-seed-100", {**fields, "model": "/elsewhere/best.pt"},
+               [_round(100 + i, *c) for i, c in enumerate(clean[seed])])  # fmt: skip
+        played = (tmp_path / "out" / "robotiq-2f85" / "bingham2d" / f"s{seed}"
+                  / "vgn-pile-test-first-seed-100" / "noise-side")  # fmt: skip
+        _write(played, {**fields, "model": str(path.resolve()), "noise": "dex", "view": "side"},
+               [_round(100 + i, *c) for i, c in enumerate(noisy[seed])])  # fmt: skip
+    page = tmp_path / "page.md"
+    page.write_text("<!-- robustness-table: begin -->\n<!-- robustness-table: end -->\n")
+    done = subprocess.run(
+        [sys.executable, "experiments/robustness.py", "--collate-only", "--models",
+         *map(str, models), "--sets", "vgn-pile-test:pile", "--conditions", "noise-side",
+         "--rounds", "3", "--first-seed", "100", "--out", str(tmp_path / "out"),
+         "--baselines", str(tmp_path / "table"), "--docs", str(page),
+         "--result", str(tmp_path / "robustness")],
+        cwd=ROOT, env=ENV, capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    result = json.loads((tmp_path / "robustness.json").read_text())
+    assert {c["model"] for c in result["cells"]} == {"both-bingham2d-s0", "both-bingham2d-s1"}
+    assert not any(c.get("waiting") for c in result["cells"])
+    rows = {r["condition"]: r for r in result["over_seeds"]}
+    assert rows["clean"]["seeds"] == [0, 1] and rows["clean"]["rounds"] == 3
+
+    def mean_sr(runs):  # the mean over seeds of each run's pooled SR
+        return sum(sum(s for s, _ in r) / sum(e for _, e in r) for r in runs.values()) / 2
+
+    def mean_cr(runs):  # each round presents 5 objects
+        return sum(sum(s for s, _ in r) / 15 for r in runs.values()) / 2
+
+    row = rows["noise-side"]
+    assert row["ratios"]["success_ratio"][0] == pytest.approx(mean_sr(noisy))
+    gap = row["minus_clean"]["change"]
+    assert gap["success_ratio"][0] == pytest.approx(mean_sr(noisy) - mean_sr(clean))
+    assert gap["clear_ratio"][0] == pytest.approx(mean_cr(noisy) - mean_cr(clean))
+    assert row["minus_clean"]["target"] == "missed"  # every round loses: −27 points of CR
+    low, high = row["ratios"]["success_ratio"][1:]
+    assert high < 0.607  # below the single-view VGN's published SR on the pile
+    assert row["published"]["success_ratio"] == {"published": "60.7 ± 4.2", "above": "missed"}
+    assert "round seeds 100–102" in page.read_text()
+
+
+def test_a_model_that_is_neither_shipped_nor_a_checkpoint_is_refused_by_name(tmp_path):
+    done = subprocess.run(
+        [sys.executable, "experiments/robustness.py", "--collate-only", "--models",
+         str(tmp_path / "missing.pt"), "--out", str(tmp_path)],
+        cwd=ROOT, env=ENV, capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 2
+    assert "--models" in done.stderr and "missing.pt" in done.stderr
