@@ -80,3 +80,18 @@ def test_filling_edge_holes_brings_the_tsdf_back_towards_the_whole_images(detect
     assert off[2] < off[0] / 2
     with pytest.raises(ValueError, match="fill_holes"):
         GraspDetector(detector.model, detector.gripper, fill_holes=-1)
+
+
+def test_a_depth_scale_error_is_undone_by_the_table_and_only_with_table_scale(detector, depth):
+    """A 3 % depth scale error (the dex noise's factor at 1 SD) moves the TSDF; with
+    ``table_scale`` the detector fuses the true image again (to float rounding), and leaves a
+    true image as it is."""
+    calibrated = GraspDetector(detector.model, detector.gripper, table_scale=True, device="cpu")
+    true = detector.fuse(depth, SMALL, T).grid()
+    off = detector.fuse(1.03 * depth, SMALL, T).grid()
+    assert (off - true).abs().max() > 0.5
+    back = calibrated.fuse(1.03 * depth, SMALL, T).grid()
+    assert (back - true).abs().max() < 1e-3
+    assert (calibrated.fuse(depth, SMALL, T).grid() - true).abs().max() < 1e-3
+    with pytest.raises(TypeError, match="table_scale"):
+        GraspDetector(detector.model, detector.gripper, table_scale=1)

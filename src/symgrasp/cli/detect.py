@@ -160,6 +160,13 @@ def add_detector_options(parser: argparse.ArgumentParser, planners: bool = False
         "none; docs/detect.md)",
     )
     parser.add_argument(
+        "--table-scale",
+        action="store_true",
+        help="divide the depth image by the depth scale that puts the table where the "
+        "workspace says (5 cm above --workspace-origin, z up): undoes a sensor's depth scale "
+        "error; needs the table in view (docs/detect.md)",
+    )
+    parser.add_argument(
         "--optimize",
         action="store_true",
         help="run the network as a TorchScript graph made for inference: ≈ 0.45× the forward "
@@ -181,6 +188,7 @@ def load_detector(args: argparse.Namespace):  # -> GraspDetector (imported here,
         samples_per_voxel=args.samples_per_voxel,
         workspace_origin=tuple(args.workspace_origin),
         fill_holes=args.fill_holes,
+        table_scale=args.table_scale,
         optimize=args.optimize,
     )
 
@@ -275,6 +283,7 @@ def _check_planner_options(args: argparse.Namespace) -> None:
         "--no-confidence": args.no_confidence,
         "--samples-per-voxel": args.samples_per_voxel != 0,
         "--fill-holes": args.fill_holes != 0,
+        "--table-scale": args.table_scale,
         "--optimize": args.optimize,
     }
     if kind == "plugin":

@@ -39,8 +39,9 @@ from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, rank_voxels
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, depth_to_points
 from symgrasp.perception.camera import is_rigid
 from symgrasp.perception.points import DEFAULT_PIXEL_SIZE, fill_holes, points_view
+from symgrasp.perception.table import table_depth_scale
 from symgrasp.sim.grippers import GripperSpec, same_name_note
-from symgrasp.workspace import RESOLUTION, VOXEL_SIZE, WORKSPACE_SIZE
+from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, VOXEL_SIZE, WORKSPACE_SIZE
 
 Tensor = torch.Tensor
 
@@ -96,6 +97,12 @@ class GraspDetector:
             with the farthest seen neighbour before fusion (`symgrasp.perception.fill_holes`:
             the missing pixels a real sensor leaves at object edges); 0 fuses the images as
             they are.
+        table_scale: divide every depth image by the depth scale that puts the table plane
+            where the workspace says it is, 5 cm above ``workspace_origin`` with z up
+            (`symgrasp.perception.table_depth_scale`): undoes a sensor's depth scale error
+            (the ``dex`` noise's Gamma factor, SD 3.2 %), which moves the whole scene along
+            the camera's rays. Needs the table in view; off by default (the images are fused
+            as they are).
         seed: seed of ``samples_per_voxel``'s draws.
         optimize: run the network as a frozen TorchScript graph made for inference
             (`symgrasp.model.torchscript.optimize`: oneDNN convolutions on channels-last
@@ -124,6 +131,7 @@ class GraspDetector:
         samples_per_voxel: int = 0,
         workspace_origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
         fill_holes: int = 0,
+        table_scale: bool = False,
         seed: int = 0,
         optimize: bool = False,
         device: str | torch.device = "auto",
@@ -168,6 +176,9 @@ class GraspDetector:
         self.model = model.to(self.device).eval()
         if not isinstance(optimize, bool):
             raise TypeError(f"optimize must be True or False, got {optimize!r}")
+        if not isinstance(table_scale, bool):
+            raise TypeError(f"table_scale must be True or False, got {table_scale!r}")
+        self.table_scale = table_scale
         self.optimize = optimize
         self._graph = torchscript.optimize(self.model) if optimize else None
         self.gripper = _check_gripper(gripper)
@@ -245,6 +256,10 @@ class GraspDetector:
     def _fuse(self, views: np.ndarray, intrinsic: CameraIntrinsic, T: np.ndarray) -> TSDFVolume:
         if self.fill_holes:
             views = np.stack([fill_holes(view, self.fill_holes) for view in views])
+        if self.table_scale:
+            table_z = self.origin[2] + TABLE_HEIGHT
+            views = np.stack([view / table_depth_scale(view, intrinsic, T_view, table_z)
+                              for view, T_view in zip(views, T, strict=True)])  # fmt: skip
         return _fuse_views(views, intrinsic, T, self.origin, self.device)
 
     # -- detection ---------------------------------------------------------------------

@@ -14,7 +14,7 @@ from symgrasp.perception.camera import (
 )
 from symgrasp.perception.noise import add_depth_noise, noisy_depth
 from symgrasp.perception.points import fill_holes, points_view
-from symgrasp.perception.table import TableFit, fit_table
+from symgrasp.perception.table import TableFit, fit_table, table_depth_scale
 from symgrasp.perception.tsdf import TSDFVolume
 
 __all__ = [
@@ -30,4 +30,5 @@ __all__ = [
     "noisy_depth",
     "orbit_extrinsic",
     "points_view",
+    "table_depth_scale",
 ]

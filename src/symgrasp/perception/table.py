@@ -1,5 +1,5 @@
 """The workspace found by itself: the table plane fitted in a depth image, the workspace cube
-placed on it.
+placed on it; and, where the table's place is known, the depth scale that puts it there.
 
 A trained detector knows one geometry (`symgrasp.workspace`): the 30 cm cube with the table
 top `TABLE_HEIGHT` above its floor and gravity along −z. `fit_table` finds the table in the
@@ -19,6 +19,14 @@ by hand:
    (as the default camera sees the workspace, `symgrasp.perception.default_extrinsic`; training
    saw every azimuth), the table top at ``z = TABLE_HEIGHT`` and the centre at the cube's
    horizontal middle.
+
+`table_depth_scale` does the converse for a robot that knows where its table is (the world
+frame's workspace, as every detection is asked for) but not how well its sensor measures depth:
+a depth scale error (a miscalibrated stereo baseline; the ``dex`` noise's Gamma factor of SD
+3.2 %, `symgrasp.perception.noise`) moves the whole scene along the camera's rays, ≈ 19 mm at
+0.6 m, enough for a fingertip to meet an object on its way in. Every table pixel is then seen at
+``g`` times the camera's true height above the table along the world's up axis, and ``g`` is
+read off them.
 """
 
 from __future__ import annotations
@@ -46,6 +54,14 @@ MIN_CLUSTER_POINTS = 30
 
 SAMPLE_POINTS = 20_000
 """Points the RANSAC hypotheses are scored on (a random subset: the count is a proportion)."""
+
+SCALE_BAND = 0.01
+"""[m] height band along the up axis that holds the table's pixels in `table_depth_scale`
+(the dex noise's smooth field, 3.3 mm RMS, stays within it; a 1 cm tall object does not)."""
+
+MAX_SCALE_ERROR = 0.1
+"""`table_depth_scale` refuses a depth scale off by more than this fraction: it would be
+another surface taken for the table, not a sensor's scale error."""
 
 
 @dataclass(frozen=True)
@@ -242,3 +258,57 @@ def _unit(value: np.ndarray, name: str) -> np.ndarray:
     if np.linalg.norm(vector) < 1e-9:
         raise ValueError(f"{name} must be a direction, not zero")
     return vector / np.linalg.norm(vector)
+
+
+def table_depth_scale(
+    depth: np.ndarray,
+    intrinsic: CameraIntrinsic,
+    T_world_camera: np.ndarray,
+    table_z: float,
+    *,
+    band: float = SCALE_BAND,
+    max_error: float = MAX_SCALE_ERROR,
+) -> float:
+    """The factor ``g`` by which ``depth`` (H, W) [m, 0 or non-finite = missing] overstates
+    the depth of the table plane ``z = table_z`` [m, world] seen by ``intrinsic`` from
+    ``T_world_camera`` (4, 4): ``depth / g`` puts the table where the world frame says it is.
+
+    A pixel's point ``p`` (camera frame) lies ``h' = −p · up`` below the camera along the
+    world's up axis (``up``: world z in the camera frame); a table pixel of an image whose depth
+    is ``g`` times the truth has ``h' = g h``, ``h`` the camera's height above the table. The
+    table is the densest ``band`` [m] wide window of ``h'`` (objects stand above it: smaller
+    ``h'``), and ``g`` the median ``h' / h`` of its pixels.
+
+    ValueError when the camera is not above the table, fewer than 100 pixels are seen, or ``g``
+    is off by more than ``max_error`` (another surface than the table)."""
+    depth = np.asarray(depth, dtype=np.float64)
+    if depth.shape != (intrinsic.height, intrinsic.width):
+        raise ValueError(
+            f"depth must have shape ({intrinsic.height}, {intrinsic.width}) as the intrinsic "
+            f"says, got {depth.shape}"
+        )
+    T = np.asarray(T_world_camera, dtype=np.float64)
+    if T.shape != (4, 4) or not np.isfinite(T).all():
+        raise ValueError(f"T_world_camera must be a finite (4, 4) transform, got shape {T.shape}")
+    if not (band > 0 and 0 < max_error < 1):
+        raise ValueError(f"band must be > 0 m and max_error in (0, 1), got {band}, {max_error}")
+    height = T[2, 3] - table_z
+    if not height > 0:
+        raise ValueError(
+            f"the camera (z = {T[2, 3]:.3f} m) must be above the table (z = {table_z:.3f} m)"
+        )
+    seen = np.isfinite(depth) & (depth > 0)
+    if seen.sum() < 100:
+        raise ValueError(f"table_depth_scale needs ≥ 100 seen depth pixels, got {seen.sum()}")
+    below = np.sort(-(depth[seen][:, None] * intrinsic.pixel_rays()[seen]) @ T[2, :3])
+    inside = np.searchsorted(below, below + band, side="right") - np.arange(len(below))
+    start = int(np.argmax(inside))
+    scale = float(np.median(below[start : start + inside[start]])) / height
+    if abs(scale - 1) > max_error:
+        raise ValueError(
+            f"the densest plane at the table's tilt lies {scale * height:.3f} m below the camera "
+            f"along the up axis, where the table should be {height:.3f} m below it: a depth "
+            f"scale of {scale:.3f}, off by more than max_error = {max_error} (does the image "
+            "show the table, and is T_world_camera right?)"
+        )
+    return scale
