@@ -15,7 +15,10 @@ experiments/results/robustness.{json,md} and docs/results.md (between its robust
 - **Conditions** (`CONDITIONS`, ``symgrasp bench declutter --noise --view --views``;
   docs/benchmark.md, "Sensing"): ``clean`` (one noiseless image from the fixed camera: Table
   1's), ``noise`` (the ``dex`` depth noise), ``side`` (GIGA's side view), ``noise-side``
-  (both: GIGA's published setting), ``circle6`` (VGN's six views, noiseless). Each condition
+  (both: GIGA's published setting), ``circle6`` (VGN's six views, noiseless), and
+  ``noise-table`` and ``noise-side-table``: the noisy ones with the detector reading the
+  depth scale off the table (``--table-scale``: `symgrasp.perception.table_depth_scale`,
+  which undoes the noise's scale factor). Each condition
   of a cell plays into ``--out/HAND/REP/OBJECTS[-packed]/CONDITION`` for a shipped model and
   ``--out/HAND/REP/sSEED/OBJECTS[-packed]/CONDITION`` for a checkpoint of training seed SEED
   (`symgrasp.benchmark.cells`' layout; ``OBJECTS…-first-seed-F`` from another first round seed
@@ -89,22 +92,28 @@ MODELS = ("bingham2d-franka", "rotmat6d-franka", "bingham2d-robotiq-2f85", "rotm
 for each hand."""
 SETS = ("vgn-pile-test:pile", "vgn-packed-test:packed")
 """VGN's test scenes (``OBJECTS:SCENE``)."""
+TABLE_SCALE = (("table_scale", True),)
+"""The detector option that reads the depth scale off the table (`GraspDetector`'s
+``table_scale``)."""
 CONDITIONS = {
     "clean": {"noise": "none", "view": "fixed", "views": 1},
     "noise": {"noise": "dex", "view": "fixed", "views": 1},
     "side": {"noise": "none", "view": "side", "views": 1},
     "noise-side": {"noise": "dex", "view": "side", "views": 1},
     "circle6": {"noise": "none", "view": "circle", "views": 6},
+    "noise-table": {"noise": "dex", "view": "fixed", "views": 1, "options": TABLE_SCALE},
+    "noise-side-table": {"noise": "dex", "view": "side", "views": 1, "options": TABLE_SCALE},
 }
-"""What the cameras see in each condition: `BenchmarkConfig`'s sensing fields."""
+"""What the cameras see in each condition (`BenchmarkConfig`'s sensing fields) and, for the
+last two, the detector's depth scale read off the table (its ``options``)."""
 CLEAN = "clean"
 """The condition every other one is paired with: Table 1's."""
 COLLISIONS = ("pregrasp_collision", "approach_collision")
 """Outcomes of a hand that hit something before it closed (`symgrasp.sim.execute.Outcome`)."""
 BEGIN, END = "<!-- robustness-table: begin -->", "<!-- robustness-table: end -->"
 """The markers of ``--docs`` between which the table goes."""
-FIELD = "noise-side"
-"""The condition of the field's published single-view numbers (GIGA's Table I)."""
+FIELD = ("noise-side", "noise-side-table")
+"""The conditions of the field's published single-view numbers (GIGA's Table I's sensing)."""
 FIELD_PEER = "VGN (single view)"
 """The published detector issue 39 asks the trained detectors to beat on VGN's scenes."""
 FIELD_SETS = {("vgn-pile-test", "pile"), ("vgn-packed-test", "packed")}
@@ -274,7 +283,7 @@ def over_seeds(found: dict, args: argparse.Namespace) -> list[dict[str, Any]]:
                 row["ratios"] = seed_ratios(shared)
                 if condition != CLEAN and all(c is not None for c in clean):
                     row["minus_clean"] = sensing_gap(runs, clean)
-                if condition == FIELD and (objects, scene) in FIELD_SETS:
+                if condition in FIELD and (objects, scene) in FIELD_SETS:
                     row["published"] = published(row["ratios"], scene)
                 rows.append(row)
     return rows

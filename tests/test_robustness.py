@@ -32,7 +32,7 @@ def test_the_plan_plays_every_cell_the_table_waits_for_once_and_collates_after_t
     cells = json.loads((tmp_path / "robustness.json").read_text())["cells"]
     assert all(c["waiting"] for c in cells)
     wanted = {(c["model"], f"{c['objects']}:{c['scene']}", c["condition"]) for c in cells}
-    assert len(wanted) == 4 * 2 * 5
+    assert len(wanted) == 4 * 2 * 7
 
     played = []
     for step in steps.values():
