@@ -10,7 +10,7 @@ side view → experiments/results/retrain_ablation.{json,md}.
 ``--rep`` detector on the same scenes with today's labels or dense ones (``--label-spread``) and
 with clean images or the ``dex`` noise and cameras over the benchmark's views (``--noise dex
 --camera-distance --camera-polar``): ``today``, ``dense``, ``sensing``, ``both``, each with the
-training seeds ``--seeds``. Run ``ARM-REP-sS`` (``DIR/runs``) gives two sets of rounds, both
+training seeds ``--seeds``. Run ``ARM-REP-sS`` (``DIR/runs``) gives three sets of rounds, all
 on training objects (``--objects``, round seeds ``--seed`` … ``--seed + --rounds − 1``: never a
 test round), the same scenes round by round (`CONDITIONS`):
 
@@ -19,7 +19,11 @@ test round), the same scenes round by round (`CONDITIONS`):
   ``selection/declutter/SETTINGS/CHECKPOINT-SHA``), one noiseless image from the fixed camera;
 - ``noise-side``: its val-noise benchmark (``DIR/bench/val-noise/ARM-REP-sS``, ``symgrasp bench
   declutter --noise dex --view side``) of its ``best.pt``, whose SHA-256 must be the one the
-  folder recorded (a run selected again since would have another).
+  folder recorded (a run selected again since would have another);
+- ``noise-side-table``: the same with the detector reading the depth scale off the table
+  (``DIR/bench/val-noise-table/ARM-REP-sS``, ``--table-scale``), which undoes the noise's
+  scale factor: what training cannot see, a whole scene moved along the rays, against what
+  it can.
 
 Reported, all on the rounds every compared run finished (`symgrasp.benchmark.seeds`):
 
@@ -29,8 +33,9 @@ Reported, all on the rounds every compared run finished (`symgrasp.benchmark.see
   (`seed_lead`: the change of the means, its interval with the training seed inside, and in how
   many pairings of training seeds the arm's SR is ahead), and each factor's main effect, its
   two arms minus the other two, averaged over the other factor's levels (`seed_contrast`);
-- per arm, the robustness gap, ``noise-side`` − ``clean`` of the same runs on the same rounds
-  (one draw of training seeds for both conditions), against issue 39's target: within
+- per arm and noisy condition, the robustness gap, that condition − ``clean`` of the same runs
+  on the same rounds (one draw of training seeds for both conditions), against issue 39's
+  target: within
   `GAP_TARGET` of clean (met when the whole interval lies above −3 points, missed when it lies
   below, else undecided);
 - per arm and condition, the rounds that ended because no grasp was found (the round's last
@@ -84,10 +89,15 @@ ARMS = {"today": (False, False), "dense": (True, False), "sensing": (False, True
 FACTORS = ("labels", "sensing")
 """The factors' names, in `ARMS`' order."""
 CONDITIONS = {
-    "clean": {"noise": "none", "view": "fixed", "views": 1},
-    "noise-side": {"noise": "dex", "view": "side", "views": 1},
-}
-"""What the cameras saw in each set of a run's rounds: `BenchmarkConfig`'s sensing fields."""
+    "clean": {"noise": "none", "view": "fixed", "views": 1, "options": []},
+    "noise-side": {"noise": "dex", "view": "side", "views": 1, "options": []},
+    "noise-side-table": {"noise": "dex", "view": "side", "views": 1,
+                         "options": [["table_scale", True]]},
+}  # fmt: skip
+"""What the cameras saw in each set of a run's rounds (`BenchmarkConfig`'s sensing fields) and
+the detector's options, as a benchmark folder records them."""
+NOISY = {"noise-side": "val-noise", "noise-side-table": "val-noise-table"}
+"""The noisy conditions and the folder of the campaign's benchmarks (``DIR/bench/FOLDER/RUN``)."""
 BASELINE = "today"
 """The arm every other one is compared with: today's labels and images."""
 NONE_FOUND_TARGET = 0.10
@@ -102,8 +112,7 @@ def run_name(arm: str, rep: str, seed: int) -> str:
 def wanted(condition: str, args: argparse.Namespace) -> dict[str, Any]:
     """The configuration fields a run's rounds in ``condition`` must have been played with."""
     return {"objects": args.objects, "scene": "pile", "num_objects": args.num_objects,
-            "rounds": args.rounds, "seed": args.seed, "options": [],
-            **CONDITIONS[condition]}  # fmt: skip
+            "rounds": args.rounds, "seed": args.seed, **CONDITIONS[condition]}  # fmt: skip
 
 
 def clean_folder(run: Path) -> tuple[Path | None, str | None]:
@@ -123,10 +132,11 @@ def clean_folder(run: Path) -> tuple[Path | None, str | None]:
     ), None
 
 
-def noise_folder(run: Path, root: Path) -> tuple[Path | None, str | None]:
-    """The val-noise benchmark of ``run`` in the campaign ``root``, unless it played another
-    ``best.pt`` than the run's (the run was selected again since): then why not."""
-    folder = root / "bench" / "val-noise" / run.name
+def noise_folder(run: Path, root: Path, condition: str) -> tuple[Path | None, str | None]:
+    """The benchmark of ``run`` in the noisy ``condition`` in the campaign ``root`` (`NOISY`),
+    unless it played another ``best.pt`` than the run's (the run was selected again since):
+    then why not."""
+    folder = root / "bench" / NOISY[condition] / run.name
     if (folder / MODEL_SHA).is_file() and (run / "best.pt").is_file():
         if (folder / MODEL_SHA).read_text().strip() != file_sha256(run / "best.pt"):
             return None, "played another best.pt than the run's (selected again since?)"
@@ -162,12 +172,9 @@ def gather(args: argparse.Namespace) -> tuple[dict[tuple[str, str, int], list], 
             name = run_name(arm, args.rep, seed)
             run = args.root / "runs" / name
             record: dict[str, Any] = {"run": name, "arm": arm, "seed": seed, "missing": {}}
-            clean, why = clean_folder(run)
-            noise, why_noise = noise_folder(run, args.root)
-            for condition, folder, reason in (
-                ("clean", clean, why),
-                ("noise-side", noise, why_noise),
-            ):
+            folders = {"clean": clean_folder(run)}
+            folders.update({c: noise_folder(run, args.root, c) for c in NOISY})
+            for condition, (folder, reason) in folders.items():
                 if folder is not None:
                     record[condition] = str(folder)
                     found, reason = rounds_in(folder, condition, args)
@@ -256,17 +263,18 @@ def effects(rounds: dict, condition: str) -> list[dict[str, Any]]:
     return out
 
 
-def gap(rounds: dict, arm: str) -> dict[str, Any] | None:
-    """``noise-side`` − ``clean`` of ``arm``'s runs that played both (`sensing_gap`: the change
-    of the means over seeds, each seed's own paired change, issue 39's target); None when no
-    run played both."""
-    seeds = sorted(set(arm_runs(rounds, arm, "clean")) & set(arm_runs(rounds, arm, "noise-side")))
+def gap(rounds: dict, arm: str, condition: str) -> dict[str, Any] | None:
+    """The noisy ``condition`` − ``clean`` of ``arm``'s runs that played both (`sensing_gap`:
+    the change of the means over seeds, each seed's own paired change, issue 39's target); None
+    when no run played both."""
+    seeds = sorted(set(arm_runs(rounds, arm, "clean")) & set(arm_runs(rounds, arm, condition)))
     if not seeds:
         return None
-    noisy = list(arm_runs(rounds, arm, "noise-side", seeds).values())
+    noisy = list(arm_runs(rounds, arm, condition, seeds).values())
     clean = list(arm_runs(rounds, arm, "clean", seeds).values())
     found = sensing_gap(noisy, clean)
-    return {"arm": arm, "seeds": seeds, "rounds": found["rounds"], "change": found["change"],
+    return {"arm": arm, "condition": condition, "seeds": seeds, "rounds": found["rounds"],
+            "change": found["change"],
             "per_seed": dict(zip(map(str, seeds), found["per_run"], strict=True)),
             "target": found["target"]}  # fmt: skip
 
@@ -320,20 +328,22 @@ def markdown(cells: list[dict], effects_: list[dict], gaps: list[dict], runs: li
                     f"{_signed(e['change']['clear_ratio'])} | {ahead} |")  # fmt: skip
     if not effects_:
         text.append("| – | | | | | |")
-    text += ["", "Robustness gap, noise + side view − clean, of the same runs on the same rounds "
-             f"(issue 39: within {GAP_TARGET * 100:.0f} points; met when the interval lies above "
+    text += ["", "Robustness gap, noise + side view (without and with the table's depth scale) − "
+             "clean, of the same runs on the same rounds (issue 39: within "
+             f"{GAP_TARGET * 100:.0f} points; met when the interval lies above "
              f"−{GAP_TARGET * 100:.0f}):", "",
-             "| arm | seeds | rounds | SR gap | CR gap | SR / CR gap per seed | target |",
-             "|---|---|---|---|---|---|---|"]  # fmt: skip
+             "| arm | condition | seeds | rounds | SR gap | CR gap | SR / CR gap per seed | "
+             "target |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for g in gaps:
         each = ", ".join(f"s{s}: {100 * v['success_ratio'][0]:+.1f} / "
                          f"{100 * v['clear_ratio'][0]:+.1f}"
                          for s, v in g["per_seed"].items()).replace("-", "−")  # fmt: skip
-        text.append(f"| {g['arm']} | {' / '.join(map(str, g['seeds']))} | {g['rounds']} | "
+        text.append(f"| {g['arm']} | {g['condition']} | {' / '.join(map(str, g['seeds']))} | "
+                    f"{g['rounds']} | "
                     f"{_signed(g['change']['success_ratio'])} | "
                     f"{_signed(g['change']['clear_ratio'])} | {each} | {g['target']} |")  # fmt: skip
     if not gaps:
-        text.append("| – | | | | | | |")
+        text.append("| – | | | | | | | |")
     missing = [f"{r['run']} ({condition}: {why})" for r in runs
                for condition, why in r["missing"].items() if why]  # fmt: skip
     if missing:
@@ -344,7 +354,8 @@ def markdown(cells: list[dict], effects_: list[dict], gaps: list[dict], runs: li
 def quick_root(root: Path, args: argparse.Namespace) -> None:
     """The campaign's outputs for ``args``' runs with the shipped model as every run's one
     checkpoint: each selected by the declutter validation on ``args``' rounds (`wanted`) and
-    played on them under noise from the side (what retrain.toml's steps do)."""
+    played on them under noise from the side, without and with the table's depth scale (what
+    retrain.toml's steps do)."""
     from symgrasp.benchmark.runner import run_or_reuse
     from symgrasp.benchmark.selection import DeclutterValidation, select_checkpoint
     from symgrasp.detect.pretrained import shipped_path
@@ -358,17 +369,19 @@ def quick_root(root: Path, args: argparse.Namespace) -> None:
             run.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(shipped_path(SHIPPED), run / "epoch_001.pt")
             select_checkpoint(run, "declutter", validation=validation)
-            fields = {k: v for k, v in wanted("noise-side", args).items() if k != "options"}
-            config = BenchmarkConfig(model=str(run / "best.pt"), **fields)
-            run_or_reuse(config, root / "bench" / "val-noise" / name)
+            for condition, folder in NOISY.items():
+                fields = wanted(condition, args)
+                options = tuple(map(tuple, fields.pop("options")))
+                config = BenchmarkConfig(model=str(run / "best.pt"), options=options, **fields)
+                run_or_reuse(config, root / "bench" / folder / name)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--root", type=Path, default=None,
                         help="the campaign's root (campaign.py run experiments/campaigns/"
-                        "retrain.toml --root DIR): runs in DIR/runs, val-noise benchmarks in "
-                        "DIR/bench/val-noise")  # fmt: skip
+                        "retrain.toml --root DIR): runs in DIR/runs, the noisy benchmarks in "
+                        "DIR/bench/val-noise and DIR/bench/val-noise-table")  # fmt: skip
     parser.add_argument("--arms", nargs="+", choices=list(ARMS), default=list(ARMS),
                         help="arms collated (default: all: %(choices)s; the main effects need "
                         "all four)")  # fmt: skip
@@ -402,7 +415,7 @@ def main() -> None:
     rounds, runs = gather(args)
     cells = [arm_cell(rounds, arm, condition) for arm in args.arms for condition in CONDITIONS]
     effects_ = [e for condition in CONDITIONS for e in effects(rounds, condition)]
-    gaps = [g for arm in args.arms if (g := gap(rounds, arm))]
+    gaps = [g for arm in args.arms for c in NOISY if (g := gap(rounds, arm, c))]
     table = markdown(cells, effects_, gaps, runs, args)
     print(table, end="")
     write_result(

@@ -49,11 +49,11 @@ def _rounds(even, odd=None):
 
 ALL, HALF, HALF_NONE, ZERO = _rounds(GOOD), _rounds(GOOD, FAIL), _rounds(GOOD, NONE), _rounds(FAIL)
 """SR / CR 1 / 1; 0.5 / 0.5; 1 / 0.5 with half the rounds ended by none_found; 0 / 0."""
-PLAYED = {  # (arm, seed): (clean rounds of the selected checkpoint, noise-side rounds)
-    ("today", 0): (HALF, HALF_NONE), ("today", 1): (HALF, HALF_NONE),
-    ("dense", 0): (ALL, HALF), ("dense", 1): (ALL, HALF),
-    ("sensing", 0): (HALF, HALF), ("sensing", 1): (HALF, HALF),
-    ("both", 0): (ALL, ALL), ("both", 1): (HALF, HALF),
+PLAYED = {  # (arm, seed): rounds of the selected checkpoint: clean, noise-side, with table scale
+    ("today", 0): (HALF, HALF_NONE, HALF), ("today", 1): (HALF, HALF_NONE, HALF),
+    ("dense", 0): (ALL, HALF, ALL), ("dense", 1): (ALL, HALF, ALL),
+    ("sensing", 0): (HALF, HALF, HALF), ("sensing", 1): (HALF, HALF, HALF),
+    ("both", 0): (ALL, ALL, ALL), ("both", 1): (HALF, HALF, HALF),
 }  # fmt: skip
 
 
@@ -89,15 +89,17 @@ def _select(run, epochs, monkeypatch, rounds=ROUNDS):
     return selection.select_checkpoint(run, "declutter", validation=validation, copy=False)
 
 
-def _val_noise(root, run, rounds, played_by=None):
+def _val_noise(root, run, rounds, played_by=None, table=False):
     """The val-noise benchmark of ``run``'s best.pt (a file of its own bytes), as ``symgrasp
-    bench declutter --noise dex --view side --out ROOT/bench/val-noise/RUN`` leaves it; the
-    SHA-256 of ``played_by`` (default best.pt) recorded as what played it."""
+    bench declutter --noise dex --view side --out ROOT/bench/val-noise/RUN`` leaves it (with
+    ``table``: ``--table-scale`` into ``val-noise-table``); the SHA-256 of ``played_by``
+    (default best.pt) recorded as what played it."""
     best = run / "best.pt"
     best.write_bytes(f"{run.name} best".encode())
     config = BenchmarkConfig(model=str(best), objects="vgn-pile-train", rounds=ROUNDS, seed=FIRST,
-                             noise="dex", view="side")  # fmt: skip
-    folder = root / "bench" / "val-noise" / run.name
+                             noise="dex", view="side",
+                             options=(("table_scale", True),) if table else ())  # fmt: skip
+    folder = root / "bench" / ("val-noise-table" if table else "val-noise") / run.name
     _write_benchmark(folder, config, rounds)
     (folder / MODEL_SHA).write_text((played_by or file_sha256(best)) + "\n")
 
@@ -111,12 +113,13 @@ def result(tmp_path_factory):
     has; collated with ``--seeds 0 1 2``."""
     root = tmp_path_factory.mktemp("retrain")
     with pytest.MonkeyPatch.context() as monkeypatch:
-        for (arm, seed), (clean, noisy) in PLAYED.items():
+        for (arm, seed), (clean, noisy, table) in PLAYED.items():
             run = root / "runs" / f"{arm}-{REP}-s{seed}"
             run.mkdir(parents=True)
             chosen = _select(run, {"epoch_001.pt": ZERO, "epoch_002.pt": clean}, monkeypatch)
             assert chosen["chosen"]["checkpoint"] == "epoch_002.pt"
             _val_noise(root, run, noisy)
+            _val_noise(root, run, table, table=True)
         (root / "runs" / f"today-{REP}-s2").mkdir()
         dense = root / "runs" / f"dense-{REP}-s2"
         dense.mkdir()
@@ -194,7 +197,7 @@ def test_the_effects_against_today_and_the_main_effects_on_the_same_rounds(resul
 
 
 def test_the_robustness_gap_pairs_each_run_with_itself(result):
-    gaps = {g["arm"]: g for g in result["gaps"]}
+    gaps = {g["arm"]: g for g in result["gaps"] if g["condition"] == "noise-side"}
     point, low, high = gaps["dense"]["change"]["clear_ratio"]
     assert point == pytest.approx(-0.5) and low <= point <= high < -0.03
     assert gaps["dense"]["target"] == "missed" and gaps["dense"]["seeds"] == [0, 1]
@@ -205,14 +208,21 @@ def test_the_robustness_gap_pairs_each_run_with_itself(result):
     today = gaps["today"]["change"]
     assert today["success_ratio"][0] == pytest.approx(0.5) and today["clear_ratio"][0] == 0
     assert gaps["today"]["per_seed"]["0"]["success_ratio"][0] == pytest.approx(0.5)
+    # with the table's depth scale, dense's noisy rounds are its clean ones: no gap, met
+    table = {g["arm"]: g for g in result["gaps"] if g["condition"] == "noise-side-table"}
+    assert table["dense"]["change"]["clear_ratio"] == [0.0] * 3
+    assert table["dense"]["target"] == "met" and table["dense"]["seeds"] == [0, 1]
 
 
 def test_missing_and_unusable_runs_are_named_with_the_reason(result):
     missing = {r["run"]: r["missing"] for r in result["runs"]}
-    assert missing[f"today-{REP}-s0"] == {"clean": None, "noise-side": None}
+    assert missing[f"today-{REP}-s0"] == {"clean": None, "noise-side": None,
+                                          "noise-side-table": None}  # fmt: skip
     assert missing[f"today-{REP}-s2"]["clean"] == "not selected"
-    assert missing[f"sensing-{REP}-s2"] == {"clean": "not trained", "noise-side": "not played"}
-    assert missing[f"dense-{REP}-s2"] == {"clean": None, "noise-side": "19 of 20 rounds played"}
+    assert missing[f"sensing-{REP}-s2"] == {"clean": "not trained", "noise-side": "not played",
+                                            "noise-side-table": "not played"}  # fmt: skip
+    assert missing[f"dense-{REP}-s2"] == {"clean": None, "noise-side": "19 of 20 rounds played",
+                                          "noise-side-table": "not played"}  # fmt: skip
     assert "played another best.pt" in missing[f"both-{REP}-s2"]["noise-side"]
     assert missing[f"both-{REP}-s2"]["clean"] == "holds other rounds (its rounds differ)"
     # dense's seed 2 has clean rounds of its own: the clean cell rests on three seeds
@@ -220,7 +230,7 @@ def test_missing_and_unusable_runs_are_named_with_the_reason(result):
     assert _cell(result, "dense", "noise-side")["seeds"] == [0, 1]
     missing_line = result["table"].splitlines()[-1]
     assert (
-        missing_line.startswith("Missing (7): ") and f"both-{REP}-s2 (noise-side: " in missing_line
+        missing_line.startswith("Missing (11): ") and f"both-{REP}-s2 (noise-side: " in missing_line
     )
 
 
@@ -233,9 +243,9 @@ def test_a_root_with_nothing_yet_lists_every_run_as_missing(tmp_path):
     )  # fmt: skip
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads((tmp_path / "result.json").read_text())
-    assert all(c["seeds"] == [] for c in result["cells"]) and len(result["cells"]) == 8
+    assert all(c["seeds"] == [] for c in result["cells"]) and len(result["cells"]) == 12
     assert result["effects"] == [] and result["gaps"] == []
-    assert "Missing (16): today-bingham2d-s0 (clean: not trained)" in done.stdout
+    assert "Missing (24): today-bingham2d-s0 (clean: not trained)" in done.stdout
 
 
 def test_the_campaign_writes_the_runs_and_folders_the_script_reads():
@@ -247,14 +257,17 @@ def test_the_campaign_writes_the_runs_and_folders_the_script_reads():
             select = shlex.split(steps[f"select-{run}"]["run"])
             assert select[select.index("--by") + 1] == "declutter"
             assert select[select.index("--rounds") + 1] == "200"  # the script's default
-            noisy = shlex.split(steps[f"val-noise-{run}"]["run"])
-            value = {flag: noisy[noisy.index(flag) + 1]
-                     for flag in ("--model", "--out", "--objects", "--seed", "--rounds", "--noise",
-                                  "--view")}  # fmt: skip
-            assert value == {"--model": f"/root/runs/{run}/best.pt",
-                             "--out": f"/root/bench/val-noise/{run}",
-                             "--objects": "vgn-pile-train", "--seed": "1000000",
-                             "--rounds": "200", "--noise": "dex", "--view": "side"}  # fmt: skip
+            for step, folder in (("val-noise", "val-noise"), ("val-noise-table", "val-noise-table")):
+                noisy = shlex.split(steps[f"{step}-{run}"]["run"])
+                value = {flag: noisy[noisy.index(flag) + 1]
+                         for flag in ("--model", "--out", "--objects", "--seed", "--rounds",
+                                      "--noise", "--view")}  # fmt: skip
+                assert value == {"--model": f"/root/runs/{run}/best.pt",
+                                 "--out": f"/root/bench/{folder}/{run}",
+                                 "--objects": "vgn-pile-train", "--seed": "1000000",
+                                 "--rounds": "200", "--noise": "dex", "--view": "side"}  # fmt: skip
+                assert ("--table-scale" in noisy) == (step == "val-noise-table")
+                assert steps[f"{step}-{run}"]["needs"] == [f"select-{run}"]
 
 
 def test_every_final_run_plays_both_round_seed_ranges_before_their_collations(tmp_path):
@@ -285,10 +298,10 @@ def test_every_final_run_plays_both_round_seed_ranges_before_their_collations(tm
         assert steps[f"select-{run}"]["needs"] == [run]
         assert f"--out /root/runs/{run}" in steps[run]["run"]
         assert (
-            "--data /root/data/" + ("franka-both" if "franka" in run else "both")
+            "--data /root/data/" + ("franka-dense" if "franka" in run else "dense")
             in steps[run]["run"]
         )
-        rep, seed = run.removeprefix("both-").removeprefix("franka-").rsplit("-s", 1)
+        rep, seed = run.removeprefix("dense-").removeprefix("franka-").rsplit("-s", 1)
         for suffix, first in (("", None), ("-first-seed-100", "100")):
             cells = steps[f"cells-{run}{suffix}"]
             assert cells["needs"] == [f"select-{run}"]
@@ -317,7 +330,8 @@ def test_every_final_run_plays_the_robustness_conditions_after_its_unseen_cells(
     models = collation[collation.index("--models") + 1 : collation.index("--docs")]
     runs = {Path(m).parent.name for m in models}
     assert len(models) == len(runs) == 8
-    assert runs == {s.removeprefix("select-") for s in steps if s.startswith("select-both-")}
+    finals = {n for n in steps if n.startswith("cells-") and not n.endswith("first-seed-100")}
+    assert runs == {n.removeprefix("cells-") for n in finals}
     played = []
     for name, step in steps.items():
         if not name.startswith("robustness-") or name == "robustness-retrained":
