@@ -257,7 +257,10 @@ def test_the_campaign_writes_the_runs_and_folders_the_script_reads():
             select = shlex.split(steps[f"select-{run}"]["run"])
             assert select[select.index("--by") + 1] == "declutter"
             assert select[select.index("--rounds") + 1] == "200"  # the script's default
-            for step, folder in (("val-noise", "val-noise"), ("val-noise-table", "val-noise-table")):
+            for step, folder in (
+                ("val-noise", "val-noise"),
+                ("val-noise-table", "val-noise-table"),
+            ):
                 noisy = shlex.split(steps[f"{step}-{run}"]["run"])
                 value = {flag: noisy[noisy.index(flag) + 1]
                          for flag in ("--model", "--out", "--objects", "--seed", "--rounds",
