@@ -20,7 +20,8 @@ test round), the same scenes round by round (`CONDITIONS`):
 - ``noise-side``: its val-noise benchmark (``DIR/bench/val-noise/ARM-REP-sS``, ``symgrasp bench
   declutter --noise dex --view side``) of its ``best.pt``, whose SHA-256 must be the one the
   folder recorded (a run selected again since would have another);
-- ``noise-side-table``: the same with the detector reading the depth scale off the table
+- ``noise-side-table``: the same with the robot reading each image's depth scale off its
+  table before the detector and the collision check see it
   (``DIR/bench/val-noise-table/ARM-REP-sS``, ``--table-scale``), which undoes the noise's
   scale factor: what training cannot see, a whole scene moved along the rays, against what
   it can.
@@ -89,10 +90,11 @@ ARMS = {"today": (False, False), "dense": (True, False), "sensing": (False, True
 FACTORS = ("labels", "sensing")
 """The factors' names, in `ARMS`' order."""
 CONDITIONS = {
-    "clean": {"noise": "none", "view": "fixed", "views": 1, "options": []},
-    "noise-side": {"noise": "dex", "view": "side", "views": 1, "options": []},
-    "noise-side-table": {"noise": "dex", "view": "side", "views": 1,
-                         "options": [["table_scale", True]]},
+    "clean": {"noise": "none", "view": "fixed", "views": 1, "options": [], "table_scale": False},
+    "noise-side": {"noise": "dex", "view": "side", "views": 1, "options": [],
+                   "table_scale": False},
+    "noise-side-table": {"noise": "dex", "view": "side", "views": 1, "options": [],
+                         "table_scale": True},
 }  # fmt: skip
 """What the cameras saw in each set of a run's rounds (`BenchmarkConfig`'s sensing fields) and
 the detector's options, as a benchmark folder records them."""
@@ -370,9 +372,8 @@ def quick_root(root: Path, args: argparse.Namespace) -> None:
             shutil.copyfile(shipped_path(SHIPPED), run / "epoch_001.pt")
             select_checkpoint(run, "declutter", validation=validation)
             for condition, folder in NOISY.items():
-                fields = wanted(condition, args)
-                options = tuple(map(tuple, fields.pop("options")))
-                config = BenchmarkConfig(model=str(run / "best.pt"), options=options, **fields)
+                fields = {k: v for k, v in wanted(condition, args).items() if k != "options"}
+                config = BenchmarkConfig(model=str(run / "best.pt"), **fields)
                 run_or_reuse(config, root / "bench" / folder / name)
 
 

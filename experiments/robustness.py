@@ -16,9 +16,10 @@ experiments/results/robustness.{json,md} and docs/results.md (between its robust
   docs/benchmark.md, "Sensing"): ``clean`` (one noiseless image from the fixed camera: Table
   1's), ``noise`` (the ``dex`` depth noise), ``side`` (GIGA's side view), ``noise-side``
   (both: GIGA's published setting), ``circle6`` (VGN's six views, noiseless), and
-  ``noise-table`` and ``noise-side-table``: the noisy ones with the detector reading the
-  depth scale off the table (``--table-scale``: `symgrasp.perception.table_depth_scale`,
-  which undoes the noise's scale factor). Each condition
+  ``noise-table`` and ``noise-side-table``: the noisy ones with the robot reading each
+  image's depth scale off its table before the planner and the collision check see it
+  (``--table-scale``: `symgrasp.perception.table_depth_scale`, which undoes the noise's scale
+  factor). Each condition
   of a cell plays into ``--out/HAND/REP/OBJECTS[-packed]/CONDITION`` for a shipped model and
   ``--out/HAND/REP/sSEED/OBJECTS[-packed]/CONDITION`` for a checkpoint of training seed SEED
   (`symgrasp.benchmark.cells`' layout; ``OBJECTS…-first-seed-F`` from another first round seed
@@ -92,20 +93,17 @@ MODELS = ("bingham2d-franka", "rotmat6d-franka", "bingham2d-robotiq-2f85", "rotm
 for each hand."""
 SETS = ("vgn-pile-test:pile", "vgn-packed-test:packed")
 """VGN's test scenes (``OBJECTS:SCENE``)."""
-TABLE_SCALE = (("table_scale", True),)
-"""The detector option that reads the depth scale off the table (`GraspDetector`'s
-``table_scale``)."""
 CONDITIONS = {
     "clean": {"noise": "none", "view": "fixed", "views": 1},
     "noise": {"noise": "dex", "view": "fixed", "views": 1},
     "side": {"noise": "none", "view": "side", "views": 1},
     "noise-side": {"noise": "dex", "view": "side", "views": 1},
     "circle6": {"noise": "none", "view": "circle", "views": 6},
-    "noise-table": {"noise": "dex", "view": "fixed", "views": 1, "options": TABLE_SCALE},
-    "noise-side-table": {"noise": "dex", "view": "side", "views": 1, "options": TABLE_SCALE},
+    "noise-table": {"noise": "dex", "view": "fixed", "views": 1, "table_scale": True},
+    "noise-side-table": {"noise": "dex", "view": "side", "views": 1, "table_scale": True},
 }
-"""What the cameras see in each condition (`BenchmarkConfig`'s sensing fields) and, for the
-last two, the detector's depth scale read off the table (its ``options``)."""
+"""What the cameras see in each condition: `BenchmarkConfig`'s sensing fields (for the last
+two, the robot reads each image's depth scale off its table)."""
 CLEAN = "clean"
 """The condition every other one is paired with: Table 1's."""
 COLLISIONS = ("pregrasp_collision", "approach_collision")

@@ -97,8 +97,7 @@ def _val_noise(root, run, rounds, played_by=None, table=False):
     best = run / "best.pt"
     best.write_bytes(f"{run.name} best".encode())
     config = BenchmarkConfig(model=str(best), objects="vgn-pile-train", rounds=ROUNDS, seed=FIRST,
-                             noise="dex", view="side",
-                             options=(("table_scale", True),) if table else ())  # fmt: skip
+                             noise="dex", view="side", table_scale=table)  # fmt: skip
     folder = root / "bench" / ("val-noise-table" if table else "val-noise") / run.name
     _write_benchmark(folder, config, rounds)
     (folder / MODEL_SHA).write_text((played_by or file_sha256(best)) + "\n")

@@ -500,6 +500,11 @@ class BenchmarkConfig:
     distribution)."""
     views: int = 1
     """Depth images per attempt, fused: 1 for fixed and side; VGN renders 6 (circle)."""
+    table_scale: bool = False
+    """The robot reads each image's depth scale off its table (known: 5 cm above the workspace
+    floor) and divides the image by it before the planner and the collision check see it
+    (`symgrasp.perception.table_depth_scale`): undoes the dex noise's scale factor, for every
+    planner alike (docs/benchmark.md, "Sensing")."""
 
     def __post_init__(self) -> None:
         if self.scene not in SCENES:

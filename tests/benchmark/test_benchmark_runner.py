@@ -236,16 +236,13 @@ def test_cli_thresholds_reach_the_detector(tmp_path):
     from symgrasp.cli import main
 
     argv = ["bench", "declutter", "--rounds", "1", "--num-objects", "1", "--seed", "3"]
-    main([*argv, "--no-confidence", "--validity", "0.3", "--table-scale", "--out", str(tmp_path)])
+    main([*argv, "--no-confidence", "--validity", "0.3", "--out", str(tmp_path)])
     options = json.loads((tmp_path / "results.json").read_text())["config"]["options"]
-    assert options == [
-        ["confidence_threshold", 0.0], ["validity_threshold", 0.3], ["table_scale", True]
-    ]  # fmt: skip
+    assert options == [["confidence_threshold", 0.0], ["validity_threshold", 0.3]]
     config = BenchmarkConfig(options=tuple(map(tuple, options)))
     runner._init_worker(config, torch.get_num_threads(), tmp_path)
     detector = runner._WORKER["planner"]
     assert detector.validity_threshold == 0.3 and detector.confidence_threshold == 0.0
-    assert detector.table_scale
 
 
 def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(fake_rounds, tmp_path):

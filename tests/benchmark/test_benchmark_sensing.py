@@ -9,7 +9,7 @@ import pytest
 
 from symgrasp.benchmark import declutter
 from symgrasp.benchmark.declutter import run_round
-from symgrasp.benchmark.sensing import Sensor
+from symgrasp.benchmark.sensing import NOISE, Sensor, draw_seed
 from symgrasp.detect import Grasp
 from symgrasp.names import NOISES, VIEWS
 from symgrasp.objects.sets import make_scene, resolve
@@ -158,3 +158,17 @@ def test_every_planner_sees_the_same_noisy_images_and_the_collision_check_sees_t
     assert len(checked) == 3
     for shown, fused in zip([*idle.seen, *missing.seen], checked, strict=True):
         np.testing.assert_array_equal(shown, fused)
+
+
+def test_the_robot_reads_the_depth_scale_off_its_table_before_anyone_sees_the_images(scene):
+    """With ``table_scale`` every planner and the collision check are given the noisy images
+    divided by their scale factor: the dex noise's Gamma draw, recovered from the table."""
+    world, renderer = scene
+    noisy = Sensor(intrinsic=SMALL, noise="dex", view="side")
+    calibrated = Sensor(intrinsic=SMALL, noise="dex", view="side", table_scale=True)
+    for attempt in (0, 1):
+        (seen,) = noisy.observe(renderer, world, 4, attempt).depth
+        (given,) = calibrated.observe(renderer, world, 4, attempt).depth
+        factor = np.random.default_rng(draw_seed(NOISE, 4, attempt, 0)).gamma(1000.0, 1 / 1000.0)
+        ratio = seen[seen > 0] / given[seen > 0]
+        assert np.allclose(ratio, ratio[0]) and ratio[0] == pytest.approx(factor, abs=1e-3)

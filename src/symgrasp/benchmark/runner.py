@@ -131,7 +131,8 @@ def _round_task(seed: int) -> dict[str, Any]:
         observer = picture_observer(folder, planner.gripper, f"seed {seed}, ")
     record = run_round(
         planner, _WORKER["objects"], config.num_objects, seed, scene=config.scene,
-        sensor=Sensor(config.noise, config.view, config.views), observer=observer,
+        sensor=Sensor(config.noise, config.view, config.views, table_scale=config.table_scale),
+        observer=observer,
         diagnose=config.diagnose,
     )  # fmt: skip
     return round_record(record)

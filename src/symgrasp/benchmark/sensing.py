@@ -32,11 +32,16 @@ import numpy as np
 from symgrasp.config import SceneConfig, check_sensing
 from symgrasp.data.scenes import random_camera
 from symgrasp.detect.planner import Observation
-from symgrasp.perception import CameraIntrinsic, default_extrinsic, noisy_depth
+from symgrasp.perception import (
+    CameraIntrinsic,
+    default_extrinsic,
+    noisy_depth,
+    table_depth_scale,
+)
 from symgrasp.perception.camera import orbit_extrinsic
 from symgrasp.sim.render import DepthRenderer
 from symgrasp.sim.world import World
-from symgrasp.workspace import WORKSPACE_SIZE
+from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 
 SIDE_TARGET = (WORKSPACE_SIZE / 2, WORKSPACE_SIZE / 2, WORKSPACE_SIZE / 3)
 """[m] What GIGA's side view looks at: the workspace's middle, a third of its height up."""
@@ -71,6 +76,10 @@ class Sensor:
     view: str = "fixed"
     views: int = 1
     intrinsic: CameraIntrinsic = field(default_factory=CameraIntrinsic)
+    table_scale: bool = False
+    """Divide each image by the depth scale read off the table (`table_depth_scale`), as a
+    robot that knows its table calibrates its sensor: what the planner and the collision
+    check are given."""
 
     def __post_init__(self) -> None:
         check_sensing(self.noise, self.view, self.views)
@@ -108,4 +117,7 @@ class Sensor:
                 for v, T in enumerate(cameras)
             ]
         )
+        if self.table_scale:
+            depth = np.stack([view / table_depth_scale(view, self.intrinsic, T, TABLE_HEIGHT)
+                              for view, T in zip(depth, cameras, strict=True)])  # fmt: skip
         return Observation(depth, self.intrinsic, cameras, world)

@@ -85,13 +85,6 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         default=None,
         help=f"validity threshold (default: {DEFAULT_VALIDITY}; a sweep per model: docs/results.md)",
     )
-    declutter.add_argument(
-        "--table-scale",
-        action="store_true",
-        help="the detector divides each depth image by the depth scale that puts the table "
-        "where the workspace says (GraspDetector's table_scale): undoes the dex noise's scale "
-        "error (docs/benchmark.md, 'Sensing')",
-    )
     add_shared(
         declutter,
         "representation",
@@ -142,8 +135,6 @@ def _run_declutter(args: argparse.Namespace) -> None:
     options = () if threshold is None else (("confidence_threshold", threshold),)
     if args.validity is not None:
         options += (("validity_threshold", args.validity),)
-    if args.table_scale:
-        options += (("table_scale", True),)
     oracle = {"grasps": args.oracle_grasps, "directions": args.oracle_directions}
     oracle = tuple((k, v) for k, v in oracle.items() if v is not None)
     if oracle and kind != "oracle":
@@ -151,8 +142,8 @@ def _run_declutter(args: argparse.Namespace) -> None:
     if kind != "model":
         if options or args.representation is not None:
             raise SystemExit(
-                "error: --validity, --confidence, --no-confidence, --table-scale and --rep are a "
-                f"trained model's; --model {args.model} takes none of them"
+                "error: --validity, --confidence, --no-confidence and --rep are a trained "
+                f"model's; --model {args.model} takes none of them"
             )
         options = (() if args.gripper is None else (("gripper", args.gripper),)) + oracle
     if kind == "plugin" and os.getcwd() not in sys.path:
