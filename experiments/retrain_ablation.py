@@ -1,6 +1,7 @@
 """The retraining campaign's 2 × 2 ablation (issues 36 and 39): today's or dense labels, clean
 or noisy wider-view training images, each detector on clean images and under noise from GIGA's
-side view → experiments/results/retrain_ablation.{json,md}.
+side view, without and with the robot's table depth scale →
+experiments/results/retrain_ablation.{json,md}.
 
     PYTHONPATH=src python experiments/retrain_ablation.py --root DIR [--arms A ...] \\
         [--seeds 0 1] [--rep bingham2d] [--objects vgn-pile-train] [--seed 1000000] \\
@@ -36,9 +37,8 @@ Reported, all on the rounds every compared run finished (`symgrasp.benchmark.see
   two arms minus the other two, averaged over the other factor's levels (`seed_contrast`);
 - per arm and noisy condition, the robustness gap, that condition − ``clean`` of the same runs
   on the same rounds (one draw of training seeds for both conditions), against issue 39's
-  target: within
-  `GAP_TARGET` of clean (met when the whole interval lies above −3 points, missed when it lies
-  below, else undecided);
+  target: within `GAP_TARGET` of clean (met when the whole interval lies above −3 points,
+  missed when it lies below, else undecided);
 - per arm and condition, the rounds that ended because no grasp was found (the round's last
   attempt is ``none_found``: `symgrasp.benchmark.declutter.run_round` stops there), pooled over
   seeds with a Wilson interval over rounds, against issue 36's target of at most
