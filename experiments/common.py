@@ -15,8 +15,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from symgrasp import rates
-from symgrasp.benchmark.compare import paired_change
-from symgrasp.benchmark.seeds import common_rounds, seed_contrast
 from symgrasp.names import GRIPPERS as BUILT_IN
 
 if TYPE_CHECKING:
@@ -208,6 +206,9 @@ def sensing_gap(noisy: list[list[dict]], clean: list[list[dict]]) -> dict[str, A
     cancels as the rounds' does; ``per_run``, each run's own paired change (`paired_change`);
     ``rounds``; and ``target``, issue 39's (`GAP_TARGET`): ``met`` when the SR and CR intervals
     both lie above −3 points, ``missed`` when either lies below, else ``undecided``."""
+    from symgrasp.benchmark.compare import paired_change
+    from symgrasp.benchmark.seeds import common_rounds, seed_contrast
+
     if len(noisy) != len(clean) or not noisy:
         raise ValueError(f"noisy, clean: expected the same runs, got {len(noisy)} and {len(clean)}")
     shared = common_rounds(*noisy, *clean)

@@ -32,13 +32,9 @@ import numpy as np
 from symgrasp.config import SceneConfig, check_sensing
 from symgrasp.data.scenes import random_camera
 from symgrasp.detect.planner import Observation
-from symgrasp.perception import (
-    CameraIntrinsic,
-    default_extrinsic,
-    noisy_depth,
-    table_depth_scale,
-)
+from symgrasp.perception import CameraIntrinsic, default_extrinsic, noisy_depth
 from symgrasp.perception.camera import orbit_extrinsic
+from symgrasp.perception.table import table_scaled
 from symgrasp.sim.render import DepthRenderer
 from symgrasp.sim.world import World
 from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
@@ -77,7 +73,7 @@ class Sensor:
     views: int = 1
     intrinsic: CameraIntrinsic = field(default_factory=CameraIntrinsic)
     table_scale: bool = False
-    """Divide each image by the depth scale read off the table (`table_depth_scale`), as a
+    """Divide each image by the depth scale read off the table (`table_scaled`), as a
     robot that knows its table calibrates its sensor: what the planner and the collision
     check are given."""
 
@@ -118,6 +114,5 @@ class Sensor:
             ]
         )
         if self.table_scale:
-            depth = np.stack([view / table_depth_scale(view, self.intrinsic, T, TABLE_HEIGHT)
-                              for view, T in zip(depth, cameras, strict=True)])  # fmt: skip
+            depth = table_scaled(depth, self.intrinsic, cameras, TABLE_HEIGHT)
         return Observation(depth, self.intrinsic, cameras, world)

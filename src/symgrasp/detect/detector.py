@@ -39,7 +39,7 @@ from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, rank_voxels
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, depth_to_points
 from symgrasp.perception.camera import is_rigid
 from symgrasp.perception.points import DEFAULT_PIXEL_SIZE, fill_holes, points_view
-from symgrasp.perception.table import table_depth_scale
+from symgrasp.perception.table import table_scaled
 from symgrasp.sim.grippers import GripperSpec, same_name_note
 from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, VOXEL_SIZE, WORKSPACE_SIZE
 
@@ -257,9 +257,7 @@ class GraspDetector:
         if self.fill_holes:
             views = np.stack([fill_holes(view, self.fill_holes) for view in views])
         if self.table_scale:
-            table_z = self.origin[2] + TABLE_HEIGHT
-            views = np.stack([view / table_depth_scale(view, intrinsic, T_view, table_z)
-                              for view, T_view in zip(views, T, strict=True)])  # fmt: skip
+            views = table_scaled(views, intrinsic, T, self.origin[2] + TABLE_HEIGHT)
         return _fuse_views(views, intrinsic, T, self.origin, self.device)
 
     # -- detection ---------------------------------------------------------------------

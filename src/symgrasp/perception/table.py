@@ -314,3 +314,12 @@ def table_depth_scale(
             "show the table, and is T_world_camera right?)"
         )
     return scale
+
+
+def table_scaled(
+    views: np.ndarray, intrinsic: CameraIntrinsic, T_world_camera: np.ndarray, table_z: float
+) -> np.ndarray:
+    """Depth images ``views`` (V, H, W) [m] taken from ``T_world_camera`` (V, 4, 4), each
+    divided by its `table_depth_scale`: what a robot that knows its table fuses."""
+    return np.stack([view / table_depth_scale(view, intrinsic, T, table_z)
+                     for view, T in zip(views, T_world_camera, strict=True)])  # fmt: skip
