@@ -1,7 +1,7 @@
 """The retraining campaign's 2 × 2 ablation (issues 36 and 39): today's or dense labels, clean
-or noisy wider-view training images, each detector on clean images and under noise from GIGA's
-side view, without and with the robot's table depth scale →
-experiments/results/retrain_ablation.{json,md}.
+or noisy wider-view training images (and the noisy ones at the table's depth scale), each
+detector on clean images and under noise from GIGA's side view, without and with the robot's
+table depth scale → experiments/results/retrain_ablation.{json,md}.
 
     PYTHONPATH=src python experiments/retrain_ablation.py --root DIR [--arms A ...] \\
         [--seeds 0 1] [--rep bingham2d] [--objects vgn-pile-train] [--seed 1000000] \\
@@ -10,8 +10,9 @@ experiments/results/retrain_ablation.{json,md}.
 ``DIR`` is the root of experiments/campaigns/retrain.toml. Its arms (`ARMS`) train the Robotiq
 ``--rep`` detector on the same scenes with today's labels or dense ones (``--label-spread``) and
 with clean images or the ``dex`` noise and cameras over the benchmark's views (``--noise dex
---camera-distance --camera-polar``): ``today``, ``dense``, ``sensing``, ``both``, each with the
-training seeds ``--seeds``. Run ``ARM-REP-sS`` (``DIR/runs``) gives three sets of rounds, all
+--camera-distance --camera-polar``): ``today``, ``dense``, ``sensing``, ``both``, and
+``calibrated``, ``both`` with each noisy training image divided by its table's depth scale
+(``--table-scale``), each with the training seeds ``--seeds``. Run ``ARM-REP-sS`` (``DIR/runs``) gives three sets of rounds, all
 on training objects (``--objects``, round seeds ``--seed`` … ``--seed + --rounds − 1``: never a
 test round), the same scenes round by round (`CONDITIONS`):
 
@@ -31,8 +32,8 @@ Reported, all on the rounds every compared run finished (`symgrasp.benchmark.see
 
 - per arm and condition, SR and CR as the mean over training seeds with a 95 % interval over
   seeds, then rounds (hierarchical bootstrap, `seed_ratios`), each seed's value beside it;
-- per condition, the paired effects: ``dense``, ``sensing`` and ``both`` minus ``today``
-  (`seed_lead`: the change of the means, its interval with the training seed inside, and in how
+- per condition, the paired effects: every arm minus ``today``, and ``calibrated`` minus
+  ``both`` and minus ``dense`` (`CONTRASTS`) (`seed_lead`: the change of the means, its interval with the training seed inside, and in how
   many pairings of training seeds the arm's SR is ahead), and each factor's main effect, its
   two arms minus the other two, averaged over the other factor's levels (`seed_contrast`);
 - per arm and noisy condition, the robustness gap, that condition − ``clean`` of the same runs
@@ -84,11 +85,19 @@ from symgrasp.config import VALIDATION_OBJECTS, VALIDATION_SEED, BenchmarkConfig
 from symgrasp.model.checkpoint import file_sha256
 from symgrasp.scripts import parse_args, run_main, write_result
 
-ARMS = {"today": (False, False), "dense": (True, False), "sensing": (False, True),
-        "both": (True, True)}  # fmt: skip
-"""Each arm of the 2 × 2 and its factors: (dense labels, sensing in training)."""
-FACTORS = ("labels", "sensing")
+ARMS = {"today": (False, False, False), "dense": (True, False, False),
+        "sensing": (False, True, False), "both": (True, True, False),
+        "calibrated": (True, True, True)}  # fmt: skip
+"""Each arm and its factors: (dense labels, sensing in training, training images at the table's
+depth scale). The first four are the 2 × 2; ``calibrated`` is ``both`` with each noisy training
+image divided by its table's depth scale before fusion (``data generate --table-scale``)."""
+FACTORS = ("labels", "sensing", "table_scaled_images")
 """The factors' names, in `ARMS`' order."""
+FACTORIAL = ("today", "dense", "sensing", "both")
+"""The 2 × 2's arms, the only ones the main effects of labels and sensing are read from."""
+CONTRASTS = (("calibrated", "both"), ("calibrated", "dense"))
+"""Pairs compared beside each arm − `BASELINE`: what the table's scale in training changes
+(against its uncalibrated twin), and against the arm the final detectors are trained as."""
 CONDITIONS = {
     "clean": {"noise": "none", "view": "fixed", "views": 1, "options": [], "table_scale": False},
     "noise-side": {"noise": "dex", "view": "side", "views": 1, "options": [],
@@ -207,9 +216,10 @@ def arm_cell(rounds: dict, arm: str, condition: str) -> dict[str, Any]:
     """One arm in one condition: the seeds played, SR and CR over them (`seed_ratios`), each
     seed's summary, and the rounds ``none_found`` ended against `NONE_FOUND_TARGET`."""
     mine = arm_runs(rounds, arm, condition)
-    labels, sensing = ARMS[arm]
+    labels, sensing, table_scaled = ARMS[arm]
     cell: dict[str, Any] = {"arm": arm, "dense_labels": labels, "sensing": sensing,
-                            "condition": condition, "seeds": sorted(mine)}  # fmt: skip
+                            "table_scaled_images": table_scaled, "condition": condition,
+                            "seeds": sorted(mine)}  # fmt: skip
     if not mine:
         return cell
     cell["ratios"] = seed_ratios(list(mine.values()))
@@ -236,28 +246,29 @@ def arm_cell(rounds: dict, arm: str, condition: str) -> dict[str, Any]:
 
 
 def effects(rounds: dict, condition: str) -> list[dict[str, Any]]:
-    """In ``condition``, each arm minus `BASELINE` (`seed_lead`) and each factor's main effect
-    (`seed_contrast`), on the rounds every run they rest on finished; those whose arms have no
-    run yet are left out."""
+    """In ``condition``, each arm minus `BASELINE` and the `CONTRASTS` (`seed_lead`), and the
+    main effects of labels and sensing in the 2 × 2 (`seed_contrast`), on the rounds every run
+    they rest on finished; those whose arms have no run yet are left out."""
     by_arm = {arm: list(arm_runs(rounds, arm, condition).values()) for arm in ARMS}
     seeds = {arm: sorted(arm_runs(rounds, arm, condition)) for arm in ARMS}
     out = []
-    for arm in ARMS:
-        if arm == BASELINE or not by_arm[arm] or not by_arm[BASELINE]:
+    pairs = [(arm, BASELINE) for arm in ARMS if arm != BASELINE] + list(CONTRASTS)
+    for arm, other in pairs:
+        if not by_arm[arm] or not by_arm[other]:
             continue
-        lead = seed_lead(by_arm[arm], by_arm[BASELINE])
-        out.append({"effect": f"{arm} − {BASELINE}", "condition": condition,
-                    "seeds": {arm: seeds[arm], BASELINE: seeds[BASELINE]},
+        lead = seed_lead(by_arm[arm], by_arm[other])
+        out.append({"effect": f"{arm} − {other}", "condition": condition,
+                    "seeds": {arm: seeds[arm], other: seeds[other]},
                     "rounds": lead["rounds"], "change": lead["change"], "ahead": lead["ahead"],
                     "pairings": len(lead["pairings"])})  # fmt: skip
-    if all(by_arm.values()):
-        arms = list(ARMS)
+    if all(by_arm[arm] for arm in FACTORIAL):
+        arms = list(FACTORIAL)
         shared = common_rounds(*(run for arm in arms for run in by_arm[arm]))
         groups, start = [], 0
         for arm in arms:
             groups.append(shared[start : start + len(by_arm[arm])])
             start += len(by_arm[arm])
-        for i, factor in enumerate(FACTORS):
+        for i, factor in enumerate(FACTORS[:2]):
             weights = [0.5 if ARMS[arm][i] else -0.5 for arm in arms]
             out.append({"effect": f"{factor} (main effect)", "condition": condition,
                         "seeds": seeds, "rounds": len(shared[0]),
@@ -298,12 +309,14 @@ def markdown(cells: list[dict], effects_: list[dict], gaps: list[dict], runs: li
         "seeds and rounds] (each seed's value); rounds ended because no grasp was found, pooled "
         f"over seeds [Wilson 95 % over rounds], against issue 36's ≤ {NONE_FOUND_TARGET * 100:.0f} %:",
         "",
-        "| arm | dense labels | sensing in training | condition | SR % | CR % | ended by none_found |",
-        "|---|---|---|---|---|---|---|",
+        "| arm | dense labels | sensing in training | images at the table's scale | condition | "
+        "SR % | CR % | ended by none_found |",
+        "|---|---|---|---|---|---|---|---|",
     ]  # fmt: skip
     for c in cells:
         head = (f"| {c['arm']} | {'yes' if c['dense_labels'] else 'no'} | "
-                f"{'yes' if c['sensing'] else 'no'} | {c['condition']} |")  # fmt: skip
+                f"{'yes' if c['sensing'] else 'no'} | "
+                f"{'yes' if c['table_scaled_images'] else 'no'} | {c['condition']} |")  # fmt: skip
         if "ratios" not in c:
             text.append(f"{head} – | – | – |")
             continue
@@ -318,7 +331,7 @@ def markdown(cells: list[dict], effects_: list[dict], gaps: list[dict], runs: li
                       f"{100 * high:.1f}]: {n['target']}")  # fmt: skip
         text.append(f"{head} {' | '.join(values)} |")
     text += ["", "Effects on the same rounds: change of the means over training seeds [95 %, "
-             "seeds and rounds], in points; for an arm against today, the pairings of training "
+             "seeds and rounds], in points; for one arm against another, the pairings of training "
              "seeds in which its SR is ahead; a main effect is its factor's two arms minus the "
              "other two, averaged over the other factor:", "",
              "| effect | condition | rounds | SR change | CR change | SR ahead in |",
@@ -385,7 +398,7 @@ def main() -> None:
                         "DIR/bench/val-noise and DIR/bench/val-noise-table")  # fmt: skip
     parser.add_argument("--arms", nargs="+", choices=list(ARMS), default=list(ARMS),
                         help="arms collated (default: all: %(choices)s; the main effects need "
-                        "all four)")  # fmt: skip
+                        f"the 2 × 2's four: {', '.join(FACTORIAL)})")  # fmt: skip
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1],
                         help="training seeds of each arm (default: 0 1)")  # fmt: skip
     parser.add_argument("--rep", default="bingham2d",

@@ -54,6 +54,7 @@ PLAYED = {  # (arm, seed): rounds of the selected checkpoint: clean, noise-side,
     ("dense", 0): (ALL, HALF, ALL), ("dense", 1): (ALL, HALF, ALL),
     ("sensing", 0): (HALF, HALF, HALF), ("sensing", 1): (HALF, HALF, HALF),
     ("both", 0): (ALL, ALL, ALL), ("both", 1): (HALF, HALF, HALF),
+    ("calibrated", 0): (ALL, ALL, ALL), ("calibrated", 1): (ALL, HALF, ALL),
 }  # fmt: skip
 
 
@@ -195,6 +196,25 @@ def test_the_effects_against_today_and_the_main_effects_on_the_same_rounds(resul
     assert noisy["clear_ratio"][0] == pytest.approx(0.0)
 
 
+def test_calibrated_against_its_uncalibrated_twin_and_dense_outside_the_main_effects(result):
+    cell = _cell(result, "calibrated", "clean")
+    assert cell["table_scaled_images"] and cell["dense_labels"] and cell["sensing"]
+    assert not _cell(result, "both", "clean")["table_scaled_images"]
+    twin = _effect(result, "calibrated − both", "clean")
+    assert twin["change"]["success_ratio"][0] == pytest.approx(1.0 - 0.75)
+    assert (twin["ahead"], twin["pairings"]) == (2, 4)  # ahead of both's seed 1, tied with 0
+    dense = _effect(result, "calibrated − dense", "noise-side")["change"]["clear_ratio"]
+    assert dense[0] == pytest.approx(0.75 - 0.5)
+    assert _effect(result, "calibrated − today", "clean")["change"]["clear_ratio"][0] == (
+        pytest.approx(0.5)
+    )
+    # the main effects are the 2 × 2's alone, whatever calibrated did
+    assert {e["effect"] for e in result["effects"] if "main" in e["effect"]} == {
+        "labels (main effect)",
+        "sensing (main effect)",
+    }
+
+
 def test_the_robustness_gap_pairs_each_run_with_itself(result):
     gaps = {g["arm"]: g for g in result["gaps"] if g["condition"] == "noise-side"}
     point, low, high = gaps["dense"]["change"]["clear_ratio"]
@@ -229,7 +249,7 @@ def test_missing_and_unusable_runs_are_named_with_the_reason(result):
     assert _cell(result, "dense", "noise-side")["seeds"] == [0, 1]
     missing_line = result["table"].splitlines()[-1]
     assert (
-        missing_line.startswith("Missing (11): ") and f"both-{REP}-s2 (noise-side: " in missing_line
+        missing_line.startswith("Missing (14): ") and f"both-{REP}-s2 (noise-side: " in missing_line
     )
 
 
@@ -242,14 +262,14 @@ def test_a_root_with_nothing_yet_lists_every_run_as_missing(tmp_path):
     )  # fmt: skip
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads((tmp_path / "result.json").read_text())
-    assert all(c["seeds"] == [] for c in result["cells"]) and len(result["cells"]) == 12
+    assert all(c["seeds"] == [] for c in result["cells"]) and len(result["cells"]) == 15
     assert result["effects"] == [] and result["gaps"] == []
-    assert "Missing (24): today-bingham2d-s0 (clean: not trained)" in done.stdout
+    assert "Missing (30): today-bingham2d-s0 (clean: not trained)" in done.stdout
 
 
 def test_the_campaign_writes_the_runs_and_folders_the_script_reads():
     steps = campaign_steps("experiments/campaigns/retrain.toml")
-    for arm in ("today", "dense", "sensing", "both"):
+    for arm in ("today", "dense", "sensing", "both", "calibrated"):
         for seed in (0, 1):
             run = f"{arm}-{REP}-s{seed}"
             assert f"--out /root/runs/{run}" in steps[run]["run"]

@@ -207,10 +207,21 @@ class SceneConfig:
     θ = 0.001), and with probability 0.5 plus a 5 mm Gaussian field drawn on a 4× coarser grid,
     upsampled), drawn from the dataset's seed and the scene's id alone (docs/data.md, "Depth
     noise"). The labels do not change."""
+    table_scale: bool = False
+    """Divide each noisy image by the depth scale read off the table before it is fused
+    (`symgrasp.perception.table_scaled`: the robot's sensing of the benchmark's --table-scale),
+    so that the TSDF shows the surfaces where the labels are: the noise's scale factor moves
+    the whole image along the rays, and the simulator's labels do not move with it. Needs a
+    noise (docs/data.md, "Depth noise")."""
 
     def __post_init__(self) -> None:
         _check_mesh_unit(self.mesh_unit)
         check_noise(self.noise)
+        if self.table_scale and self.noise == "none":
+            raise ValueError(
+                "table_scale needs a depth noise (noise='dex', --noise dex): a noiseless image "
+                "is at the table's scale already"
+            )
         unknown = set(self.kinds) - set(SCENES)
         if not self.kinds or unknown:
             raise ValueError(f"kinds must be a non-empty subset of {SCENES}, got {self.kinds}")

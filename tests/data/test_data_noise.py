@@ -1,6 +1,7 @@
 """Depth noise in the training data (`SceneConfig.noise`, ``symgrasp data generate --noise``):
 "none" is today's scene to the byte; "dex" is the benchmark's noise on the image the TSDF is
-fused from, drawn from the scene alone, and leaves the labels as they were."""
+fused from, drawn from the scene alone, and leaves the labels as they were; ``--table-scale``
+divides that image by the depth scale read off the table before it is fused."""
 
 import dataclasses
 import json
@@ -14,9 +15,15 @@ from symgrasp.config import DatabaseConfig, SceneConfig
 from symgrasp.data.generate import config_from_dict
 from symgrasp.data.grasp_db import build_database
 from symgrasp.data.scenes import DEPTH_UNIT, make_scene_record, noise_seed, scene_pool
-from symgrasp.perception import CameraIntrinsic, TSDFVolume, add_depth_noise, noisy_depth
+from symgrasp.perception import (
+    CameraIntrinsic,
+    TSDFVolume,
+    add_depth_noise,
+    noisy_depth,
+    table_depth_scale,
+)
 from symgrasp.sim import FRANKA
-from symgrasp.workspace import RESOLUTION
+from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT
 
 TINY = ["--objects", "blocks", "--gripper", "franka", "--pool-size", "2", "--grasps", "40"]
 TINY += ["--directions", "8", "--scenes", "3"]
@@ -45,7 +52,7 @@ def plain(tmp_path_factory):
 @pytest.fixture(scope="module")
 def tiny():
     """A pool of two blocks with small Franka databases, and the records of scenes 0 and 1
-    without noise and with dex noise."""
+    without noise, with dex noise, and with dex noise divided by the table's depth scale."""
     cfg = SceneConfig(object_set="blocks", gripper="franka", pool_size=2,
                       database=DatabaseConfig(grasps=40, directions=8))  # fmt: skip
     pool = scene_pool(cfg)
@@ -53,9 +60,10 @@ def tiny():
         build_database(o, FRANKA, cfg.database, seed=k) for k, o in enumerate(pool.objects)
     ]
     dex = dataclasses.replace(cfg, noise="dex")
+    table = dataclasses.replace(dex, table_scale=True)
     records = {
         (noise, i): make_scene_record(i, c, FRANKA, pool, databases, seed=3)
-        for noise, c in (("none", cfg), ("dex", dex))
+        for noise, c in (("none", cfg), ("dex", dex), ("table", table))
         for i in (0, 1)
     }
     return records
@@ -110,6 +118,32 @@ def test_the_tsdf_is_the_benchmarks_noise_on_the_stored_image_from_the_scenes_ow
         )  # the benchmark's dex model at its defaults
 
 
+def test_table_scale_fuses_the_noisy_image_over_its_tables_depth_scale(tiny):
+    """The same scene as dex but for the TSDF, which is the stored image's noise divided by
+    the factor `table_depth_scale` reads off it: not the uncalibrated one."""
+    for i in (0, 1):
+        noisy, table = tiny["dex", i], tiny["table", i]
+        changed = {k for k in noisy if not np.array_equal(noisy[k], table[k])}
+        assert changed == {"tsdf"}
+        seen = noisy_depth(table["depth"] * DEPTH_UNIT, "dex", noise_seed(3, i))
+        w, h, fx, fy, cx, cy = table["intrinsic"]
+        intrinsic = CameraIntrinsic(int(w), int(h), fx, fy, cx, cy)
+        g = table_depth_scale(seen, intrinsic, table["extrinsic"], TABLE_HEIGHT)
+        assert abs(g - 1) > 1e-3  # this scene's draw does scale the image
+        same = _off(table, seen / g)
+        assert np.median(same) < 1e-3 and (same > 0.01).mean() < 5e-4
+        assert (_off(table, seen) > 0.01).mean() > 0.01
+
+
+def test_table_scale_without_a_noise_is_refused_in_one_line(tmp_path):
+    with pytest.raises(ValueError, match="table_scale needs a depth noise"):
+        SceneConfig(table_scale=True)
+    with pytest.raises(SystemExit) as refused:
+        _generate(tmp_path / "t", "--table-scale")
+    message = str(refused.value.code)
+    assert "table_scale needs a depth noise" in message and "\n" not in message
+
+
 def test_dex_datasets_are_the_same_bytes_with_two_workers_and_after_resume(plain, tmp_path):
     one, two = tmp_path / "one", tmp_path / "two"
     for root in (one, two):
@@ -146,7 +180,9 @@ def test_an_unknown_noise_is_refused_by_name(tmp_path, capsys):
 
 def test_the_card_shows_the_noise_and_a_manifest_from_before_reads_as_none(plain, tmp_path):
     config = json.loads((plain / "manifest.json").read_text())["config"]
-    del config["noise"]  # a dataset made before the option
+    del config["noise"], config["table_scale"]  # a dataset made before the options
     assert config_from_dict(config).noise == "none"
+    assert config_from_dict(config).table_scale is False
     main(["data", "inspect", str(plain), "--validate", "0"])
-    assert json.loads((plain / "card.json").read_text())["noise"] == "none"
+    card = json.loads((plain / "card.json").read_text())
+    assert card["noise"] == "none" and card["table_scale"] is False

@@ -136,6 +136,7 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
         "manifest": {k: v for k, v in data.manifest.items() if k not in ("scene_ids", "config")},
         "scenes": len(data),
         "noise": data.manifest.get("config", {}).get("noise", "none"),  # older: none
+        "table_scale": data.manifest.get("config", {}).get("table_scale", False),
         "skipped_files": [str(p) for p in data.skipped],
         "scene_kinds": {k: kinds.count(k) for k in sorted(set(kinds))},
         "mean_per_scene": {k: float(np.mean(v)) if v else 0.0 for k, v in per_scene.items()},
@@ -172,7 +173,7 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
     ax[2].set(xlabel="rotation targets per voxel", ylabel="voxels")
     fig.suptitle(
         f"{root.name}: {len(data)} scenes, {data.gripper.name}, {data.object_set}, "
-        f"depth noise {card['noise']}"
+        f"depth noise {card['noise']}{', table-scaled' if card['table_scale'] else ''}"
     )
     fig.tight_layout()
     fig.savefig(root / "card.png", dpi=100)

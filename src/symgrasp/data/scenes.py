@@ -33,12 +33,13 @@ from symgrasp.data.grasp_db import GraspDatabase, OnDemandDatabase
 from symgrasp.data.labels import VoxelLabels, spread_poses, voxelise
 from symgrasp.objects.sets import ObjectSource, resolve
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, noisy_depth, orbit_extrinsic
+from symgrasp.perception.table import table_scaled
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.grippers import GripperSpec
 from symgrasp.sim.objects import ObjectSpec, surface_samples
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import World
-from symgrasp.workspace import RESOLUTION, WORKSPACE_SIZE
+from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, WORKSPACE_SIZE
 
 DEPTH_UNIT = 1e-4
 """Depth images are stored as uint16 in units of 0.1 mm (up to 6.5 m)."""
@@ -250,7 +251,8 @@ def make_scene_record(
     of ``cfg.gripper``); ``databases[k]`` belongs to ``pool.objects[k]`` (``pool`` =
     `scene_pool` of ``cfg``). Returns the arrays stored in the scene's file (docs/data.md).
     ``depth`` is the rendered image, before the noise: the image fused is
-    ``noisy_depth(depth, cfg.noise, noise_seed(seed, scene_id))``, reproduced from the stored
+    ``noisy_depth(depth, cfg.noise, noise_seed(seed, scene_id))`` (divided by its table's
+    depth scale where ``cfg.table_scale``), reproduced from the stored
     one to its 0.1 mm steps (a noisy image, stored, would compress to several times the file:
     docs/data.md, "Depth noise")."""
     scene, rng = labelled_scene(scene_id, cfg, hand, pool, databases, seed)
@@ -260,6 +262,8 @@ def make_scene_record(
     T_world_camera = random_camera(cfg, rng)
     depth = make_renderer(intrinsic).render(scene.world, T_world_camera)
     seen = noisy_depth(depth, cfg.noise, noise_seed(seed, scene_id))
+    if cfg.table_scale:
+        seen = table_scaled(seen[None], intrinsic, T_world_camera[None], TABLE_HEIGHT)[0]
     volume = TSDFVolume(resolution=RESOLUTION)
     volume.integrate(seen, intrinsic, T_world_camera)
 
