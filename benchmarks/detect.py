@@ -1,7 +1,7 @@
 """Latency of grasp detection, depth image to ranked grasps → benchmarks/results/detect.json.
 
     PYTHONPATH=src python benchmarks/detect.py [--model bingham2d-robotiq-2f85] [--repeats 100]
-        [--block 10] [--device cpu] [--quick [DIR]]
+        [--block 10] [--device cpu] [--table-scale] [--quick [DIR]]
 
 Renders one 640×480 depth image of a 5-object household-test pile (seed 0) from the default
 camera, then times ``GraspDetector.detect`` on it, per stage (TSDF fusion, network, decoding)
@@ -11,7 +11,9 @@ network run eagerly (the default) and as a TorchScript graph made for inference
 machine's load falls on both, for ``--repeats`` calls each after a warm-up. Both must return
 the same grasps. Target: ≤ 15 ms per image (median) on the 2-core CPU, for the optimised
 detector. ``--device cuda`` times both on a GPU instead (written to ``detect-cuda.json``; the
-target is the CPU's). The decoding stage depends on how many voxels pass the thresholds, so the shipped
+target is the CPU's). ``--table-scale`` times detectors that divide the image by the depth
+scale read off the table first (``GraspDetector(table_scale=True)``, part of the TSDF stage;
+written to ``detect-table.json``, or ``detect-DEVICE-table.json``). The decoding stage depends on how many voxels pass the thresholds, so the shipped
 model is timed, not a random network. ``--quick`` times two calls of each.
 """
 
@@ -51,6 +53,12 @@ def main() -> None:
         "--device", default="cpu", help="where TSDF and network run: cpu or cuda (default: cpu)"
     )
     parser.add_argument(
+        "--table-scale",
+        action="store_true",
+        help="detectors that read the image's depth scale off the table first "
+        "(GraspDetector(table_scale=True); default: off)",
+    )
+    parser.add_argument(
         "--out",
         default=DEFAULT_OUT,
         help=f"result file (default: {DEFAULT_OUT}, or detect-DEVICE.json beside it off the CPU)",
@@ -58,12 +66,14 @@ def main() -> None:
     args = parse_args(parser, outputs=("out",), quick={"repeats": 2, "block": 1})
     on_cpu = args.device == "cpu"
     out = Path(args.out)
-    if not on_cpu and str(out) == DEFAULT_OUT:
-        out = out.with_name(f"detect-{args.device}.json")
+    if str(out) == DEFAULT_OUT:
+        suffix = ("" if on_cpu else f"-{args.device}") + ("-table" if args.table_scale else "")
+        out = out.with_name(f"detect{suffix}.json")
 
+    options = {"device": args.device, "table_scale": args.table_scale}
     detectors = {
-        "eager": GraspDetector.from_pretrained(args.model, device=args.device),
-        "optimized": GraspDetector.from_pretrained(args.model, device=args.device, optimize=True),
+        "eager": GraspDetector.from_pretrained(args.model, **options),
+        "optimized": GraspDetector.from_pretrained(args.model, optimize=True, **options),
     }
     world = pile_scene(
         object_set("household-test", 5, seed=0), seed=0, gripper=detectors["eager"].gripper
@@ -90,11 +100,12 @@ def main() -> None:
         "the network eager and optimized (TorchScript, made for inference)",
         "command": "PYTHONPATH=src python benchmarks/detect.py "
         f"--model {args.model} --repeats {args.repeats} --block {args.block} "
-        f"--device {args.device}",
+        f"--device {args.device}" + (" --table-scale" if args.table_scale else ""),
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "machine": machine(),
         "device": str(detectors["eager"].device),
         "model": args.model,
+        "table_scale": args.table_scale,
         "depth_renderer": renderer.name,
         "grasps_returned": len(grasps["eager"]),
         "same_grasps": same,
