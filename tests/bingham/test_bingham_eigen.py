@@ -7,9 +7,9 @@ import pytest
 import torch
 
 from symgrasp.bingham import eigh, eigh3, nll, triu_to_sym
-from symgrasp.bingham.distribution import _library_eigh
+from symgrasp.bingham.distribution import _library_eigh3
 
-SOLVERS = {"eigh3": eigh3, "library": _library_eigh}
+SOLVERS = {"eigh3": eigh3, "library": _library_eigh3}
 
 F64 = torch.float64
 
@@ -77,10 +77,15 @@ def test_reads_the_upper_triangle_keeps_dtype_and_takes_an_empty_batch(solver):
     assert lam.shape == (0, 3) and V.shape == (0, 3, 3)
 
 
-def test_eigh_takes_the_closed_form_on_a_cpu():
-    A = triu_to_sym(torch.randn(50, 6, dtype=F64, generator=torch.Generator().manual_seed(3)))
+def test_eigh_takes_the_closed_form_on_a_cpu_and_lapack_as_it_is_for_d4():
+    generator = torch.Generator().manual_seed(3)
+    A = triu_to_sym(torch.randn(50, 6, dtype=F64, generator=generator))
     for got, want in zip(eigh(A), eigh3(A), strict=True):
         assert torch.equal(got, want)
+    B = torch.randn(50, 4, 4, generator=generator)  # float32, as a bingham3d head gives it
+    B = B + B.transpose(-1, -2)
+    for got, want in zip(eigh(B), torch.linalg.eigh(B), strict=True):
+        assert got.dtype == torch.float32 and torch.equal(got, want)  # recorded rounds rest on it
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")

@@ -41,25 +41,27 @@ so that a mistyped size is refused before it allocates the machine's memory."""
 def eigh(A: Tensor) -> tuple[Tensor, Tensor]:
     """Eigenvalues (ascending) and eigenvectors of symmetric ``[..., d, d]``, not differentiable.
 
-    On a CPU, the closed form `eigh3` for d = 3 (4× faster than LAPACK there, orthonormal to
-    rounding even at repeated eigenvalues); elsewhere, and for d = 4, ``torch.linalg.eigh``. On
-    a GPU the closed form is a few hundred elementwise kernels whatever the batch: 3.4 ms for
-    the 36 voxels of a detection against 0.1 ms for the library (H100,
-    ``benchmarks/results/detect-cuda.json``). For d = 3 both return a rotation (det = +1).
+    ``torch.linalg.eigh`` for d = 4. For d = 3, on a CPU the closed form `eigh3` (4× faster than
+    LAPACK there, orthonormal to rounding even at repeated eigenvalues), elsewhere the library
+    held to its conventions (`_library_eigh3`): on a GPU the closed form is a few hundred
+    elementwise kernels whatever the batch, 3.4 ms for the 36 voxels of a detection against
+    0.1 ms for the library (H100, ``benchmarks/results/detect-cuda.json``).
     """
-    if A.shape[-1] == 3 and A.device.type == "cpu":
+    if A.shape[-1] != 3:
+        return torch.linalg.eigh(A.detach())
+    if A.device.type == "cpu":
         return eigh3(A)
-    return _library_eigh(A)
+    return _library_eigh3(A)
 
 
-def _library_eigh(A: Tensor) -> tuple[Tensor, Tensor]:
-    """``torch.linalg.eigh`` of ``A``'s upper triangle in float64 (as `eigh3`), in A's dtype;
-    for d = 3 its first column flipped where the frame is left-handed."""
+def _library_eigh3(A: Tensor) -> tuple[Tensor, Tensor]:
+    """``torch.linalg.eigh`` of the upper triangle of ``A`` [..., 3, 3] in float64, returned in
+    A's dtype, the first eigenvector flipped where the frame is left-handed: `eigh3`'s
+    conventions."""
     lam, vectors = torch.linalg.eigh(A.detach().to(torch.float64), UPLO="U")
-    if A.shape[-1] == 3:
-        columns = vectors.unbind(-1)
-        handedness = torch.sign((torch.linalg.cross(columns[0], columns[1]) * columns[2]).sum(-1))
-        vectors = torch.cat([vectors[..., :1] * handedness[..., None, None], vectors[..., 1:]], -1)
+    columns = vectors.unbind(-1)
+    handedness = torch.sign((torch.linalg.cross(columns[0], columns[1]) * columns[2]).sum(-1))
+    vectors = torch.cat([vectors[..., :1] * handedness[..., None, None], vectors[..., 1:]], -1)
     return lam.to(A.dtype), vectors.to(A.dtype)
 
 
