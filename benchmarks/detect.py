@@ -13,8 +13,8 @@ the same grasps. Target: ≤ 15 ms per image (median) on the 2-core CPU, for the
 detector. ``--device cuda`` times both on a GPU instead (written to ``detect-cuda.json``; the
 target is the CPU's). ``--table-scale`` times detectors that divide the image by the depth
 scale read off the table first (``GraspDetector(table_scale=True)``, part of the TSDF stage;
-written to ``detect-table.json``, or ``detect-DEVICE-table.json``). The decoding stage depends on how many voxels pass the thresholds, so the shipped
-model is timed, not a random network. ``--quick`` times two calls of each.
+written to ``detect-table.json``, or ``detect-DEVICE-table.json``). The decoding stage depends
+on how many voxels pass the thresholds, so the shipped model is timed, not a random network. ``--quick`` times two calls of each.
 """
 
 from __future__ import annotations

@@ -12,8 +12,8 @@ table depth scale → experiments/results/retrain_ablation.{json,md}.
 with clean images or the ``dex`` noise and cameras over the benchmark's views (``--noise dex
 --camera-distance --camera-polar``): ``today``, ``dense``, ``sensing``, ``both``, and
 ``calibrated``, ``both`` with each noisy training image divided by its table's depth scale
-(``--table-scale``), each with the training seeds ``--seeds``. Run ``ARM-REP-sS`` (``DIR/runs``) gives three sets of rounds, all
-on training objects (``--objects``, round seeds ``--seed`` … ``--seed + --rounds − 1``: never a
+(``--table-scale``), each with the training seeds ``--seeds``. Run ``ARM-REP-sS``
+(``DIR/runs``) gives three sets of rounds, all on training objects (``--objects``, round seeds ``--seed`` … ``--seed + --rounds − 1``: never a
 test round), the same scenes round by round (`CONDITIONS`):
 
 - ``clean``: the declutter validation of its *selected* checkpoint (``symgrasp select --by
@@ -33,8 +33,9 @@ Reported, all on the rounds every compared run finished (`symgrasp.benchmark.see
 - per arm and condition, SR and CR as the mean over training seeds with a 95 % interval over
   seeds, then rounds (hierarchical bootstrap, `seed_ratios`), each seed's value beside it;
 - per condition, the paired effects: every arm minus ``today``, and ``calibrated`` minus
-  ``both`` and minus ``dense`` (`CONTRASTS`) (`seed_lead`: the change of the means, its interval with the training seed inside, and in how
-  many pairings of training seeds the arm's SR is ahead), and each factor's main effect, its
+  ``both`` and minus ``dense`` (`CONTRASTS`) (`seed_lead`: the change of the means, its
+  interval with the training seed inside, and in how many pairings of training seeds the arm's
+  SR is ahead), and each 2 × 2 factor's main effect, its
   two arms minus the other two, averaged over the other factor's levels (`seed_contrast`);
 - per arm and noisy condition, the robustness gap, that condition − ``clean`` of the same runs
   on the same rounds (one draw of training seeds for both conditions), against issue 39's
@@ -94,7 +95,9 @@ image divided by its table's depth scale before fusion (``data generate --table-
 FACTORS = ("labels", "sensing", "table_scaled_images")
 """The factors' names, in `ARMS`' order."""
 FACTORIAL = ("today", "dense", "sensing", "both")
-"""The 2 × 2's arms, the only ones the main effects of labels and sensing are read from."""
+"""The 2 × 2's arms, the only ones the main effects are read from."""
+MAIN_EFFECTS = tuple(f for i, f in enumerate(FACTORS) if len({ARMS[a][i] for a in FACTORIAL}) > 1)
+"""The factors the 2 × 2 varies (labels and sensing), each with a main effect."""
 CONTRASTS = (("calibrated", "both"), ("calibrated", "dense"))
 """Pairs compared beside each arm − `BASELINE`: what the table's scale in training changes
 (against its uncalibrated twin), and against the arm the final detectors are trained as."""
@@ -268,7 +271,8 @@ def effects(rounds: dict, condition: str) -> list[dict[str, Any]]:
         for arm in arms:
             groups.append(shared[start : start + len(by_arm[arm])])
             start += len(by_arm[arm])
-        for i, factor in enumerate(FACTORS[:2]):
+        for factor in MAIN_EFFECTS:
+            i = FACTORS.index(factor)
             weights = [0.5 if ARMS[arm][i] else -0.5 for arm in arms]
             out.append({"effect": f"{factor} (main effect)", "condition": condition,
                         "seeds": seeds, "rounds": len(shared[0]),

@@ -131,12 +131,13 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
     score = np.concatenate(scores) if scores else np.zeros(0)
     per_voxel = np.concatenate(targets) if targets else np.zeros(0, dtype=int)
     valid = np.asarray(per_scene["valid_voxels"])
+    config = data.manifest.get("config", {})
     card: dict[str, Any] = {
         "root": str(root),
         "manifest": {k: v for k, v in data.manifest.items() if k not in ("scene_ids", "config")},
         "scenes": len(data),
-        "noise": data.manifest.get("config", {}).get("noise", "none"),  # older: none
-        "table_scale": data.manifest.get("config", {}).get("table_scale", False),
+        "noise": config.get("noise", "none"),  # older manifests: none
+        "table_scale": config.get("table_scale", False),
         "skipped_files": [str(p) for p in data.skipped],
         "scene_kinds": {k: kinds.count(k) for k in sorted(set(kinds))},
         "mean_per_scene": {k: float(np.mean(v)) if v else 0.0 for k, v in per_scene.items()},
