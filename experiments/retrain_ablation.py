@@ -12,7 +12,8 @@ table depth scale → experiments/results/retrain_ablation.{json,md}.
 with clean images or the ``dex`` noise and cameras over the benchmark's views (``--noise dex
 --camera-distance --camera-polar``): ``today``, ``dense``, ``sensing``, ``both``, and
 ``calibrated``, ``both`` with each noisy training image divided by its table's depth scale
-(``--table-scale``), each with the training seeds ``--seeds``. Run ``ARM-REP-sS``
+(``--table-scale``), and ``dense600``, ``dense`` with 600-grasp databases (``--grasps 600``),
+each with the training seeds ``--seeds``. Run ``ARM-REP-sS``
 (``DIR/runs``) gives three sets of rounds, all on training objects (``--objects``, round seeds ``--seed`` … ``--seed + --rounds − 1``: never a
 test round), the same scenes round by round (`CONDITIONS`):
 
@@ -32,8 +33,8 @@ Reported, all on the rounds every compared run finished (`symgrasp.benchmark.see
 
 - per arm and condition, SR and CR as the mean over training seeds with a 95 % interval over
   seeds, then rounds (hierarchical bootstrap, `seed_ratios`), each seed's value beside it;
-- per condition, the paired effects: every arm minus ``today``, and ``calibrated`` minus
-  ``both`` and minus ``dense`` (`CONTRASTS`) (`seed_lead`: the change of the means, its
+- per condition, the paired effects: every arm minus ``today``, ``calibrated`` minus ``both``
+  and minus ``dense``, and ``dense600`` minus ``dense`` (`CONTRASTS`) (`seed_lead`: the change of the means, its
   interval with the training seed inside, and in how many pairings of training seeds the arm's
   SR is ahead), and each 2 × 2 factor's main effect, its
   two arms minus the other two, averaged over the other factor's levels (`seed_contrast`);
@@ -86,21 +87,24 @@ from symgrasp.config import VALIDATION_OBJECTS, VALIDATION_SEED, BenchmarkConfig
 from symgrasp.model.checkpoint import file_sha256
 from symgrasp.scripts import parse_args, run_main, write_result
 
-ARMS = {"today": (False, False, False), "dense": (True, False, False),
-        "sensing": (False, True, False), "both": (True, True, False),
-        "calibrated": (True, True, True)}  # fmt: skip
+ARMS = {"today": (False, False, False, False), "dense": (True, False, False, False),
+        "sensing": (False, True, False, False), "both": (True, True, False, False),
+        "calibrated": (True, True, True, False), "dense600": (True, False, False, True)}  # fmt: skip
 """Each arm and its factors: (dense labels, sensing in training, training images at the table's
-depth scale). The first four are the 2 × 2; ``calibrated`` is ``both`` with each noisy training
-image divided by its table's depth scale before fusion (``data generate --table-scale``)."""
-FACTORS = ("labels", "sensing", "table_scaled_images")
+depth scale, 600-grasp databases instead of 150). The first four are the 2 × 2; ``calibrated``
+is ``both`` with each noisy training image divided by its table's depth scale before fusion
+(``data generate --table-scale``); ``dense600`` is ``dense`` with databases of 600 held grasps
+per object (``--grasps 600``: 4× the labels a scene carries)."""
+FACTORS = ("labels", "sensing", "table_scaled_images", "large_databases")
 """The factors' names, in `ARMS`' order."""
 FACTORIAL = ("today", "dense", "sensing", "both")
 """The 2 × 2's arms, the only ones the main effects are read from."""
 MAIN_EFFECTS = tuple(f for i, f in enumerate(FACTORS) if len({ARMS[a][i] for a in FACTORIAL}) > 1)
 """The factors the 2 × 2 varies (labels and sensing), each with a main effect."""
-CONTRASTS = (("calibrated", "both"), ("calibrated", "dense"))
+CONTRASTS = (("calibrated", "both"), ("calibrated", "dense"), ("dense600", "dense"))
 """Pairs compared beside each arm − `BASELINE`: what the table's scale in training changes
-(against its uncalibrated twin), and against the arm the final detectors are trained as."""
+(against its uncalibrated twin), and each added arm against ``dense``, the recipe it would
+replace in the final detectors."""
 CONDITIONS = {
     "clean": {"noise": "none", "view": "fixed", "views": 1, "options": [], "table_scale": False},
     "noise-side": {"noise": "dex", "view": "side", "views": 1, "options": [],
@@ -219,10 +223,10 @@ def arm_cell(rounds: dict, arm: str, condition: str) -> dict[str, Any]:
     """One arm in one condition: the seeds played, SR and CR over them (`seed_ratios`), each
     seed's summary, and the rounds ``none_found`` ended against `NONE_FOUND_TARGET`."""
     mine = arm_runs(rounds, arm, condition)
-    labels, sensing, table_scaled = ARMS[arm]
+    labels, sensing, table_scaled, large = ARMS[arm]
     cell: dict[str, Any] = {"arm": arm, "dense_labels": labels, "sensing": sensing,
-                            "table_scaled_images": table_scaled, "condition": condition,
-                            "seeds": sorted(mine)}  # fmt: skip
+                            "table_scaled_images": table_scaled, "large_databases": large,
+                            "condition": condition, "seeds": sorted(mine)}  # fmt: skip
     if not mine:
         return cell
     cell["ratios"] = seed_ratios(list(mine.values()))
@@ -313,14 +317,15 @@ def markdown(cells: list[dict], effects_: list[dict], gaps: list[dict], runs: li
         "seeds and rounds] (each seed's value); rounds ended because no grasp was found, pooled "
         f"over seeds [Wilson 95 % over rounds], against issue 36's ≤ {NONE_FOUND_TARGET * 100:.0f} %:",
         "",
-        "| arm | dense labels | sensing in training | images at the table's scale | condition | "
-        "SR % | CR % | ended by none_found |",
-        "|---|---|---|---|---|---|---|---|",
+        "| arm | dense labels | sensing in training | images at the table's scale | "
+        "600-grasp databases | condition | SR % | CR % | ended by none_found |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]  # fmt: skip
     for c in cells:
         head = (f"| {c['arm']} | {'yes' if c['dense_labels'] else 'no'} | "
                 f"{'yes' if c['sensing'] else 'no'} | "
-                f"{'yes' if c['table_scaled_images'] else 'no'} | {c['condition']} |")  # fmt: skip
+                f"{'yes' if c['table_scaled_images'] else 'no'} | "
+                f"{'yes' if c['large_databases'] else 'no'} | {c['condition']} |")  # fmt: skip
         if "ratios" not in c:
             text.append(f"{head} – | – | – |")
             continue

@@ -55,6 +55,7 @@ PLAYED = {  # (arm, seed): rounds of the selected checkpoint: clean, noise-side,
     ("sensing", 0): (HALF, HALF, HALF), ("sensing", 1): (HALF, HALF, HALF),
     ("both", 0): (ALL, ALL, ALL), ("both", 1): (HALF, HALF, HALF),
     ("calibrated", 0): (ALL, ALL, ALL), ("calibrated", 1): (ALL, HALF, ALL),
+    ("dense600", 0): (ALL, ALL, ALL), ("dense600", 1): (ALL, ALL, HALF),
 }  # fmt: skip
 
 
@@ -249,7 +250,7 @@ def test_missing_and_unusable_runs_are_named_with_the_reason(result):
     assert _cell(result, "dense", "noise-side")["seeds"] == [0, 1]
     missing_line = result["table"].splitlines()[-1]
     assert (
-        missing_line.startswith("Missing (14): ") and f"both-{REP}-s2 (noise-side: " in missing_line
+        missing_line.startswith("Missing (17): ") and f"both-{REP}-s2 (noise-side: " in missing_line
     )
 
 
@@ -262,14 +263,29 @@ def test_a_root_with_nothing_yet_lists_every_run_as_missing(tmp_path):
     )  # fmt: skip
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads((tmp_path / "result.json").read_text())
-    assert all(c["seeds"] == [] for c in result["cells"]) and len(result["cells"]) == 15
+    assert all(c["seeds"] == [] for c in result["cells"]) and len(result["cells"]) == 18
     assert result["effects"] == [] and result["gaps"] == []
-    assert "Missing (30): today-bingham2d-s0 (clean: not trained)" in done.stdout
+    assert "Missing (36): today-bingham2d-s0 (clean: not trained)" in done.stdout
+
+
+def test_dense600_against_dense_outside_the_main_effects(result):
+    cell = _cell(result, "dense600", "clean")
+    assert cell["large_databases"] and cell["dense_labels"] and not cell["sensing"]
+    assert not _cell(result, "dense", "clean")["large_databases"]
+    noisy = _effect(result, "dense600 − dense", "noise-side")["change"]
+    assert noisy["success_ratio"][0] == pytest.approx(1.0 - 0.5)  # ALL against HALF, both seeds
+    assert noisy["clear_ratio"][0] == pytest.approx(1.0 - 0.5)
+    table = _effect(result, "dense600 − dense", "noise-side-table")["change"]["clear_ratio"]
+    assert table[0] == pytest.approx((1.0 + 0.5) / 2 - 1.0)
+    assert {e["effect"] for e in result["effects"] if "main" in e["effect"]} == {
+        "labels (main effect)",
+        "sensing (main effect)",
+    }
 
 
 def test_the_campaign_writes_the_runs_and_folders_the_script_reads():
     steps = campaign_steps("experiments/campaigns/retrain.toml")
-    for arm in ("today", "dense", "sensing", "both", "calibrated"):
+    for arm in ("today", "dense", "sensing", "both", "calibrated", "dense600"):
         for seed in (0, 1):
             run = f"{arm}-{REP}-s{seed}"
             assert f"--out /root/runs/{run}" in steps[run]["run"]
