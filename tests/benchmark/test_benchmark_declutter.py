@@ -1,5 +1,7 @@
 """A declutter round with the shipped model: its bookkeeping, and same seed → same round."""
 
+from collections import Counter
+
 import numpy as np
 import pytest
 
@@ -47,6 +49,11 @@ def test_a_round_is_reproducible_undisturbed_by_diagnosis_and_its_counts_add_up(
         assert (a.target is None) == (a.outcome == NONE_FOUND)
         assert a.target is None or a.target in families
     assert [a.target for a in first.attempts] == [a.target for a in again.attempts]
+    # what was presented and what is left: the lifted objects' families taken out, no more
+    assert len(first.presented) == first.objects and set(first.presented) <= families
+    lifted = Counter(a.target for a in first.attempts if a.success)
+    assert Counter(first.left) == Counter(first.presented) - lifted
+    assert (first.presented, first.left) == (again.presented, again.left)
 
 
 def test_pictures_are_drawn_per_attempt(detector, tmp_path):

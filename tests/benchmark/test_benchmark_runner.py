@@ -83,6 +83,20 @@ def test_attempts_are_counted_per_aimed_at_family():
     }
 
 
+def test_the_objects_left_on_the_table_are_counted_per_family_most_often_left_first():
+    rounds = [
+        {**_round(0, 3, ["success", "none_found"]), "presented": ["box", "box", "banana"],
+         "left": ["box", "banana"]},
+        {**_round(1, 2, ["success", "success"]), "presented": ["box", "cup"], "left": []},
+        {**_round(2, 2, ["none_found"]), "presented": ["banana", "cup"], "left": ["banana", "cup"]},
+        _round(3, 4, ["success"]),  # an older record: no families presented or left
+    ]  # fmt: skip
+    left = summarise(rounds)["left_on_table"]
+    assert left == {"banana": {"presented": 2, "left": 2}, "cup": {"presented": 2, "left": 1},
+                    "box": {"presented": 3, "left": 1}}  # fmt: skip
+    assert list(left) == ["banana", "cup", "box"]  # 2/2, then 1/2 before 1/3
+
+
 def test_bootstrap_interval_shrinks_like_one_over_sqrt_rounds():
     rng = np.random.default_rng(0)
 

@@ -76,12 +76,15 @@ class Attempt:
 @dataclass
 class Round:
     """The record of one round: ``objects`` presented (those left on the table after the
-    pile settled), the depth ``renderer`` (``"gl"`` or ``"raycast"``) and its attempts."""
+    pile settled), the depth ``renderer`` (``"gl"`` or ``"raycast"``), its attempts, and the
+    families of the objects ``presented`` and of those ``left`` on the table when it ended."""
 
     seed: int
     objects: int
     renderer: str
     attempts: list[Attempt] = field(default_factory=list)
+    presented: list[str] = field(default_factory=list)
+    left: list[str] = field(default_factory=list)
 
     @property
     def successes(self) -> int:
@@ -139,7 +142,8 @@ def run_round(
     sensor = sensor or Sensor()
     renderer = make_renderer(sensor.intrinsic)
     world = make_scene(scene, objects, num_objects, seed, gripper=planner.gripper)
-    record = Round(seed, len(world.objects), renderer.name)
+    record = Round(seed, len(world.objects), renderer.name,
+                   presented=[spec.family for spec in world.objects])  # fmt: skip
     max_attempts = 2 * num_objects if max_attempts is None else max_attempts
     failures = 0
     while world.objects and failures < max_failures and len(record.attempts) < max_attempts:
@@ -173,6 +177,7 @@ def run_round(
         if chosen is None:
             break
         failures = 0 if attempt.success else failures + 1
+    record.left = [spec.family for spec in world.objects]
     return record
 
 

@@ -106,6 +106,8 @@ def round_record(record: Round) -> dict[str, Any]:
             }
             for a in record.attempts
         ],
+        "presented": record.presented,
+        "left": record.left,
     }
 
 
@@ -174,8 +176,8 @@ def run_rounds(
 
 def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
     """Pooled SR and CR with bootstrap 95 % intervals, outcome and failure-mode counts,
-    executed grasps, successes and wrong yaws per aimed-at object family, planning time, all
-    over the rounds that finished; ``rounds`` counts every round and ``errors`` lists the
+    executed grasps, successes and wrong yaws per aimed-at object family, the objects left on
+    the table per family (`left_on_table`), planning time, all over the rounds that finished; ``rounds`` counts every round and ``errors`` lists the
     failed ones (seed and message), which nothing is averaged over."""
     done = [r for r in rounds if "error" not in r]
     counts = dict(zip(COUNTS, round_counts(done), strict=True))
@@ -196,6 +198,7 @@ def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
         "outcomes": dict(sorted(outcomes.items())),
         "modes": {mode: modes[mode] for mode in MODES if mode in modes},
         "families": _by_family([a for r in done for a in r["attempts"]]),
+        "left_on_table": left_on_table(done),
         "planning_s_median": float(np.median(planning)) if planning else float("nan"),
         "renderers": sorted({r["renderer"] for r in done}),
     }
@@ -223,6 +226,16 @@ def _by_family(attempts: list[dict[str, Any]]) -> dict[str, dict[str, int]]:
         counts["wrong_yaw"] += a.get("mode") == "wrong_yaw"
     keys = ("executed", "successes", "wrong_yaw")
     return {name: {k: families[name][k] for k in keys} for name in sorted(families)}
+
+
+def left_on_table(rounds: list[dict[str, Any]]) -> dict[str, dict[str, int]]:
+    """Objects presented and left on the table when the round ended, per family, the family
+    most often left first (by share, then count); records older than the ``presented`` and
+    ``left`` fields count nowhere."""
+    presented = Counter(f for r in rounds for f in r.get("presented", ()))
+    left = Counter(f for r in rounds for f in r.get("left", ()))
+    order = sorted(presented, key=lambda f: (-left[f] / presented[f], -left[f], f))
+    return {f: {"presented": presented[f], "left": left[f]} for f in order}
 
 
 def percent_with_interval(summary: dict[str, Any], name: str) -> str:

@@ -172,4 +172,8 @@ def _run_declutter(args: argparse.Namespace) -> None:
     summary = run_benchmark(config, args.out, args.resume, parallel)
     print(markdown_table(summary, config), end="")
     print(f"outcomes {summary['outcomes']}")
+    left = [f"{f} {c['left']}/{c['presented']}" for f, c in summary["left_on_table"].items()
+            if c["left"]]  # fmt: skip
+    if left:
+        print(f"left on the table (of presented), most often first: {', '.join(left[:10])}")
     print(f"failure modes {summary['modes']}; results in {args.out}")
