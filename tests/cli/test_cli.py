@@ -48,6 +48,14 @@ def test_confidence_and_no_confidence_are_exclusive(command, capsys, inputs):
     assert "not allowed with argument" in capsys.readouterr().err
 
 
+def test_depth_scale_is_parsed_for_the_detector_which_checks_its_range(inputs, capsys):
+    assert build_parser().parse_args([*DETECT, "--depth-scale", "1.03"]).depth_scale == 1.03
+    assert build_parser().parse_args(DETECT).depth_scale is None
+    with pytest.raises(SystemExit):
+        build_parser().parse_args([*DETECT, "--depth-scale", "-1"])
+    assert "--depth-scale" in capsys.readouterr().err
+
+
 def test_building_the_parser_loads_neither_torch_nor_mujoco():
     import subprocess
     import sys

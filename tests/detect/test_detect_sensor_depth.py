@@ -6,11 +6,12 @@ import pytest
 
 from symgrasp.detect import GraspDetector
 from symgrasp.detect.files import load_depth, save_png_depth
-from symgrasp.perception import CameraIntrinsic, default_extrinsic
+from symgrasp.perception import CameraIntrinsic, default_extrinsic, table_depth_scale
 from symgrasp.perception.points import edge_holes
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
+from symgrasp.workspace import TABLE_HEIGHT
 
 SMALL = CameraIntrinsic().scaled(0.5)  # 320 × 240
 T = default_extrinsic()
@@ -95,3 +96,32 @@ def test_a_depth_scale_error_is_undone_by_the_table_and_only_with_table_scale(de
     assert (calibrated.fuse(depth, SMALL, T).grid() - true).abs().max() < 1e-3
     with pytest.raises(TypeError, match="table_scale"):
         GraspDetector(detector.model, detector.gripper, table_scale=1)
+
+
+def test_a_depth_scale_read_once_corrects_as_the_table_read_in_every_image(detector, depth):
+    """``depth_scale`` divides by a known factor: the true image's TSDF again (to float
+    rounding), and with the factor the table gives, exactly ``table_scale``'s TSDF."""
+    true = detector.fuse(depth, SMALL, T).grid()
+    known = GraspDetector(detector.model, detector.gripper, depth_scale=1.03, device="cpu")
+    assert (known.fuse(1.03 * depth, SMALL, T).grid() - true).abs().max() < 1e-3
+    read = table_depth_scale(1.03 * depth, SMALL, T, TABLE_HEIGHT)  # workspace origin at 0
+    assert abs(read - 1.03) < 1e-3
+    once = GraspDetector(detector.model, detector.gripper, depth_scale=read, device="cpu")
+    each = GraspDetector(detector.model, detector.gripper, table_scale=True, device="cpu")
+    assert once.fuse(1.03 * depth, SMALL, T).grid().equal(each.fuse(1.03 * depth, SMALL, T).grid())
+
+
+@pytest.mark.parametrize(
+    ("options", "error", "match"),
+    [
+        ({"depth_scale": 1.0, "table_scale": True}, ValueError, "choose one"),
+        ({"depth_scale": 1000.0}, ValueError, "depth_scale .* another unit than metres"),
+        ({"depth_scale": 0.5}, ValueError, "1 ± 0.2"),
+        ({"depth_scale": float("nan")}, ValueError, "depth_scale"),
+        ({"depth_scale": True}, TypeError, "depth_scale"),
+        ({"depth_scale": "1.03"}, TypeError, "depth_scale"),
+    ],
+)
+def test_a_depth_scale_that_is_no_scale_error_is_refused(detector, options, error, match):
+    with pytest.raises(error, match=match):
+        GraspDetector(detector.model, detector.gripper, device="cpu", **options)

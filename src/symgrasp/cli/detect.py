@@ -167,6 +167,16 @@ def add_detector_options(parser: argparse.ArgumentParser, planners: bool = False
         "error; needs the table in view (docs/detect.md)",
     )
     parser.add_argument(
+        "--depth-scale",
+        type=number(0, float("inf")),  # its range is the detector's to check
+        default=None,
+        metavar="G",
+        help="divide the depth image by G, the sensor's depth over the true depth, read once "
+        "(e.g. by symgrasp.perception.table_depth_scale off a calibration image of the table): "
+        "--table-scale's correction for a sensor whose scale error stays put, at one division "
+        "per image; not with --table-scale (default: none; docs/detect.md)",
+    )
+    parser.add_argument(
         "--optimize",
         action="store_true",
         help="run the network as a TorchScript graph made for inference: ≈ 0.45× the forward "
@@ -189,6 +199,7 @@ def load_detector(args: argparse.Namespace):  # -> GraspDetector (imported here,
         workspace_origin=tuple(args.workspace_origin),
         fill_holes=args.fill_holes,
         table_scale=args.table_scale,
+        depth_scale=args.depth_scale,
         optimize=args.optimize,
     )
 
@@ -284,6 +295,7 @@ def _check_planner_options(args: argparse.Namespace) -> None:
         "--samples-per-voxel": args.samples_per_voxel != 0,
         "--fill-holes": args.fill_holes != 0,
         "--table-scale": args.table_scale,
+        "--depth-scale": args.depth_scale is not None,
         "--optimize": args.optimize,
     }
     if kind == "plugin":

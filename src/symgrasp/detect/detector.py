@@ -39,7 +39,7 @@ from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, rank_voxels
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, depth_to_points
 from symgrasp.perception.camera import is_rigid
 from symgrasp.perception.points import DEFAULT_PIXEL_SIZE, fill_holes, points_view
-from symgrasp.perception.table import table_scaled
+from symgrasp.perception.table import MAX_SCALE_ERROR, table_scaled
 from symgrasp.sim.grippers import GripperSpec, same_name_note
 from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, VOXEL_SIZE, WORKSPACE_SIZE
 
@@ -103,6 +103,13 @@ class GraspDetector:
             (the ``dex`` noise's Gamma factor, SD 3.2 %), which moves the whole scene along
             the camera's rays. Needs the table in view; off by default (the images are fused
             as they are).
+        depth_scale: divide every depth image by this known factor (the sensor's depth over
+            the true depth, e.g. `symgrasp.perception.table_depth_scale` read once off a
+            calibration image of the table): ``table_scale``'s correction for a sensor whose
+            scale error stays put, at the price of one division per image instead of reading
+            the table in each. Within ``1 ± MAX_SCALE_ERROR`` (a factor of 1000 is a unit,
+            not a scale error: `load_depth`'s ``png_scale`` reads millimetres); not with
+            ``table_scale``. None (default): no division.
         seed: seed of ``samples_per_voxel``'s draws.
         optimize: run the network as a frozen TorchScript graph made for inference
             (`symgrasp.model.torchscript.optimize`: oneDNN convolutions on channels-last
@@ -132,6 +139,7 @@ class GraspDetector:
         workspace_origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
         fill_holes: int = 0,
         table_scale: bool = False,
+        depth_scale: float | None = None,
         seed: int = 0,
         optimize: bool = False,
         device: str | torch.device = "auto",
@@ -179,6 +187,7 @@ class GraspDetector:
         if not isinstance(table_scale, bool):
             raise TypeError(f"table_scale must be True or False, got {table_scale!r}")
         self.table_scale = table_scale
+        self.depth_scale = _check_depth_scale(depth_scale, table_scale)
         self.optimize = optimize
         self._graph = torchscript.optimize(self.model) if optimize else None
         self.gripper = _check_gripper(gripper)
@@ -258,6 +267,8 @@ class GraspDetector:
             views = np.stack([fill_holes(view, self.fill_holes) for view in views])
         if self.table_scale:
             views = table_scaled(views, intrinsic, T, self.origin[2] + TABLE_HEIGHT)
+        elif self.depth_scale is not None:  # in float64 as table_scaled: the same TSDF, bit for bit
+            views = views / np.float64(self.depth_scale)
         return _fuse_views(views, intrinsic, T, self.origin, self.device)
 
     # -- detection ---------------------------------------------------------------------
@@ -640,6 +651,22 @@ def _check_extrinsic(extrinsic: np.ndarray | Tensor, views: int) -> np.ndarray:
             "orthonormal with det +1 and its last row (0, 0, 0, 1)"
         )
     return T
+
+
+def _check_depth_scale(depth_scale: Any, table_scale: bool) -> float | None:
+    if depth_scale is None:
+        return None
+    if table_scale:
+        raise ValueError("depth_scale and table_scale both correct the depth scale: choose one")
+    if isinstance(depth_scale, bool) or not isinstance(depth_scale, (int, float, np.floating)):
+        raise TypeError(f"depth_scale must be a number or None, got {depth_scale!r}")
+    if not abs(float(depth_scale) - 1) <= MAX_SCALE_ERROR:
+        raise ValueError(
+            f"depth_scale must be a sensor's depth over the true depth, within "
+            f"1 ± {MAX_SCALE_ERROR}; got {depth_scale} (depth in another unit than metres? "
+            "load_depth's png_scale converts it)"
+        )
+    return float(depth_scale)
 
 
 def _check_gripper(gripper: Any) -> GripperSpec:
