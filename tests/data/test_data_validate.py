@@ -14,6 +14,7 @@ from symgrasp.config import DatabaseConfig, SceneConfig
 from symgrasp.data.card import VALIDATION_NOTE, dataset_card
 from symgrasp.data.dataset import load_scene, scene_path
 from symgrasp.data.generate import generate
+from symgrasp.objects.folder import MissingData
 from symgrasp.rates import Z95
 from symgrasp.sim import FRANKA
 from symgrasp.workspace import VOXEL_SIZE
@@ -107,3 +108,28 @@ def test_the_card_reports_real_trials_of_the_spread_labels(datasets):
     lo, hi = saved["labelled_ci95"]
     assert 0 <= lo <= saved["labelled_success"] <= hi <= 1
     assert 0 <= saved["added_trials"] <= 2
+
+
+def test_the_cards_label_coverage_adds_up_to_the_scenes_survival(datasets, monkeypatch):
+    """Per family, the placements add up to the objects the scenes hold, and with databases of
+    equal size the placement-weighted kept share is the card's grasp survival rate, which is
+    computed from the scenes' own grasp totals."""
+    root, cfg = datasets["plain"]
+    card = dataset_card(root)
+    families = card["label_coverage"]["families"]
+    placements = np.array([c["placements"] for c in families.values()])
+    shares = np.array([c["kept_share"] for c in families.values()])
+    assert placements.sum() == round(card["mean_per_scene"]["objects"] * card["scenes"])
+    assert ((shares >= 0) & (shares <= 1)).all() and list(shares) == sorted(shares)
+    totals = [int(load_scene(scene_path(root, i))["grasps_total"]) for i in range(SCENES)]
+    objects = [len(load_scene(scene_path(root, i))["object_pool_index"]) for i in range(SCENES)]
+    assert all(t == cfg.database.grasps * n for t, n in zip(totals, objects, strict=True))
+    assert placements @ shares / placements.sum() == pytest.approx(card["grasp_survival_rate"])
+
+    def missing(cfg):
+        raise MissingData("the object set blocks is not in the data folder")
+
+    monkeypatch.setattr("symgrasp.data.card.scene_pool", missing)
+    assert dataset_card(root)["label_coverage"]["unavailable"] == (
+        "the object set blocks is not in the data folder"
+    )

@@ -26,9 +26,12 @@ from symgrasp.data.dataset import (
     scene_path,
 )
 from symgrasp.data.generate import DATASET, config_from_dict
-from symgrasp.data.scenes import DEPTH_UNIT
+from symgrasp.data.grasp_db import database_path, read_cached
+from symgrasp.data.scenes import DEPTH_UNIT, scene_pool
 from symgrasp.data.validate import validate_labels
 from symgrasp.folders import writes_folder
+from symgrasp.objects.folder import MissingData
+from symgrasp.sim.grippers import GripperSpec
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE, WORKSPACE_SIZE
 
 SCORE_BINS = np.linspace(0.0, 1.0, 11)
@@ -43,6 +46,18 @@ VALIDATION_NOTE = (
     "stored grasp's TCP (the ones a spread adds). Rates are fractions, intervals Wilson 95 %."
 )
 """What the card's ``label_validation`` numbers are (`symgrasp.data.validate`)."""
+
+COVERAGE_NOTE = (
+    "per object family (a procedural family, or a mesh object's own name): how often its "
+    "objects lie in the scenes (placements) and the mean share "
+    "of an object's held database grasps that survive its scene's collision check (kept_share): "
+    "the labels a family's objects get, least covered first; a family near 0 is one the network "
+    "is taught almost no grasp on."
+)
+"""What the card's ``label_coverage`` numbers are."""
+
+COVERAGE_SHOWN = 12
+"""Families of the least label coverage drawn on the card's picture."""
 
 SHOWN = 10
 """The mismatches ``data inspect``'s one error line names (`manifest_mismatches`); it counts
@@ -116,9 +131,12 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
         k: [] for k in ("objects", "grasps_total", "grasps_kept", "valid_voxels", "targets")
     }
     scores, targets, kinds = [], [], []
+    kept_per_object: list[tuple[np.ndarray, np.ndarray]] = []  # (pool indices, kept grasps)
     dropped = 0
     for path in data.paths:
         r = load_scene(path)
+        placed = r["object_pool_index"]
+        kept_per_object.append((placed, np.bincount(r["grasp_object"], minlength=len(placed))))
         per_scene["objects"].append(len(r["object_pool_index"]))
         per_scene["grasps_total"].append(int(r["grasps_total"]))
         per_scene["grasps_kept"].append(len(r["grasp_pose"]))
@@ -155,14 +173,15 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
         },
         "rotations_dropped_beyond_k_max": dropped,
     }
+    cfg = config_from_dict(config) if config else None
+    card["label_coverage"] = label_coverage(root, cfg, data.gripper, kept_per_object)
     if validate > 0 and len(data):
-        cfg = config_from_dict(data.manifest["config"])
         ids = [int(p.stem.split("_")[1]) for p in data.paths]
         result = validate_labels(root, cfg, data.gripper, ids, validate, seed)
         card["label_validation"] = {**dataclasses.asdict(result), "about": VALIDATION_NOTE}
     write_atomic(root / "card.json", lambda f: json.dump(card, f, indent=1), mode="w")
 
-    fig, ax = plt.subplots(1, 3, figsize=(13, 3.6))
+    fig, ax = plt.subplots(1, 4, figsize=(17, 3.6))
     ax[0].hist(valid, bins=20)
     ax[0].set(xlabel="valid voxels per scene", ylabel="scenes")
     ax[1].hist(score, SCORE_BINS)
@@ -172,6 +191,16 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
         [card["targets_per_voxel"][str(k)] for k in range(1, data.k_max + 1)],
     )
     ax[2].set(xlabel="rotation targets per voxel", ylabel="voxels")
+    coverage = list(card["label_coverage"].get("families", {}).items())[:COVERAGE_SHOWN]
+    if coverage:
+        ax[3].barh(
+            [f for f, _ in coverage][::-1], [100 * c["kept_share"] for _, c in coverage][::-1]
+        )
+        ax[3].set(
+            xlabel="% of its database grasps kept in its scenes", title="least covered families"
+        )
+    else:
+        ax[3].set_axis_off()
     fig.suptitle(
         f"{root.name}: {len(data)} scenes, {data.gripper.name}, {data.object_set}, "
         f"depth noise {card['noise']}{', table-scaled' if card['table_scale'] else ''}"
@@ -180,6 +209,38 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
     fig.savefig(root / "card.png", dpi=100)
     plt.close(fig)
     return card
+
+
+def label_coverage(
+    root: Path,
+    cfg: Any,
+    gripper: GripperSpec,
+    kept_per_object: list[tuple[np.ndarray, np.ndarray]],
+) -> dict[str, Any]:
+    """The card's ``label_coverage`` (`COVERAGE_NOTE`): per object family of the dataset's pool,
+    its placements in the scenes and the mean share of an object's held grasps (its database
+    in ``root/db``) that its scene kept. ``kept_per_object``: per scene, the pool index of
+    each object and how many of its grasps survived. Without the object set (its meshes not
+    in the data folder) or a manifest's configuration, the reason instead of the families."""
+    if cfg is None:
+        return {"unavailable": "the manifest records no configuration", "about": COVERAGE_NOTE}
+    try:
+        pool = scene_pool(cfg)
+    except MissingData as err:
+        return {"unavailable": str(err), "about": COVERAGE_NOTE}
+    held = np.zeros(len(pool.objects))
+    for k, obj in enumerate(pool.objects):
+        db = read_cached(database_path(root / "db", obj, gripper, cfg.database, k))
+        held[k] = np.nan if db is None else db.held.sum()
+    shares: dict[str, list[float]] = {}
+    for placed, kept in kept_per_object:
+        for k, n in zip(placed, kept, strict=True):
+            if held[k] > 0:
+                shares.setdefault(pool.objects[k].family, []).append(n / held[k])
+    order = sorted(shares, key=lambda f: (np.mean(shares[f]), f))
+    families = {f: {"placements": len(shares[f]), "kept_share": float(np.mean(shares[f]))}
+                for f in order}  # fmt: skip
+    return {"families": families, "about": COVERAGE_NOTE}
 
 
 def show_scene(root: str | Path, scene_id: int, out: str | Path | None = None) -> Path:
