@@ -132,24 +132,33 @@ def test_the_oracle_is_named_and_versioned_by_its_databases():
     assert small.database == DatabaseConfig(grasps=40, directions=TRAINING_DATABASE.directions)
     assert small.version != oracle.version
     assert planner_version("oracle", "franka", grasps=40) == small.version
+    tips = load_planner("oracle", "franka", grasps=40, offset=(-0.03, 0.03))
+    assert tips.database == DatabaseConfig(
+        grasps=40, directions=TRAINING_DATABASE.directions, offset=(-0.03, 0.03)
+    )
+    assert tips.version not in (small.version, oracle.version)
+    with pytest.raises(ValueError, match="offset"):
+        load_planner("oracle", "franka", offset=(-0.5, 0.03))
 
 
 def test_the_oracle_plays_a_round_through_bench_declutter(tmp_path, capsys):
     out = tmp_path / "bench"
     argv = ["bench", "declutter", "--model", "oracle", "--gripper", "robotiq-2f85",
             "--objects", "blocks", "--num-objects", "2", "--rounds", "1", "--no-diagnose",
-            "--oracle-grasps", "20", "--oracle-directions", "4", "--out", str(out)]  # fmt: skip
+            "--oracle-grasps", "20", "--oracle-directions", "4", "--oracle-offset", "-0.02", "0.03",
+            "--out", str(out)]  # fmt: skip
     main(argv)
     assert "| oracle | blocks | 1 |" in capsys.readouterr().out
     config = json.loads((out / "config.json").read_text())
-    assert config["options"] == [["gripper", "robotiq-2f85"], ["grasps", 20], ["directions", 4]]
+    assert config["options"] == [["gripper", "robotiq-2f85"], ["grasps", 20], ["directions", 4],
+                                 ["offset", [-0.02, 0.03]]]  # fmt: skip
     assert (out / "model.sha256").read_text().strip() == planner_version(
-        "oracle", "robotiq-2f85", **TINY
+        "oracle", "robotiq-2f85", **TINY, offset=(-0.02, 0.03)
     )
     (record,) = [json.loads(line) for line in (out / "rounds.jsonl").read_text().splitlines()]
     assert "error" not in record and record["attempts"]
     with pytest.raises(SystemExit, match="another configuration"):
-        main([*argv[:-6], "--oracle-grasps", "7", "--oracle-directions", "4",
+        main([*argv[:-9], "--oracle-grasps", "7", "--oracle-directions", "4",
               "--out", str(out), "--resume"])  # fmt: skip
 
 

@@ -101,6 +101,15 @@ def add(subparsers: argparse._SubParsersAction) -> None:
             f"in the oracle's databases (default: {getattr(TRAINING_DATABASE, field)}, the "
             "shipped models' training data; fewer: cheaper databases, docs/benchmark.md)",
         )
+    declutter.add_argument(
+        "--oracle-offset",
+        type=float,
+        nargs=2,
+        default=None,
+        metavar=("LO", "HI"),
+        help=f"--model oracle only: {sentence(field_docs(DatabaseConfig)['offset']).rstrip('.')} "
+        f"in the oracle's databases (default: {' '.join(map(str, TRAINING_DATABASE.offset))})",
+    )
     add_shared(
         declutter,
         "gripper",
@@ -135,7 +144,8 @@ def _run_declutter(args: argparse.Namespace) -> None:
     options = () if threshold is None else (("confidence_threshold", threshold),)
     if args.validity is not None:
         options += (("validity_threshold", args.validity),)
-    oracle = {"grasps": args.oracle_grasps, "directions": args.oracle_directions}
+    oracle = {"grasps": args.oracle_grasps, "directions": args.oracle_directions,
+              "offset": None if args.oracle_offset is None else tuple(args.oracle_offset)}  # fmt: skip
     oracle = tuple((k, v) for k, v in oracle.items() if v is not None)
     if oracle and kind != "oracle":
         raise SystemExit(f"error: --oracle-* options are the oracle's, not --model {args.model}'s")

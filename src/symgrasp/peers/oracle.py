@@ -52,6 +52,8 @@ class OraclePlanner:
         grasps: held grasps per object database (`DatabaseConfig.grasps`; default the
             training data's, `symgrasp.config.TRAINING_DATABASE`).
         directions: disturbance directions K of the score (`DatabaseConfig.directions`).
+        offset: range [m] of the TCP's offset along the approach from the contacts' midpoint
+            (`DatabaseConfig.offset`): how the labels a dataset of that range would carry fare.
         seed: seed of each database's sampling and of the surface samples of the collision
             check.
 
@@ -67,10 +69,13 @@ class OraclePlanner:
         *,
         grasps: int = TRAINING_DATABASE.grasps,
         directions: int = TRAINING_DATABASE.directions,
+        offset: tuple[float, float] = TRAINING_DATABASE.offset,
         seed: int = 0,
     ) -> None:
         self.gripper = gripper if isinstance(gripper, GripperSpec) else get_gripper(gripper)
-        self.database = DatabaseConfig(grasps=int(grasps), directions=int(directions))
+        self.database = DatabaseConfig(
+            grasps=int(grasps), directions=int(directions), offset=tuple(map(float, offset))
+        )
         self.labelling = SceneConfig(database=self.database)
         self.seed = int(seed)
         record = {
@@ -85,7 +90,7 @@ class OraclePlanner:
     def __repr__(self) -> str:
         return (
             f"OraclePlanner(gripper={self.gripper.name!r}, grasps={self.database.grasps}, "
-            f"directions={self.database.directions})"
+            f"directions={self.database.directions}, offset={self.database.offset})"
         )
 
     def database_of(self, obj: ObjectSpec) -> OnDemandDatabase:
