@@ -282,10 +282,13 @@ def test_symgrasp_serve_answers_and_stops_cleanly_on_a_signal(stop, tmp_path):
             process.kill()
     assert process.returncode == 0, err
     assert f"{stop.name}: stopped after 3 requests" in out
-    lines = err.strip().splitlines()
-    assert lines[0].startswith(f"GET {HEALTH_PATH} 200") and lines[2].startswith(
-        f"POST {DETECT_PATH} 400"
-    )
+    # one log line per request, in order; once in CI (a loaded machine) another line came
+    # between the first two, unseen since: it is shown if it comes again
+    lines = [line for line in err.strip().splitlines() if line.startswith(("GET ", "POST "))]
+    assert len(lines) == 3, err
+    assert lines[0].startswith(f"GET {HEALTH_PATH} 200"), err
+    assert lines[1].startswith(f"POST {DETECT_PATH} 200"), err
+    assert lines[2].startswith(f"POST {DETECT_PATH} 400"), err
     assert "depth must be an array" in lines[2]
 
 
