@@ -12,7 +12,8 @@ table depth scale → experiments/results/retrain_ablation.{json,md}.
 with clean images or the ``dex`` noise and cameras over the benchmark's views (``--noise dex
 --camera-distance --camera-polar``): ``today``, ``dense``, ``sensing``, ``both``, and
 ``calibrated``, ``both`` with each noisy training image divided by its table's depth scale
-(``--table-scale``), and ``dense600``, ``dense`` with 600-grasp databases (``--grasps 600``),
+(``--table-scale``), and ``wide``, ``dense`` with the databases' TCP offsets reaching 3 cm
+towards the fingertips (``--offset -0.03 0.03``),
 each with the training seeds ``--seeds``. Run ``ARM-REP-sS``
 (``DIR/runs``) gives three sets of rounds, all on training objects (``--objects``, round seeds ``--seed`` … ``--seed + --rounds − 1``: never a
 test round), the same scenes round by round (`CONDITIONS`):
@@ -34,7 +35,7 @@ Reported, all on the rounds every compared run finished (`symgrasp.benchmark.see
 - per arm and condition, SR and CR as the mean over training seeds with a 95 % interval over
   seeds, then rounds (hierarchical bootstrap, `seed_ratios`), each seed's value beside it;
 - per condition, the paired effects: every arm minus ``today``, ``calibrated`` minus ``both``
-  and minus ``dense``, and ``dense600`` minus ``dense`` (`CONTRASTS`) (`seed_lead`: the change of the means, its
+  and minus ``dense``, and ``wide`` minus ``dense`` (`CONTRASTS`) (`seed_lead`: the change of the means, its
   interval with the training seed inside, and in how many pairings of training seeds the arm's
   SR is ahead), and each 2 × 2 factor's main effect, its
   two arms minus the other two, averaged over the other factor's levels (`seed_contrast`);
@@ -89,19 +90,20 @@ from symgrasp.scripts import parse_args, run_main, write_result
 
 ARMS = {"today": (False, False, False, False), "dense": (True, False, False, False),
         "sensing": (False, True, False, False), "both": (True, True, False, False),
-        "calibrated": (True, True, True, False), "dense600": (True, False, False, True)}  # fmt: skip
+        "calibrated": (True, True, True, False), "wide": (True, False, False, True)}  # fmt: skip
 """Each arm and its factors: (dense labels, sensing in training, training images at the table's
-depth scale, 600-grasp databases instead of 150). The first four are the 2 × 2; ``calibrated``
-is ``both`` with each noisy training image divided by its table's depth scale before fusion
-(``data generate --table-scale``); ``dense600`` is ``dense`` with databases of 600 held grasps
-per object (``--grasps 600``: 4× the labels a scene carries)."""
-FACTORS = ("labels", "sensing", "table_scaled_images", "large_databases")
+depth scale, database grasps whose TCP reaches 3 cm towards the fingertips). The first four are
+the 2 × 2; ``calibrated`` is ``both`` with each noisy training image divided by its table's
+depth scale before fusion (``data generate --table-scale``); ``wide`` is ``dense`` with the
+databases' TCP offset range widened to −3…+3 cm (``--offset -0.03 0.03``: grasps that reach down
+to the table over thin objects lying flat, experiments/thin_objects.py)."""
+FACTORS = ("labels", "sensing", "table_scaled_images", "tip_offsets")
 """The factors' names, in `ARMS`' order."""
 FACTORIAL = ("today", "dense", "sensing", "both")
 """The 2 × 2's arms, the only ones the main effects are read from."""
 MAIN_EFFECTS = tuple(f for i, f in enumerate(FACTORS) if len({ARMS[a][i] for a in FACTORIAL}) > 1)
 """The factors the 2 × 2 varies (labels and sensing), each with a main effect."""
-CONTRASTS = (("calibrated", "both"), ("calibrated", "dense"), ("dense600", "dense"))
+CONTRASTS = (("calibrated", "both"), ("calibrated", "dense"), ("wide", "dense"))
 """Pairs compared beside each arm − `BASELINE`: what the table's scale in training changes
 (against its uncalibrated twin), and each added arm against ``dense``, the recipe it would
 replace in the final detectors."""
@@ -223,9 +225,9 @@ def arm_cell(rounds: dict, arm: str, condition: str) -> dict[str, Any]:
     """One arm in one condition: the seeds played, SR and CR over them (`seed_ratios`), each
     seed's summary, and the rounds ``none_found`` ended against `NONE_FOUND_TARGET`."""
     mine = arm_runs(rounds, arm, condition)
-    labels, sensing, table_scaled, large = ARMS[arm]
+    labels, sensing, table_scaled, tips = ARMS[arm]
     cell: dict[str, Any] = {"arm": arm, "dense_labels": labels, "sensing": sensing,
-                            "table_scaled_images": table_scaled, "large_databases": large,
+                            "table_scaled_images": table_scaled, "tip_offsets": tips,
                             "condition": condition, "seeds": sorted(mine)}  # fmt: skip
     if not mine:
         return cell
@@ -318,14 +320,14 @@ def markdown(cells: list[dict], effects_: list[dict], gaps: list[dict], runs: li
         f"over seeds [Wilson 95 % over rounds], against issue 36's ≤ {NONE_FOUND_TARGET * 100:.0f} %:",
         "",
         "| arm | dense labels | sensing in training | images at the table's scale | "
-        "600-grasp databases | condition | SR % | CR % | ended by none_found |",
+        "TCP offsets to −3 cm | condition | SR % | CR % | ended by none_found |",
         "|---|---|---|---|---|---|---|---|---|",
     ]  # fmt: skip
     for c in cells:
         head = (f"| {c['arm']} | {'yes' if c['dense_labels'] else 'no'} | "
                 f"{'yes' if c['sensing'] else 'no'} | "
                 f"{'yes' if c['table_scaled_images'] else 'no'} | "
-                f"{'yes' if c['large_databases'] else 'no'} | {c['condition']} |")  # fmt: skip
+                f"{'yes' if c['tip_offsets'] else 'no'} | {c['condition']} |")  # fmt: skip
         if "ratios" not in c:
             text.append(f"{head} – | – | – |")
             continue

@@ -55,7 +55,7 @@ PLAYED = {  # (arm, seed): rounds of the selected checkpoint: clean, noise-side,
     ("sensing", 0): (HALF, HALF, HALF), ("sensing", 1): (HALF, HALF, HALF),
     ("both", 0): (ALL, ALL, ALL), ("both", 1): (HALF, HALF, HALF),
     ("calibrated", 0): (ALL, ALL, ALL), ("calibrated", 1): (ALL, HALF, ALL),
-    ("dense600", 0): (ALL, ALL, ALL), ("dense600", 1): (ALL, ALL, HALF),
+    ("wide", 0): (ALL, ALL, ALL), ("wide", 1): (ALL, ALL, HALF),
 }  # fmt: skip
 
 
@@ -268,14 +268,14 @@ def test_a_root_with_nothing_yet_lists_every_run_as_missing(tmp_path):
     assert "Missing (36): today-bingham2d-s0 (clean: not trained)" in done.stdout
 
 
-def test_dense600_against_dense_outside_the_main_effects(result):
-    cell = _cell(result, "dense600", "clean")
-    assert cell["large_databases"] and cell["dense_labels"] and not cell["sensing"]
-    assert not _cell(result, "dense", "clean")["large_databases"]
-    noisy = _effect(result, "dense600 − dense", "noise-side")["change"]
+def test_wide_against_dense_outside_the_main_effects(result):
+    cell = _cell(result, "wide", "clean")
+    assert cell["tip_offsets"] and cell["dense_labels"] and not cell["sensing"]
+    assert not _cell(result, "dense", "clean")["tip_offsets"]
+    noisy = _effect(result, "wide − dense", "noise-side")["change"]
     assert noisy["success_ratio"][0] == pytest.approx(1.0 - 0.5)  # ALL against HALF, both seeds
     assert noisy["clear_ratio"][0] == pytest.approx(1.0 - 0.5)
-    table = _effect(result, "dense600 − dense", "noise-side-table")["change"]["clear_ratio"]
+    table = _effect(result, "wide − dense", "noise-side-table")["change"]["clear_ratio"]
     assert table[0] == pytest.approx((1.0 + 0.5) / 2 - 1.0)
     assert {e["effect"] for e in result["effects"] if "main" in e["effect"]} == {
         "labels (main effect)",
@@ -285,7 +285,7 @@ def test_dense600_against_dense_outside_the_main_effects(result):
 
 def test_the_campaign_writes_the_runs_and_folders_the_script_reads():
     steps = campaign_steps("experiments/campaigns/retrain.toml")
-    for arm in ("today", "dense", "sensing", "both", "calibrated", "dense600"):
+    for arm in ("today", "dense", "sensing", "both", "calibrated", "wide"):
         for seed in (0, 1):
             run = f"{arm}-{REP}-s{seed}"
             assert f"--out /root/runs/{run}" in steps[run]["run"]
