@@ -70,9 +70,9 @@ def top_down(obj_pose: np.ndarray, mesh: Any) -> tuple[np.ndarray, float, float]
     return T, float(verts[:, 2].max() - TABLE_HEIGHT), float(np.ptp((xy - centre) @ axes[:, 0]))
 
 
-def from_above(cfg: SceneConfig, obj: Any, heights: np.ndarray) -> dict[str, Any]:
+def from_above(cfg: SceneConfig, source: Any, obj: Any, heights: np.ndarray) -> dict[str, Any]:
     hand = get_gripper(cfg.gripper)
-    world = scene_pool(cfg).source.scene("pile", [obj], seed=0, gripper=hand)
+    world = source.scene("pile", [obj], seed=0, gripper=hand)
     state = world.snapshot()
     T, top, width = top_down(world.object_poses()[0], obj.mesh())
     trials = []
@@ -87,10 +87,15 @@ def from_above(cfg: SceneConfig, obj: Any, heights: np.ndarray) -> dict[str, Any
 
 
 def database_labels(
-    cfg: SceneConfig, k: int, obj: Any, offsets: list[tuple[float, float]], scenes: int
+    cfg: SceneConfig,
+    source: Any,
+    k: int,
+    obj: Any,
+    offsets: list[tuple[float, float]],
+    scenes: int,
 ) -> list[dict[str, Any]]:
     hand = get_gripper(cfg.gripper)
-    worlds = [scene_pool(cfg).source.scene("pile", [obj], seed=s) for s in range(scenes)]
+    worlds = [source.scene("pile", [obj], seed=s) for s in range(scenes)]
     worlds = [w for w in worlds if w.objects]
     cells = []
     for offset in offsets:
@@ -180,7 +185,8 @@ def main() -> None:
     database = dataclasses.replace(TRAINING_DATABASE, grasps=args.grasps)
     cfg = SceneConfig(object_set=args.object_set, pool_size=args.pool_size,
                       gripper=args.gripper, database=database)  # fmt: skip
-    pool = scene_pool(cfg).objects
+    resolved = scene_pool(cfg)  # the object set resolved once, for every object and scene
+    pool = resolved.objects
     names = [o.name for o in pool]
     unknown = [n for n in args.objects if n not in names]
     if unknown:
@@ -189,8 +195,8 @@ def main() -> None:
     cells = []
     for k in tqdm(chosen, desc="objects"):
         cells.append({"object": names[k], "pool_index": k,
-                      "from_above": from_above(cfg, pool[k], HEIGHTS[: args.heights]),
-                      "database": database_labels(cfg, k, pool[k], offsets, args.scenes)})  # fmt: skip
+                      "from_above": from_above(cfg, resolved.source, pool[k], HEIGHTS[: args.heights]),
+                      "database": database_labels(cfg, resolved.source, k, pool[k], offsets, args.scenes)})  # fmt: skip
     text = table(cells)
     print(text)
     write_result(
