@@ -308,12 +308,57 @@ def test_the_campaign_writes_the_runs_and_folders_the_script_reads():
                 assert steps[f"{step}-{run}"]["needs"] == [f"select-{run}"]
 
 
+def test_the_final_plan_validates_each_arm_as_stage_1_did():
+    """experiments/campaigns/final.toml: its bingham2d arms are selected and validated under noise
+    as retrain.toml's (the same rounds, so that they read against stage 1's numbers), and the
+    calibrated images differ from the wide data in the sensing alone (same scenes, labels and
+    databases: a paired ablation)."""
+    steps = campaign_steps("experiments/campaigns/final.toml")
+    stage1 = campaign_steps("experiments/campaigns/retrain.toml")
+    for arm in ("wide", "wide-calibrated"):
+        for seed in (0, 1):
+            run = f"{arm}-{REP}-s{seed}"
+            dense = f"dense-{REP}-s{seed}"
+            for step in ("select", "val-noise-table"):
+                assert steps[f"{step}-{run}"]["run"] == stage1[f"{step}-{dense}"]["run"].replace(
+                    dense, run
+                )
+    wide = shlex.split(steps["data-wide"]["run"])
+    calibrated = shlex.split(steps["data-wide-calibrated"]["run"].split("&&")[-1])
+    assert calibrated[: len(wide) - 2] == wide[:-2] and wide[-2:] == ["--out", "/root/data/wide"]
+    assert calibrated[-2:] == ["--out", "/root/data/wide-calibrated"]
+    extra = calibrated[len(wide) - 2 : -2]
+    assert {"--noise", "dex", "--table-scale"} <= set(extra) and "--seed" not in extra
+
+
+def test_the_franka_data_waits_for_its_offset_decision():
+    """final.toml: the Franka's data is made after the oracle's two readings of its databases'
+    offset range (the same rounds, only --oracle-offset differing) and the recorded decision."""
+    steps = campaign_steps("experiments/campaigns/final.toml")
+    today = shlex.split(steps["oracle-franka-today"]["run"])
+    wide = shlex.split(steps["oracle-franka-wide"]["run"])
+    i = wide.index("--oracle-offset")
+    assert wide[i : i + 3] == ["--oracle-offset", "-0.03", "0.03"]
+    del wide[i : i + 3]
+    assert [w for w in wide if "oracle-franka" not in w] == [
+        w for w in today if "oracle-franka" not in w
+    ]
+    assert today[today.index("--gripper") + 1] == "franka"
+    gate = steps["franka-offset-decision"]
+    assert set(gate["needs"]) == {"oracle-franka-today", "oracle-franka-wide"}
+    assert gate["run"] == "test -s /root/franka-offset-decision.md"
+    assert steps["data-franka"]["needs"] == ["franka-offset-decision"]
+    for name, step in steps.items():
+        if "--gripper franka" in step["run"] and name.startswith("wide-franka"):
+            assert step["needs"] == ["data-franka"]
+
+
 def test_every_final_run_plays_both_round_seed_ranges_before_their_collations(tmp_path):
     """experiments/campaigns/retrain_cells.toml: the runs the collation waits for (the script's
-    own answer on no runs, with the plan's options) are retrain.toml's final runs, each selected,
-    then played on round seeds 0-99 and 100-199 before the two collations."""
+    own answer on no runs, with the plan's options) are final.toml's runs, each selected, then
+    played on round seeds 0-99 and 100-199 before the two collations."""
     steps = campaign_steps(
-        "experiments/campaigns/retrain.toml", "experiments/campaigns/retrain_cells.toml"
+        "experiments/campaigns/final.toml", "experiments/campaigns/retrain_cells.toml"
     )
     words = shlex.split(steps["retrained"]["run"])
     words = words[words.index("experiments/declutter_table.py") :]
@@ -335,11 +380,8 @@ def test_every_final_run_plays_both_round_seed_ranges_before_their_collations(tm
     for run in waiting:
         assert steps[f"select-{run}"]["needs"] == [run]
         assert f"--out /root/runs/{run}" in steps[run]["run"]
-        assert (
-            "--data /root/data/" + ("franka-dense" if "franka" in run else "dense")
-            in steps[run]["run"]
-        )
-        rep, seed = run.removeprefix("dense-").removeprefix("franka-").rsplit("-s", 1)
+        assert "--data /root/data/" + ("franka" if "franka" in run else "wide") in steps[run]["run"]
+        rep, seed = run.removeprefix("wide-").removeprefix("franka-").rsplit("-s", 1)
         for suffix, first in (("", None), ("-first-seed-100", "100")):
             cells = steps[f"cells-{run}{suffix}"]
             assert cells["needs"] == [f"select-{run}"]
@@ -360,7 +402,7 @@ def test_every_final_run_plays_the_robustness_conditions_after_its_unseen_cells(
     pair with: --baselines is the cells' --out), and the collation waits for all of them and
     collates those eight runs."""
     steps = campaign_steps(
-        "experiments/campaigns/retrain.toml", "experiments/campaigns/retrain_cells.toml"
+        "experiments/campaigns/final.toml", "experiments/campaigns/retrain_cells.toml"
     )
     cells_out = shlex.split(steps["retrained-first-seed-100"]["run"])
     cells_out = cells_out[cells_out.index("--out") + 1]
