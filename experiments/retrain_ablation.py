@@ -13,8 +13,9 @@ with clean images or the ``dex`` noise and cameras over the benchmark's views (`
 --camera-distance --camera-polar``): ``today``, ``dense``, ``sensing``, ``both``, and
 ``calibrated``, ``both`` with each noisy training image divided by its table's depth scale
 (``--table-scale``), and ``wide``, ``dense`` with the databases' TCP offsets reaching 3 cm
-towards the fingertips (``--offset -0.03 0.03``),
-each with the training seeds ``--seeds``. Run ``ARM-REP-sS``
+towards the fingertips (``--offset -0.03 0.03``), and ``wide-calibrated``, ``wide`` with ``calibrated``'s images (the
+root of experiments/campaigns/final.toml holds those two), each with the training seeds
+``--seeds``. Run ``ARM-REP-sS``
 (``DIR/runs``) gives three sets of rounds, all on training objects (``--objects``, round seeds ``--seed`` … ``--seed + --rounds − 1``: never a
 test round), the same scenes round by round (`CONDITIONS`):
 
@@ -35,7 +36,8 @@ Reported, all on the rounds every compared run finished (`symgrasp.benchmark.see
 - per arm and condition, SR and CR as the mean over training seeds with a 95 % interval over
   seeds, then rounds (hierarchical bootstrap, `seed_ratios`), each seed's value beside it;
 - per condition, the paired effects: every arm minus ``today``, ``calibrated`` minus ``both``
-  and minus ``dense``, and ``wide`` minus ``dense`` (`CONTRASTS`) (`seed_lead`: the change of the means, its
+  and minus ``dense``, ``wide`` minus ``dense`` and ``wide-calibrated`` minus ``wide``
+  (`CONTRASTS`) (`seed_lead`: the change of the means, its
   interval with the training seed inside, and in how many pairings of training seeds the arm's
   SR is ahead), and each 2 × 2 factor's main effect, its
   two arms minus the other two, averaged over the other factor's levels (`seed_contrast`);
@@ -90,23 +92,27 @@ from symgrasp.scripts import parse_args, run_main, write_result
 
 ARMS = {"today": (False, False, False, False), "dense": (True, False, False, False),
         "sensing": (False, True, False, False), "both": (True, True, False, False),
-        "calibrated": (True, True, True, False), "wide": (True, False, False, True)}  # fmt: skip
+        "calibrated": (True, True, True, False), "wide": (True, False, False, True),
+        "wide-calibrated": (True, True, True, True)}  # fmt: skip
 """Each arm and its factors: (dense labels, sensing in training, training images at the table's
 depth scale, database grasps whose TCP reaches 3 cm towards the fingertips). The first four are
 the 2 × 2; ``calibrated`` is ``both`` with each noisy training image divided by its table's
 depth scale before fusion (``data generate --table-scale``); ``wide`` is ``dense`` with the
 databases' TCP offset range widened to −3…+3 cm (``--offset -0.03 0.03``: grasps that reach down
-to the table over thin objects lying flat, experiments/thin_objects.py)."""
+to the table over thin objects lying flat, experiments/thin_objects.py); ``wide-calibrated`` is
+``wide`` with ``calibrated``'s images (experiments/campaigns/final.toml's stage 3)."""
 FACTORS = ("labels", "sensing", "table_scaled_images", "tip_offsets")
 """The factors' names, in `ARMS`' order."""
 FACTORIAL = ("today", "dense", "sensing", "both")
 """The 2 × 2's arms, the only ones the main effects are read from."""
 MAIN_EFFECTS = tuple(f for i, f in enumerate(FACTORS) if len({ARMS[a][i] for a in FACTORIAL}) > 1)
 """The factors the 2 × 2 varies (labels and sensing), each with a main effect."""
-CONTRASTS = (("calibrated", "both"), ("calibrated", "dense"), ("wide", "dense"))
+CONTRASTS = (("calibrated", "both"), ("calibrated", "dense"), ("wide", "dense"),
+             ("wide-calibrated", "wide"))  # fmt: skip
 """Pairs compared beside each arm − `BASELINE`: what the table's scale in training changes
-(against its uncalibrated twin), and each added arm against ``dense``, the recipe it would
-replace in the final detectors."""
+(against its uncalibrated twin), each added arm against ``dense``, the recipe it would
+replace in the final detectors, and sensing in training on top of the final labels
+(``wide-calibrated`` − ``wide``)."""
 CONDITIONS = {
     "clean": {"noise": "none", "view": "fixed", "views": 1, "options": [], "table_scale": False},
     "noise-side": {"noise": "dex", "view": "side", "views": 1, "options": [],

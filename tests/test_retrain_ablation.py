@@ -56,6 +56,7 @@ PLAYED = {  # (arm, seed): rounds of the selected checkpoint: clean, noise-side,
     ("both", 0): (ALL, ALL, ALL), ("both", 1): (HALF, HALF, HALF),
     ("calibrated", 0): (ALL, ALL, ALL), ("calibrated", 1): (ALL, HALF, ALL),
     ("wide", 0): (ALL, ALL, ALL), ("wide", 1): (ALL, ALL, HALF),
+    ("wide-calibrated", 0): (HALF, ALL, ALL), ("wide-calibrated", 1): (HALF, ALL, ALL),
 }  # fmt: skip
 
 
@@ -250,7 +251,7 @@ def test_missing_and_unusable_runs_are_named_with_the_reason(result):
     assert _cell(result, "dense", "noise-side")["seeds"] == [0, 1]
     missing_line = result["table"].splitlines()[-1]
     assert (
-        missing_line.startswith("Missing (17): ") and f"both-{REP}-s2 (noise-side: " in missing_line
+        missing_line.startswith("Missing (20): ") and f"both-{REP}-s2 (noise-side: " in missing_line
     )
 
 
@@ -263,9 +264,9 @@ def test_a_root_with_nothing_yet_lists_every_run_as_missing(tmp_path):
     )  # fmt: skip
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads((tmp_path / "result.json").read_text())
-    assert all(c["seeds"] == [] for c in result["cells"]) and len(result["cells"]) == 18
+    assert all(c["seeds"] == [] for c in result["cells"]) and len(result["cells"]) == 7 * 3
     assert result["effects"] == [] and result["gaps"] == []
-    assert "Missing (36): today-bingham2d-s0 (clean: not trained)" in done.stdout
+    assert "Missing (42): today-bingham2d-s0 (clean: not trained)" in done.stdout
 
 
 def test_wide_against_dense_outside_the_main_effects(result):
@@ -281,6 +282,19 @@ def test_wide_against_dense_outside_the_main_effects(result):
         "labels (main effect)",
         "sensing (main effect)",
     }
+
+
+def test_sensing_on_top_of_the_wide_labels(result):
+    cell = _cell(result, "wide-calibrated", "clean")
+    assert all(cell[f] for f in ("dense_labels", "sensing", "tip_offsets"))
+    change = {c: _effect(result, "wide-calibrated − wide", c)["change"]
+              for c in ("clean", "noise-side", "noise-side-table")}  # fmt: skip
+    assert change["clean"]["clear_ratio"][0] == pytest.approx(0.5 - 1.0)
+    assert change["noise-side"]["clear_ratio"][0] == pytest.approx(0.0)
+    assert change["noise-side-table"]["clear_ratio"][0] == pytest.approx(1.0 - (1.0 + 0.5) / 2)
+    gap = next(g for g in result["gaps"] if g["arm"] == "wide-calibrated"
+               and g["condition"] == "noise-side")  # fmt: skip
+    assert gap["change"]["clear_ratio"][0] == pytest.approx(1.0 - 0.5)
 
 
 def test_the_campaign_writes_the_runs_and_folders_the_script_reads():
