@@ -347,7 +347,8 @@ def test_the_final_plan_validates_each_arm_as_stage_1_did():
 
 def test_the_franka_data_waits_for_its_offset_decision():
     """final.toml: the Franka's data is made after the oracle's two readings of its databases'
-    offset range (the same rounds, only --oracle-offset differing) and the recorded decision."""
+    offset range (the same rounds, only --oracle-offset differing) and the recorded decision
+    (today's range: its data takes no --offset)."""
     steps = campaign_steps("experiments/campaigns/final.toml")
     today = shlex.split(steps["oracle-franka-today"]["run"])
     wide = shlex.split(steps["oracle-franka-wide"]["run"])
@@ -362,8 +363,9 @@ def test_the_franka_data_waits_for_its_offset_decision():
     assert set(gate["needs"]) == {"oracle-franka-today", "oracle-franka-wide"}
     assert gate["run"] == "test -s /root/franka-offset-decision.md"
     assert steps["data-franka"]["needs"] == ["franka-offset-decision"]
+    assert "--offset" not in steps["data-franka"]["run"] and "--offset" in steps["data-wide"]["run"]
     for name, step in steps.items():
-        if "--gripper franka" in step["run"] and name.startswith("wide-franka"):
+        if "--gripper franka" in step["run"] and name.startswith("dense-franka"):
             assert step["needs"] == ["data-franka"]
 
 
@@ -394,8 +396,13 @@ def test_every_final_run_plays_both_round_seed_ranges_before_their_collations(tm
     for run in waiting:
         assert steps[f"select-{run}"]["needs"] == [run]
         assert f"--out /root/runs/{run}" in steps[run]["run"]
-        assert "--data /root/data/" + ("franka" if "franka" in run else "wide") in steps[run]["run"]
-        rep, seed = run.removeprefix("wide-").removeprefix("franka-").rsplit("-s", 1)
+        assert (
+            "--data /root/data/" + ("franka-dense" if "franka" in run else "wide")
+            in steps[run]["run"]
+        )
+        rep, seed = (
+            run.removeprefix("wide-").removeprefix("dense-").removeprefix("franka-").rsplit("-s", 1)
+        )
         for suffix, first in (("", None), ("-first-seed-100", "100")):
             cells = steps[f"cells-{run}{suffix}"]
             assert cells["needs"] == [f"select-{run}"]
