@@ -345,6 +345,24 @@ def test_the_final_plan_validates_each_arm_as_stage_1_did():
     assert {"--noise", "dex", "--table-scale"} <= set(extra) and "--seed" not in extra
 
 
+def test_every_final_run_is_judged_on_the_rounds_no_checkpoint_was_chosen_by():
+    """final.toml: each of the eight final runs plays the judging rounds (training objects from
+    round seed 2 000 000, which the selections never see) with its selected best.pt."""
+    steps = campaign_steps("experiments/campaigns/final.toml")
+    judged = {n.removeprefix("judge-") for n in steps if n.startswith("judge-")}
+    assert len(judged) == 8
+    for run in judged:
+        assert steps[f"judge-{run}"]["needs"] == [f"select-{run}"]
+        flags = shlex.split(steps[f"judge-{run}"]["run"])
+        value = {f: flags[flags.index(f) + 1] for f in ("--model", "--objects", "--seed",
+                                                       "--rounds", "--out")}  # fmt: skip
+        assert value == {"--model": f"/root/runs/{run}/best.pt", "--objects": "vgn-pile-train",
+                         "--seed": "2000000", "--rounds": "400",
+                         "--out": f"/root/bench/judge/{run}"}  # fmt: skip
+        select = shlex.split(steps[f"select-{run}"]["run"])
+        assert "--seed" not in select  # the selections' own rounds, from 1 000 000
+
+
 def test_the_franka_data_waits_for_its_offset_decision():
     """final.toml: the Franka's data is made after the oracle's two readings of its databases'
     offset range (the same rounds, only --oracle-offset differing) and the recorded decision
