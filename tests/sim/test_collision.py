@@ -1,0 +1,73 @@
+"""The swept-hand check tests only the points near each box (a k-d tree): its answer must be the
+exact test's over every point, whatever the points' order, and for any number of grasps."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from symgrasp.sim import FRANKA, ROBOTIQ_2F85
+from symgrasp.sim.collision import CHUNK, hand_boxes, hand_collides
+from symgrasp.sim.protocol import PREGRASP_DISTANCE
+
+
+def _every_point(T, gripper, points, tolerance, sweep):
+    """The oracle: every point against each swept box of each grasp, by the segment parameters
+    s ∈ [0, sweep] that put it inside the box along each box axis (no search for near points)."""
+    boxes = hand_boxes(gripper)
+    half = np.maximum(boxes.half - tolerance, 1e-4)
+    hit = np.zeros(len(T), dtype=bool)
+    for g, pose in enumerate(T):
+        p_hand = (points - pose[:3, 3]) @ pose[:3, :3]
+        for c, Rb, h in zip(boxes.centre, boxes.rotation, half, strict=True):
+            q, u = (p_hand - c) @ Rb, -Rb[0]  # the box moves by s·u in its own frame
+            lo, hi = np.zeros(len(q)), np.full(len(q), sweep)
+            for a in range(3):
+                if abs(u[a]) < 1e-12:
+                    hi[np.abs(q[:, a]) >= h[a]] = -1.0
+                else:
+                    ends = np.sort([(q[:, a] - h[a]) / u[a], (q[:, a] + h[a]) / u[a]], axis=0)
+                    lo, hi = np.maximum(lo, ends[0]), np.minimum(hi, ends[1])
+            hit[g] |= bool(np.any(lo <= hi))
+    return hit
+
+
+BLOBS = 30
+CENTRE = np.array([0.15, 0.15, 1.0])  # [m] high above the table
+
+
+def _grasps_among_points(gripper, count, seed):
+    """``count`` random grasps high above the table among ``BLOBS`` clusters of points (1 cm
+    across), placed so that a quarter to a half of the grasps hold a point in a box."""
+    rng = np.random.default_rng(seed)
+    T = np.tile(np.eye(4), (count, 1, 1))
+    T[:, :3, :3] = Rotation.random(count, random_state=seed).as_matrix()
+    T[:, :3, 3] = CENTRE + rng.normal(0, 0.2, (count, 3))
+    blobs = CENTRE + rng.normal(0, 0.2, (BLOBS, 3))
+    points = blobs[rng.integers(BLOBS, size=2000)] + rng.normal(0, 0.01, (2000, 3))
+    return T, points.astype(np.float32)
+
+
+@pytest.mark.parametrize("gripper", [FRANKA, ROBOTIQ_2F85], ids=lambda g: g.name)
+@pytest.mark.parametrize(("tolerance", "sweep"), [(0.002, PREGRASP_DISTANCE), (-0.001, 0.0)])
+def test_the_check_is_the_exact_test_over_every_point(gripper, tolerance, sweep):
+    T, points = _grasps_among_points(gripper, 64, seed=1)
+    expected = _every_point(T, gripper, points.astype(float), tolerance, sweep)
+    assert 0.2 < expected.mean() < 0.9  # both answers are exercised
+    got = hand_collides(T, gripper, points, tolerance=tolerance, sweep=sweep, table_height=-1)
+    assert list(got) == list(expected)
+
+
+def test_the_answer_does_not_depend_on_the_points_order_or_the_grasps_chunks():
+    T, points = _grasps_among_points(ROBOTIQ_2F85, 2 * CHUNK + 7, seed=2)
+    whole = hand_collides(T, ROBOTIQ_2F85, points, table_height=-1)
+    assert 0.2 < whole.mean() < 0.9
+    shuffled = np.random.default_rng(3).permutation(points)
+    assert list(hand_collides(T, ROBOTIQ_2F85, shuffled, table_height=-1)) == list(whole)
+    one_by_one = [hand_collides(g[None], ROBOTIQ_2F85, points, table_height=-1)[0] for g in T[::9]]
+    assert one_by_one == list(whole[::9])
+
+
+def test_no_grasps_and_no_points():
+    T, points = _grasps_among_points(FRANKA, 3, seed=4)
+    assert hand_collides(np.zeros((0, 4, 4)), FRANKA, points).shape == (0,)
+    assert not hand_collides(T, FRANKA, np.zeros((0, 3)), table_height=-1).any()
