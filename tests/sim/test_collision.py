@@ -6,7 +6,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from symgrasp.sim import FRANKA, ROBOTIQ_2F85
-from symgrasp.sim.collision import CHUNK, hand_boxes, hand_collides
+from symgrasp.sim.collision import ALL_PAIRS, CHUNK, hand_boxes, hand_collides
 from symgrasp.sim.protocol import PREGRASP_DISTANCE
 
 
@@ -49,8 +49,10 @@ def _grasps_among_points(gripper, count, seed):
 
 @pytest.mark.parametrize("gripper", [FRANKA, ROBOTIQ_2F85], ids=lambda g: g.name)
 @pytest.mark.parametrize(("tolerance", "sweep"), [(0.002, PREGRASP_DISTANCE), (-0.001, 0.0)])
-def test_the_check_is_the_exact_test_over_every_point(gripper, tolerance, sweep):
-    T, points = _grasps_among_points(gripper, 64, seed=1)
+@pytest.mark.parametrize("grasps", [64, 16], ids=["searched", "every-pair"])
+def test_the_check_is_the_exact_test_over_every_point(gripper, tolerance, sweep, grasps):
+    T, points = _grasps_among_points(gripper, grasps, seed=1)
+    assert (len(T) * len(points) > ALL_PAIRS) == (grasps == 64)  # both ways of finding pairs
     expected = _every_point(T, gripper, points.astype(float), tolerance, sweep)
     assert 0.2 < expected.mean() < 0.9  # both answers are exercised
     got = hand_collides(T, gripper, points, tolerance=tolerance, sweep=sweep, table_height=-1)

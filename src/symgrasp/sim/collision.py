@@ -11,7 +11,7 @@ of the objects plus the table plane. No physics is run.
 Only the points that can lie in a swept box are tested: a k-d tree of the scene's points
 (`scipy.spatial.cKDTree`) gives those in `PIECES` balls that cover each swept box along its
 sweep, and the slab test runs on those (grasp, point) pairs at once; a box is tested only for
-the grasps no earlier box has hit. The answer is the exact test's over every point, as
+the grasps no earlier box has hit. A check of a few grasps (`ALL_PAIRS`) tests every point. The answer is the exact test's over every point, as
 tests/sim/test_collision.py checks against the test run on all of them.
 """
 
@@ -36,6 +36,11 @@ MARGIN = 1e-5
 """[m] Added to each ball's radius, so that rounding never leaves out a point on its boundary."""
 CHUNK = 512
 """Grasps checked together: bounds the (grasp, point) pairs held at once."""
+SIGNS = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+"""(8, 3) The signs of a box's corners along its axes."""
+ALL_PAIRS = 2**16
+"""Up to this many (grasp, point) pairs, every point is tested without a search: building the
+tree costs more than it saves for the few grasps of a declutter attempt."""
 
 
 @dataclass(frozen=True)
@@ -81,9 +86,8 @@ def hand_collides(
     half = np.maximum(boxes.half - tolerance, 1e-4)  # tolerance < 0 grows the boxes
     hit = np.zeros(len(T), dtype=bool)
     # table: a corner of any box, at the grasp or at the pre-grasp, below the plane
-    signs = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
     corners = boxes.centre[:, None] + np.einsum(
-        "bij,bcj->bci", boxes.rotation, signs * half[:, None]
+        "bij,bcj->bci", boxes.rotation, SIGNS * half[:, None]
     )
     corners = np.concatenate([corners, corners - [sweep, 0, 0]], axis=1).reshape(-1, 3)
     z = T[:, 2, 3][:, None] + np.einsum("j,gjc->gc", [0, 0, 1.0], T[:, :3, :3] @ corners.T)
@@ -91,7 +95,7 @@ def hand_collides(
     if len(points) == 0:
         return hit
     pts = np.asarray(points, dtype=np.float32).astype(float)
-    tree = cKDTree(pts)
+    tree = cKDTree(pts) if len(T) * len(pts) > ALL_PAIRS else None
     for start in range(0, len(T), CHUNK):
         chunk = slice(start, start + CHUNK)
         hit[chunk] = _points_hit(T[chunk], hit[chunk], boxes, half, sweep, pts, tree)
@@ -105,31 +109,25 @@ def _points_hit(
     half: np.ndarray,
     sweep: float,
     pts: np.ndarray,
-    tree: cKDTree,
+    tree: cKDTree | None,
 ) -> np.ndarray:
-    """``hit`` (G,) or'd with whether a point of ``pts`` (P, 3), indexed by ``tree``, lies in a
-    box (``boxes`` with half-extents ``half``) of a grasp ``T`` (G, 4, 4) swept by ``sweep``."""
+    """``hit`` (G,) or'd with whether a point of ``pts`` (P, 3) lies in a box (``boxes`` with
+    half-extents ``half``) of a grasp ``T`` (G, 4, 4) swept by ``sweep``: the points near each
+    box found by ``tree`` (of ``pts``), or every point where ``tree`` is None."""
     hit = hit.copy()
-    signs = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+    if tree is None:  # every point of every grasp, in the TCP frame: (G, P, 3)
+        every = (pts[None] - T[:, None, :3, 3]) @ T[:, :3, :3]
     for c, Rb, h in zip(boxes.centre, boxes.rotation, half, strict=True):
         todo = np.flatnonzero(~hit)
         if not len(todo):
             break
-        R, t = T[todo, :3, :3], T[todo, :3, 3]
-        corners = c + (signs * h) @ Rb.T  # (8, 3) in the TCP frame
-        grasp, point = [], []
-        for j in range(PIECES):
-            piece = np.concatenate([corners - [sweep * j / PIECES, 0, 0],
-                                    corners - [sweep * (j + 1) / PIECES, 0, 0]])  # fmt: skip
-            mid = piece.mean(axis=0)
-            radius = float(np.max(np.linalg.norm(piece - mid, axis=1))) + MARGIN
-            near = tree.query_ball_point(t + R @ mid, radius, return_sorted=False)
-            count = np.fromiter(map(len, near), dtype=np.int64, count=len(near))
-            grasp.append(np.repeat(np.arange(len(todo)), count))
-            point.append(np.fromiter(itertools.chain.from_iterable(near), dtype=np.int64,
-                                     count=int(count.sum())))  # fmt: skip
-        grasp, point = np.concatenate(grasp), np.concatenate(point)
-        p_hand = np.einsum("nj,nji->ni", pts[point] - t[grasp], R[grasp])  # in the TCP frame
+        if tree is None:
+            grasp = np.repeat(np.arange(len(todo)), len(pts))
+            p_hand = every[todo].reshape(-1, 3)
+        else:
+            R, t = T[todo, :3, :3], T[todo, :3, 3]
+            grasp, point = _near(tree, R, t, c, Rb, h, sweep)
+            p_hand = np.einsum("nj,nji->ni", pts[point] - t[grasp], R[grasp])  # TCP frame
         q = (p_hand - c) @ Rb  # in the box frame; the box moves by s·u, s ∈ [0, sweep]
         u = -Rb[0, :]  # hand −x seen in the box frame
         lo, hi = np.zeros(len(q)), np.full(len(q), sweep)
@@ -142,3 +140,30 @@ def _points_hit(
                 hi = np.minimum(hi, np.maximum(s1, s2))
         hit[todo[grasp[lo <= hi]]] = True
     return hit
+
+
+def _near(
+    tree: cKDTree,
+    R: np.ndarray,
+    t: np.ndarray,
+    c: np.ndarray,
+    Rb: np.ndarray,
+    h: np.ndarray,
+    sweep: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The (grasp, point) pairs, as index arrays, whose point ``tree`` finds in one of the
+    `PIECES` balls that cover the box (centre ``c``, axes ``Rb``, half-extents ``h`` in the TCP
+    frame) swept by ``sweep`` along −x, for the grasps at ``R`` (G, 3, 3) and ``t`` (G, 3)."""
+    corners = c + (SIGNS * h) @ Rb.T  # (8, 3) in the TCP frame
+    grasp, point = [], []
+    for j in range(PIECES):
+        piece = np.concatenate([corners - [sweep * j / PIECES, 0, 0],
+                                corners - [sweep * (j + 1) / PIECES, 0, 0]])  # fmt: skip
+        mid = piece.mean(axis=0)
+        radius = float(np.max(np.linalg.norm(piece - mid, axis=1))) + MARGIN
+        near = tree.query_ball_point(t + R @ mid, radius, return_sorted=False)
+        count = np.fromiter(map(len, near), dtype=np.int64, count=len(near))
+        grasp.append(np.repeat(np.arange(len(t)), count))
+        point.append(np.fromiter(itertools.chain.from_iterable(near), dtype=np.int64,
+                                 count=int(count.sum())))  # fmt: skip
+    return np.concatenate(grasp), np.concatenate(point)
