@@ -57,13 +57,15 @@ def test_two_processes_follow_the_one_process_loss_curve_and_resume(tmp_path):
     # up to 1e-3); Adam turns float noise in near-zero gradients into steps of ±lr, which moved
     # the validation losses by up to 1.3e-4 and validity AP, a ranking of nearly tied voxels,
     # by 2e-4 on the 2-core AMD EPYC; on a 16-core Intel Xeon (8 threads a rank) AP moved by
-    # 3e-3 of its 0.0036, 1.1e-5 absolute. Plain DDP (each rank's mean loss, no voxel share)
-    # is 2e-2 off in training and 1e-1 in the validation score loss.
+    # 3e-3 of its 0.0036, 1.1e-5 absolute; on an AVX2-only AMD EPYC (2026-11-27) the second
+    # epoch's validation score loss moved by 3.2e-3 of it (the other losses ≤ 2.5e-4).
+    # Plain DDP (each rank's mean loss, no voxel share) is 2e-2 off in training and 1e-1 in
+    # the validation score loss: the tolerances below stay a factor ≥ 10 from it.
     for a, b in zip(one, two, strict=True):
         for key in ("train_total", "train_validity", "train_score", "train_rotation"):
             assert float(b[key]) == pytest.approx(float(a[key]), rel=1e-3), key
         for key in ("val_total", "val_score", "val_rotation"):
-            assert float(b[key]) == pytest.approx(float(a[key]), rel=2e-3), key
+            assert float(b[key]) == pytest.approx(float(a[key]), rel=1e-2), key
         assert float(b["validity_ap"]) == pytest.approx(float(a["validity_ap"]), abs=5e-5)
     assert float(one[1]["train_total"]) != pytest.approx(float(one[0]["train_total"]), rel=1e-4)
     states = [load_checkpoint(tmp_path / run / "last.pt") for run in ("one", "two")]
