@@ -11,8 +11,9 @@ of the objects plus the table plane. No physics is run.
 Only the points that can lie in a swept box are tested: a k-d tree of the scene's points
 (`scipy.spatial.cKDTree`) gives those in `PIECES` balls that cover each swept box along its
 sweep, and the slab test runs on those (grasp, point) pairs at once; a box is tested only for
-the grasps no earlier box has hit. A check of a few grasps (`ALL_PAIRS`) tests every point. The answer is the exact test's over every point, as
-tests/sim/test_collision.py checks against the test run on all of them.
+the grasps no earlier box has hit. A check of a few grasps (`ALL_PAIRS`) tests every point.
+The answer is the exact test's over every point, as tests/sim/test_collision.py checks
+against the test run on all of them.
 """
 
 from __future__ import annotations
@@ -88,9 +89,9 @@ def hand_collides(
     # table: a corner of any box, at the grasp or at the pre-grasp, below the plane
     corners = boxes.centre[:, None] + np.einsum(
         "bij,bcj->bci", boxes.rotation, SIGNS * half[:, None]
-    )
-    corners = np.concatenate([corners, corners - [sweep, 0, 0]], axis=1).reshape(-1, 3)
-    z = T[:, 2, 3][:, None] + np.einsum("j,gjc->gc", [0, 0, 1.0], T[:, :3, :3] @ corners.T)
+    )  # (B, 8, 3) in the TCP frame
+    ends = np.concatenate([corners, corners - [sweep, 0, 0]], axis=1).reshape(-1, 3)
+    z = T[:, 2, 3][:, None] + np.einsum("j,gjc->gc", [0, 0, 1.0], T[:, :3, :3] @ ends.T)
     hit |= (z < table_height - tolerance).any(axis=1)
     if len(points) == 0:
         return hit
@@ -98,7 +99,7 @@ def hand_collides(
     tree = cKDTree(pts) if len(T) * len(pts) > ALL_PAIRS else None
     for start in range(0, len(T), CHUNK):
         chunk = slice(start, start + CHUNK)
-        hit[chunk] = _points_hit(T[chunk], hit[chunk], boxes, half, sweep, pts, tree)
+        hit[chunk] = _points_hit(T[chunk], hit[chunk], boxes, corners, half, sweep, pts, tree)
     return hit
 
 
@@ -106,18 +107,20 @@ def _points_hit(
     T: np.ndarray,
     hit: np.ndarray,
     boxes: HandBoxes,
+    corners: np.ndarray,
     half: np.ndarray,
     sweep: float,
     pts: np.ndarray,
     tree: cKDTree | None,
 ) -> np.ndarray:
     """``hit`` (G,) or'd with whether a point of ``pts`` (P, 3) lies in a box (``boxes`` with
-    half-extents ``half``) of a grasp ``T`` (G, 4, 4) swept by ``sweep``: the points near each
-    box found by ``tree`` (of ``pts``), or every point where ``tree`` is None."""
+    half-extents ``half`` and ``corners`` (B, 8, 3)) of a grasp ``T`` (G, 4, 4) swept by
+    ``sweep``: the points near each box found by ``tree`` (of ``pts``), or every point where
+    ``tree`` is None."""
     hit = hit.copy()
     if tree is None:  # every point of every grasp, in the TCP frame: (G, P, 3)
         every = (pts[None] - T[:, None, :3, 3]) @ T[:, :3, :3]
-    for c, Rb, h in zip(boxes.centre, boxes.rotation, half, strict=True):
+    for c, Rb, h, box in zip(boxes.centre, boxes.rotation, half, corners, strict=True):
         todo = np.flatnonzero(~hit)
         if not len(todo):
             break
@@ -126,7 +129,7 @@ def _points_hit(
             p_hand = every[todo].reshape(-1, 3)
         else:
             R, t = T[todo, :3, :3], T[todo, :3, 3]
-            grasp, point = _near(tree, R, t, c, Rb, h, sweep)
+            grasp, point = _near(tree, R, t, box, sweep)
             p_hand = np.einsum("nj,nji->ni", pts[point] - t[grasp], R[grasp])  # TCP frame
         q = (p_hand - c) @ Rb  # in the box frame; the box moves by s·u, s ∈ [0, sweep]
         u = -Rb[0, :]  # hand −x seen in the box frame
@@ -143,18 +146,11 @@ def _points_hit(
 
 
 def _near(
-    tree: cKDTree,
-    R: np.ndarray,
-    t: np.ndarray,
-    c: np.ndarray,
-    Rb: np.ndarray,
-    h: np.ndarray,
-    sweep: float,
+    tree: cKDTree, R: np.ndarray, t: np.ndarray, corners: np.ndarray, sweep: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """The (grasp, point) pairs, as index arrays, whose point ``tree`` finds in one of the
-    `PIECES` balls that cover the box (centre ``c``, axes ``Rb``, half-extents ``h`` in the TCP
-    frame) swept by ``sweep`` along −x, for the grasps at ``R`` (G, 3, 3) and ``t`` (G, 3)."""
-    corners = c + (SIGNS * h) @ Rb.T  # (8, 3) in the TCP frame
+    `PIECES` balls that cover the box of ``corners`` (8, 3) (TCP frame) swept by ``sweep``
+    along −x, for the grasps at ``R`` (G, 3, 3) and ``t`` (G, 3)."""
     grasp, point = [], []
     for j in range(PIECES):
         piece = np.concatenate([corners - [sweep * j / PIECES, 0, 0],
