@@ -89,6 +89,28 @@ def test_gl_and_raycast_depth_agree():
 
 
 @pytest.mark.skipif(not gl_available(), reason="no OpenGL backend (EGL/OSMesa) here")
+def test_depth_contexts_without_multisampling_see_what_picture_contexts_see():
+    # Depth contexts drop the model's multisampling and shadow map (their cost, not their
+    # depth); the model keeps its settings for pictures and physics.
+    from symgrasp.objects.sets import make_scene
+
+    world, T = make_scene("pile", "household-test", 5, 3), default_extrinsic()
+    quality = world.model.vis.quality
+    before = quality.offsamples, quality.shadowsize
+    assert before[0] > 0 and before[1] > 0  # the picture settings are there to drop
+    renderer, painter = GLRenderer(SMALL), GLRenderer(SMALL, pictures=True)
+    depth, picture = renderer.render(world, T), painter.render(world, T)
+    assert (quality.offsamples, quality.shadowsize) == before
+    made = [(r._renderer._mjr_context.offSamples, r._renderer._mjr_context.shadowSize)
+            for r in (renderer, painter)]  # fmt: skip
+    assert made == [(0, 0), before]
+    assert (depth > 0).mean() > 0.5
+    assert np.mean((depth > 0) != (picture > 0)) < 0.01  # edge pixels at most
+    both = (depth > 0) & (picture > 0)
+    assert np.median(np.abs(depth - picture)[both]) < 1e-4
+
+
+@pytest.mark.skipif(not gl_available(), reason="no OpenGL backend (EGL/OSMesa) here")
 @pytest.mark.parametrize("tight", ["model-sized", "full after one geom"])
 def test_a_tight_gl_scene_draws_what_mujocos_default_scene_draws(monkeypatch, tight):
     # The renderer's scene holds the model's geoms and a margin instead of 10 000; a scene that

@@ -82,12 +82,19 @@ class RaycastRenderer:
 
 
 class GLRenderer:
-    """MuJoCo's OpenGL renderer with the pinhole camera imposed on the scene's GL camera."""
+    """MuJoCo's OpenGL renderer with the pinhole camera imposed on the scene's GL camera.
+
+    A depth image needs neither multisampling nor a shadow map, so its GL contexts are made
+    without them (``pictures=False``, the default): on a software GL (llvmpipe) they made each
+    world rebuild's context 5× and its first image 3× costlier, a fifth of a declutter round,
+    for the same depth (dataset hashes and benchmark rounds compared on this project's CPUs,
+    `docs/sim.md`). ``pictures=True`` keeps the model's settings, for colour pictures."""
 
     name = "gl"
 
-    def __init__(self, intrinsic: CameraIntrinsic | None = None) -> None:
+    def __init__(self, intrinsic: CameraIntrinsic | None = None, pictures: bool = False) -> None:
         self.intrinsic = intrinsic or CameraIntrinsic()
+        self.pictures = pictures
         self._renderer: mujoco.Renderer | None = None
         self._model: mujoco.MjModel | None = None
         self._option = mujoco.MjvOption()
@@ -102,8 +109,15 @@ class GLRenderer:
             if self._renderer is not None:
                 self._renderer.close()
             tight = model.ngeom + model.nsite + model.ntendon + SCENE_MARGIN
-            self._renderer = mujoco.Renderer(model, self.intrinsic.height, self.intrinsic.width,
-                                             max_geom=ROOMY_SCENE if roomy else tight)  # fmt: skip
+            quality = model.vis.quality
+            saved = quality.offsamples, quality.shadowsize
+            if not self.pictures:  # the context reads them once, when it is made
+                quality.offsamples, quality.shadowsize = 0, 0
+            try:
+                self._renderer = mujoco.Renderer(model, self.intrinsic.height, self.intrinsic.width,
+                                                 max_geom=ROOMY_SCENE if roomy else tight)  # fmt: skip
+            finally:
+                quality.offsamples, quality.shadowsize = saved
             self._renderer.enable_depth_rendering()
             self._model = model
         return self._renderer

@@ -45,7 +45,7 @@ def save_scene_pictures(
     T = default_extrinsic()
     paths = {"color": out / f"{stem}_color.png", "depth": out / f"{stem}_depth.png"}
     if gl_available():
-        plt.imsave(paths["color"], GLRenderer(intrinsic).render_color(world, T))
+        plt.imsave(paths["color"], GLRenderer(intrinsic, pictures=True).render_color(world, T))
     else:
         _plot_meshes(world, paths["color"])
     renderer = make_renderer(intrinsic)
