@@ -85,9 +85,9 @@ class GLRenderer:
     """MuJoCo's OpenGL renderer with the pinhole camera imposed on the scene's GL camera.
 
     A depth image needs neither multisampling nor a shadow map, so its GL contexts are made
-    without them (``pictures=False``, the default): on a software GL (llvmpipe) they made each
-    world rebuild's context 5× and its first image 3× costlier, a fifth of a declutter round,
-    for the same depth (dataset hashes and benchmark rounds compared on this project's CPUs,
+    without them (``pictures=False``, the default): on a software GL (llvmpipe) they made the
+    first image of each rebuilt world 4× costlier (125.9 against 31.0 ms), a fifth of a
+    declutter round, for the same depth (dataset hashes and benchmark rounds compared,
     `docs/sim.md`). ``pictures=True`` keeps the model's settings, for colour pictures."""
 
     name = "gl"
