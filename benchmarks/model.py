@@ -13,13 +13,16 @@ Where the time of a training step goes: each representation's step is also timed
 stage (forward, the validity, score and rotation losses, backward, Adam), median of the
 repeats; with ``--data``, loading and augmenting a batch of that dataset folder's training
 split (`symgrasp.data.dataset.GraspDataset`, as `symgrasp train` does with ``--workers 0``)
-and a whole step on those real batches are timed too. ``--quick`` times each call once on one
-scene, with one thread.
+and a whole step on those real batches are timed too, and the first chunk size's step again
+with the network's 1×1×1 layers as PyTorch's own `nn.Conv3d` instead of `PointwiseConv3d` (the
+same weights, the two taking turns), which tells whether that layer still pays on this machine
+and torch. ``--quick`` times each call once on one scene, with one thread.
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import csv
 import json
 import os
@@ -30,6 +33,7 @@ from pathlib import Path
 
 import torch
 import torch.nn.functional as F
+from torch import nn
 
 from symgrasp import rotation
 from symgrasp.model import (
@@ -42,6 +46,7 @@ from symgrasp.model import (
 )
 from symgrasp.model.checkpoint import load_checkpoint
 from symgrasp.model.loss import at_voxels
+from symgrasp.model.network import PointwiseConv3d
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 from symgrasp.model.train import accumulate_gradient, collate_chunks
 from symgrasp.scripts import best_seconds, machine, parse_args, run_main
@@ -125,25 +130,34 @@ def real_batches(
 
     dataset = GraspDataset(data, split="train", augment=True, seed=0)
     model = GraspNet(NetworkConfig("bingham2d")).train()
-    optimizer = torch.optim.Adam(model.parameters(), lr=1e-4)
+    plain = _pointwise_as_conv3d(copy.deepcopy(model))
+    optimizers = {m: torch.optim.Adam(m.parameters(), lr=1e-4) for m in (model, plain)}
     config = TrainConfig(data=str(data), out="unused", lr=1e-4)
     load, voxels = [], []
     step: dict[int, list[float]] = {size: [] for size in micro_batches}
+    plain_step: list[float] = []
+
+    def timed(net: GraspNet, size: int, items: list[dict[str, torch.Tensor]]) -> float:
+        begin = time.perf_counter()
+        optimizers[net].zero_grad(set_to_none=True)
+        accumulate_gradient(net, net, collate_chunks(collate_scenes, size, items), config, 1, 1)
+        optimizers[net].step()
+        return 1e3 * (time.perf_counter() - begin)
+
     for repeat in range(repeats + 1):
         start = time.perf_counter()
         items = [dataset[(repeat * batch + i) % len(dataset)] for i in range(batch)]
         scenes = collate_scenes(items)
         loaded = time.perf_counter()
-        for size in micro_batches:
-            begin = time.perf_counter()
-            optimizer.zero_grad(set_to_none=True)
-            accumulate_gradient(
-                model, model, collate_chunks(collate_scenes, size, items), config, 1, 1
-            )
-            optimizer.step()
-            if repeat:  # the first is a warm-up
-                step[size].append(1e3 * (time.perf_counter() - begin))
-        if repeat:
+        if repeat % 2:
+            plain_ms = timed(plain, micro_batches[0], items)
+        times = {size: timed(model, size, items) for size in micro_batches}
+        if not repeat % 2:
+            plain_ms = timed(plain, micro_batches[0], items)
+        if repeat:  # the first is a warm-up
+            for size, ms in times.items():
+                step[size].append(ms)
+            plain_step.append(plain_ms)
             load.append(1e3 * (loaded - start))
             voxels.append(len(scenes["voxel_index"]))
     return {
@@ -153,8 +167,23 @@ def real_batches(
         "bingham2d_step_ms_by_micro_batch": {
             size: statistics.median(t) for size, t in step.items()
         },
+        "bingham2d_step_ms_pointwise_as_conv3d": statistics.median(plain_step),
+        "pointwise_speed_up_per_batch": [
+            p / s for p, s in zip(plain_step, step[micro_batches[0]], strict=True)
+        ],
         "valid_voxels_per_batch": statistics.median(voxels),
     }
+
+
+def _pointwise_as_conv3d(net: GraspNet) -> GraspNet:
+    """``net`` with each `PointwiseConv3d` replaced by an `nn.Conv3d` holding its parameters."""
+    for module in list(net.modules()):
+        for name, child in list(module.named_children()):
+            if isinstance(child, PointwiseConv3d):
+                conv = nn.Conv3d(child.in_channels, child.out_channels, 1)
+                conv.weight, conv.bias = child.weight, child.bias
+                setattr(module, name, conv)
+    return net
 
 
 def reference_run(run: Path) -> dict[str, object]:

@@ -8,7 +8,7 @@ from torch import nn
 
 from symgrasp import rotation
 from symgrasp.model import GraspNet, NetworkConfig, count_flops, count_parameters, grasp_losses
-from symgrasp.model.network import BINGHAM_BOUND
+from symgrasp.model.network import BINGHAM_BOUND, PointwiseConv3d
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 
 
@@ -97,3 +97,30 @@ def test_channels_last_float32_outputs_match_a_float64_pass_of_the_same_weights(
         torch.testing.assert_close(
             getattr(single, name).double(), getattr(double, name), rtol=1e-5, atol=1e-5
         )
+
+
+@pytest.mark.parametrize("layout", [torch.contiguous_format, torch.channels_last_3d])
+def test_pointwise_convolution_equals_a_1x1x1_conv3d_in_value_and_gradient(layout):
+    """`PointwiseConv3d` is a matrix product standing in for a 1×1×1 convolution: the same
+    state dict, and outputs and gradients of `F.conv3d` computed in float64."""
+    torch.manual_seed(0)
+    reference = nn.Conv3d(24, 16, 1).double()
+    pointwise = PointwiseConv3d(24, 16, 1).to(memory_format=torch.channels_last_3d)
+    pointwise.load_state_dict({k: v.float() for k, v in reference.state_dict().items()})
+    x = torch.randn(2, 24, 8, 6, 4, dtype=torch.float64).contiguous(memory_format=layout)
+    xs = x.float().requires_grad_()
+    xd = x.clone().requires_grad_()
+    out, expected = pointwise(xs), reference(xd)
+    upstream = torch.randn_like(expected)
+    out.backward(upstream.float())
+    expected.backward(upstream)
+    torch.testing.assert_close(out.double(), expected, rtol=1e-5, atol=1e-5)
+    torch.testing.assert_close(xs.grad.double(), xd.grad, rtol=1e-5, atol=1e-5)
+    for mine, theirs in zip(pointwise.parameters(), reference.parameters(), strict=True):
+        torch.testing.assert_close(mine.grad.double(), theirs.grad, rtol=1e-4, atol=1e-4)
+
+
+def test_every_1x1x1_convolution_of_the_network_is_pointwise():
+    net = GraspNet(NetworkConfig("bingham2d"))
+    ones = [m for m in net.modules() if isinstance(m, nn.Conv3d) and m.kernel_size == (1, 1, 1)]
+    assert ones and all(isinstance(m, PointwiseConv3d) for m in ones)

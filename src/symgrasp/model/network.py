@@ -61,7 +61,27 @@ class GraspOutput(NamedTuple):
     """``[B, C, D, H, W]`` the representation's channels."""
 
 
+class PointwiseConv3d(nn.Conv3d):
+    """A 1×1×1 `nn.Conv3d` (the same parameters and state dict) computed as a matrix product
+    over the channels of a channels-last ``[B, C, D, H, W]`` input; the output is channels-last.
+
+    For a 1×1×1 kernel at batch < 16 on one CPU thread PyTorch's eager convolution leaves
+    oneDNN for its reference kernel (``slow_conv3d``: an unfold and layout copies each way),
+    which is how a training step runs where jobs share a machine one core each. As a product
+    over channels, a step of 16 real scenes in micro-batches of 2 took 1.65 s against 2.01
+    (one thread beside another training job, `benchmarks/model.py`, docs/model.md). Inference
+    graphs (`symgrasp.model.torchscript.optimize`) run it as oneDNN's convolution, like the
+    others.
+    """
+
+    def forward(self, x: Tensor) -> Tensor:
+        weight = self.weight.view(self.out_channels, self.in_channels)
+        return F.linear(x.permute(0, 2, 3, 4, 1), weight, self.bias).permute(0, 4, 1, 2, 3)
+
+
 def _conv(c_in: int, c_out: int, kernel: int, stride: int = 1) -> nn.Conv3d:
+    if kernel == 1 and stride == 1:
+        return PointwiseConv3d(c_in, c_out, 1)
     return nn.Conv3d(c_in, c_out, kernel, stride=stride, padding=kernel // 2)
 
 
