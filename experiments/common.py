@@ -1,15 +1,15 @@
 """What the experiments share beyond `symgrasp.scripts`: where their results go, the shipped
 model that stands in for every training run in ``--quick`` mode, the order their tables list
 the hands in, which validation scenes a checkpoint is looked at on, the Wilson interval of a rate,
-a grasp database's prefix, the Table 1 rounds a shipped model replays, a page's text
-between two markers, and issue 39's robustness gap with its verdict."""
+a grasp database's prefix, the Table 1 rounds a shipped model replays, an archive of rounds,
+a page's text between two markers, and issue 39's robustness gap with its verdict."""
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
 from collections.abc import Callable
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -157,23 +157,65 @@ def table1_rounds(
     checkpoint; tests/benchmark/test_benchmark_shipped_replay.py) in ``baselines``: the cell of
     its hand, representation and training seed (`symgrasp.benchmark.cells`, from
     ``first_seed``), e.g. Table 1's rounds unpacked from ``results/declutter_rounds.tar.gz``, and
-    the cell's folder. The rounds are None unless the cell recorded the values of ``agree``
-    (configuration fields) and holds them all; whatever model file played them, which may live
-    on another machine."""
+    the cell's folder (`cell_rounds`)."""
     from symgrasp.benchmark.cells import Cell
-    from symgrasp.benchmark.runner import read_rounds, recorded_config
     from symgrasp.detect.pretrained import resolve_model
     from symgrasp.model.checkpoint import load_checkpoint, trained_gripper
 
     state = load_checkpoint(resolve_model(model))
     cell = Cell(trained_gripper(state).name, state["representation"], state["config"]["seed"],
-                objects, scene, first_seed=first_seed).folder(baselines)  # fmt: skip
+                objects, scene, first_seed=first_seed)  # fmt: skip
+    return cell_rounds(cell.folder(baselines), rounds, agree, first_seed)
+
+
+def cell_rounds(
+    cell: Path, rounds: int, agree: dict[str, Any], first_seed: int = 0
+) -> tuple[list[dict[str, Any]] | None, Path]:
+    """Rounds ``first_seed`` … ``first_seed + rounds − 1`` of the benchmark folder ``cell``, and
+    the folder. The rounds are None unless it recorded the values of ``agree`` (configuration
+    fields) and holds them all; whatever model file played them, which may live on another
+    machine."""
+    from symgrasp.benchmark.runner import read_rounds, recorded_config
+
     recorded = recorded_config(cell)
     if recorded is None or any(recorded[k] != v for k, v in agree.items()):
         return None, cell
     done = read_rounds(cell / "rounds.jsonl")
     seeds = range(first_seed, first_seed + rounds)
     return ([done[s] for s in seeds] if all(s in done for s in seeds) else None), cell
+
+
+ARCHIVED = ("config.json", "model.sha256", "rounds.jsonl")
+"""What a rounds archive keeps of a benchmark folder: enough to collate it again."""
+
+
+def write_rounds_archive(
+    path: Path, files: dict[str, Path], extra: dict[str, bytes] | None = None
+) -> None:
+    """A gzipped tar of the ``ARCHIVED`` files of benchmark folders, byte for byte the same for
+    the same contents: ``files`` maps each folder's name in the archive to the folder, and
+    ``extra`` adds files by name and contents."""
+    import gzip
+    import io
+    import tarfile
+
+    from symgrasp.atomic import write_atomic
+
+    entries = dict(extra or {})
+    for name, folder in files.items():
+        for archived in ARCHIVED:
+            if (folder / archived).exists():
+                entries[f"{name}/{archived}"] = (folder / archived).read_bytes()
+
+    def write(file: Any) -> None:
+        with gzip.GzipFile(filename="", fileobj=file, mode="wb", mtime=0) as packed:
+            with tarfile.open(fileobj=packed, mode="w", format=tarfile.PAX_FORMAT) as tar:
+                for name, data in sorted(entries.items(), key=lambda e: PurePosixPath(e[0]).parts):
+                    info = tarfile.TarInfo(name)
+                    info.size, info.mode = len(data), 0o644
+                    tar.addfile(info, io.BytesIO(data))
+
+    write_atomic(path, write)
 
 
 def update_page(page: Path, begin: str, end: str, text: str) -> None:

@@ -56,19 +56,22 @@ household-test object (pile and packed), the Robotiq only, a copy of the page up
 from __future__ import annotations
 
 import argparse
-import gzip
-import io
 import itertools
 import shutil
 import statistics
-import tarfile
 from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from common import GRIPPERS, SHIPPED, add_mode_options, add_result_option, update_page
+from common import (
+    GRIPPERS,
+    SHIPPED,
+    add_mode_options,
+    add_result_option,
+    update_page,
+    write_rounds_archive,
+)
 
-from symgrasp.atomic import write_atomic
 from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.compare import percent_change
 from symgrasp.benchmark.failures import MODES
@@ -119,8 +122,6 @@ packed test scenes, from other simulators and protocols. Sources: GIGA = Jiang e
 2211.00191v1), Table I (EdgeGraspNet's packed GSR: Table III, 64-4k), read through a reading
 note. What each protocol does and how it differs from ours: docs/benchmark.md, "Published
 numbers on VGN's scenes"."""
-ARCHIVED = ("config.json", "model.sha256", "rounds.jsonl")
-"""What ``--archive`` keeps of a cell folder: enough to collate it again (`stored_rounds`)."""
 
 
 def parse_prefix(text: str) -> tuple[str, str]:
@@ -192,21 +193,10 @@ def stored_rounds(cell: Cell, args: argparse.Namespace) -> list[dict] | None:
 
 
 def write_archive(path: Path, played: dict[Cell, dict], args: argparse.Namespace) -> None:
-    """The collated cells' records (``ARCHIVED`` files of each cell folder) as one gzipped
+    """The collated cells' records (`common.ARCHIVED` files of each cell folder) as one gzipped
     tar, paths relative to ``--out``, byte for byte the same for the same records."""
-
-    def write(file: Any) -> None:
-        with gzip.GzipFile(filename="", fileobj=file, mode="wb", mtime=0) as packed:
-            with tarfile.open(fileobj=packed, mode="w", format=tarfile.PAX_FORMAT) as tar:
-                folders = sorted(c.folder(args.out) for c, p in played.items() if p["rounds"])
-                for source in (folder / name for folder in folders for name in ARCHIVED):
-                    if source.exists():
-                        data = source.read_bytes()
-                        info = tarfile.TarInfo(str(source.relative_to(args.out)))
-                        info.size, info.mode = len(data), 0o644
-                        tar.addfile(info, io.BytesIO(data))
-
-    write_atomic(path, write)
+    folders = (c.folder(args.out) for c, p in played.items() if p["rounds"])
+    write_rounds_archive(path, {str(f.relative_to(args.out)): f for f in folders})
 
 
 def row(played: dict[Cell, dict], gripper: str, rep: str, threshold: bool, objects: str,

@@ -44,6 +44,18 @@ experiments/results/robustness.{json,md} and docs/results.md (between its robust
   single-view VGN that GIGA published (``declutter_table.PUBLISHED``), which issue 39 asks to
   beat.
 
+**The rounds, archived.** Every collation packs the rounds behind its table into
+``STEM_rounds.tar.gz`` beside its ``--result STEM``: each condition folder's ``config.json``,
+``model.sha256`` and ``rounds.jsonl``, under ``out/`` or ``baselines/`` as they lay under
+``--out`` and ``--baselines``, and a manifest of the models (``models.json``: each one's name as
+its rounds recorded it, hand, representation and training seed), byte for byte the same for the
+same rounds. Unpacked, they collate again to the same table
+on a machine without the models' files, the other options as the first collation had them::
+
+    mkdir -p out/again && tar xzf STEM_rounds.tar.gz -C out/again
+    python experiments/robustness.py --collate-only --models-from out/again/models.json \
+        --out out/again/out --baselines out/again/baselines [--sets … --first-seed …]
+
 A campaign plays each condition of each cell in a step of one core (``--play-only --models M
 --sets S --conditions C``) and collates at the end (``--collate-only``;
 experiments/campaigns/robustness.toml for the shipped models, retrain_cells.toml for the
@@ -69,11 +81,12 @@ from common import (
     add_mode_options,
     add_result_option,
     add_table1_options,
+    cell_rounds,
     percent_mean,
     sensing_gap,
-    table1_rounds,
     update_page,
     verdict,
+    write_rounds_archive,
 )
 from declutter_table import PUBLISHED
 
@@ -116,6 +129,8 @@ FIELD_PEER = "VGN (single view)"
 """The published detector issue 39 asks the trained detectors to beat on VGN's scenes."""
 FIELD_SETS = {("vgn-pile-test", "pile"), ("vgn-packed-test", "packed")}
 """The sets those numbers were measured on: VGN's test scenes."""
+MANIFEST = "models.json"
+"""The file of a rounds archive (``--archive``) naming the models its rounds were played by."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -129,6 +144,9 @@ class Model:
     rep: str
     seed: int
     """Its training seed."""
+    stored: bool = False
+    """Named by an archive's manifest (``--models-from``): its file is not looked at, and its
+    rounds are taken as recorded."""
 
     @property
     def shipped(self) -> bool:
@@ -153,6 +171,19 @@ def parse_model(text: str) -> Model:
     name = text if text in PRETRAINED and not Path(text).is_file() else str(path.resolve())
     return Model(name, trained_gripper(state).name, state["representation"],
                  int(state["config"]["seed"]))  # fmt: skip
+
+
+def read_manifest(path: Path) -> list[Model]:
+    """The models an archive was collated from (its `MANIFEST`), each a stored `Model`."""
+    try:
+        entries = json.loads(path.read_text())
+        return [Model(e["name"], e["hand"], e["rep"], int(e["seed"]), stored=True)
+                for e in entries]  # fmt: skip
+    except (OSError, ValueError, TypeError, KeyError) as error:
+        raise argparse.ArgumentTypeError(
+            f"--models-from {path}: expected the {MANIFEST} of a rounds archive (a list of "
+            f"{{name, hand, rep, seed}}), got {type(error).__name__}: {error}"
+        ) from None
 
 
 def parse_set(text: str) -> tuple[str, str]:
@@ -192,8 +223,8 @@ def clean_rounds(model: Model, objects: str, scene: str, args: argparse.Namespac
     wanted = json.loads(json.dumps(dataclasses.asdict(config(model, objects, scene, CLEAN, args))))
     ignored = ("model", "rounds", "pictures")
     agree = {k: v for k, v in wanted.items() if k not in ignored}
-    return table1_rounds(model.name, objects, scene, args.baselines, args.rounds, agree,
-                         first_seed=args.first_seed)  # fmt: skip
+    cell = Cell(model.hand, model.rep, model.seed, objects, scene, first_seed=args.first_seed)
+    return cell_rounds(cell.folder(args.baselines), args.rounds, agree, args.first_seed)
 
 
 def rounds_of(model: Model, objects: str, scene: str, condition: str, args: argparse.Namespace,
@@ -208,7 +239,7 @@ def rounds_of(model: Model, objects: str, scene: str, condition: str, args: argp
     where = folder(model, objects, scene, condition, args)
     if play:
         return run_or_reuse(wanted, where, parallel_from_args(args)), where
-    return saved_rounds(wanted, where), where
+    return saved_rounds(wanted, where, check_model=not model.stored), where
 
 
 def counts(rounds: list[dict[str, Any]]) -> dict[str, Any]:
@@ -250,6 +281,26 @@ def collate(args: argparse.Namespace) -> tuple[list[dict[str, Any]], dict]:
                     cell["minus_clean"] = paired(rounds, clean)
                 cells.append(cell)
     return cells, found
+
+
+def write_archive(cells: list[dict[str, Any]], args: argparse.Namespace) -> None:
+    """``STEM_rounds.tar.gz`` beside ``--result``: the rounds of every collated cell and
+    condition (`common.ARCHIVED` files of its folder) under ``out/`` or ``baselines/`` as they
+    lie under ``--out`` or ``--baselines``, and the ``MANIFEST`` of ``--models``: what
+    ``--models-from`` collates again without them."""
+    roots = {"out": args.out, "baselines": args.baselines}
+    folders = {}
+    for cell in cells:
+        if cell.get("waiting"):
+            continue
+        source = Path(cell["source"])
+        name, root = next((n, r) for n, r in roots.items() if source.is_relative_to(r))
+        folders[f"{name}/{source.relative_to(root).as_posix()}"] = source
+    manifest = [{"name": m.name, "hand": m.hand, "rep": m.rep, "seed": m.seed} for m in args.models]
+    archive = Path(f"{args.result}_rounds.tar.gz")
+    write_rounds_archive(
+        archive, folders, {MANIFEST: (json.dumps(manifest, indent=1) + "\n").encode()}
+    )
 
 
 def over_seeds(found: dict, args: argparse.Namespace) -> list[dict[str, Any]]:
@@ -379,6 +430,9 @@ def main() -> None:
     parser.add_argument("--first-seed", type=int, default=0,
                         help="round seed of each cell's first round (default: %(default)s, "
                         "Table 1's rounds; 100: rounds no choice was made on)")  # fmt: skip
+    parser.add_argument("--models-from", type=Path, metavar="MANIFEST",
+                        help=f"with --collate-only, instead of --models: the {MANIFEST} of a "
+                        "rounds archive unpacked (module doc), its models' files not needed")  # fmt: skip
     add_mode_options(parser, "play the conditions, write no result",
                      "play nothing: collate what is there, list what is missing")  # fmt: skip
     parser.add_argument("--docs", type=Path, default=Path("docs/results.md"),
@@ -394,8 +448,11 @@ def main() -> None:
         shutil.copyfile(parser.get_default("docs"), args.docs)
     if args.first_seed < 0:
         parser.error(f"--first-seed: expected a round seed ≥ 0, got {args.first_seed}")
+    if args.models_from and not args.collate_only:
+        parser.error("--models-from: collates stored rounds only; add --collate-only")
     try:
-        args.models = list(dict.fromkeys(parse_model(m) for m in args.models))
+        args.models = (read_manifest(args.models_from) if args.models_from
+                       else list(dict.fromkeys(parse_model(m) for m in args.models)))  # fmt: skip
     except argparse.ArgumentTypeError as error:
         parser.error(str(error))
     if not args.play_only and CLEAN not in args.conditions:
@@ -435,6 +492,7 @@ def main() -> None:
         num_objects=args.num_objects,
         conditions={name: CONDITIONS[name] for name in args.conditions},
     )
+    write_archive(cells, args)
 
 
 if __name__ == "__main__":

@@ -113,12 +113,14 @@ def _write(folder, config, rounds):
     (folder / "rounds.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rounds))
 
 
-def test_training_runs_collate_over_their_seeds_against_the_target_and_vgns_numbers(tmp_path):
+def _two_training_seeds(tmp_path):
+    """Two training runs of one hand and representation (the shipped Robotiq model as seeds 0
+    and 1), 3 rounds from round seed 100 each: clean in the runs' table cells, noise + side view
+    played; the checkpoints and the collation's options."""
     import torch
 
     from symgrasp.detect.pretrained import shipped_path
 
-    # two training runs of one hand and representation: the shipped Robotiq model as seeds 0 and 1
     state = torch.load(shipped_path("bingham2d-robotiq-2f85"), weights_only=False)
     models = []
     for seed in (0, 1):
@@ -127,30 +129,42 @@ def test_training_runs_collate_over_their_seeds_against_the_target_and_vgns_numb
         path.parent.mkdir(parents=True)
         torch.save(state, path)
         models.append(path)
-    # 3 rounds from round seed 100: clean in the runs' table cells, noise + side view played
     fields = {"objects": "vgn-pile-test", "mesh_unit": "auto", "scene": "pile", "num_objects": 5,
               "rounds": 3, "seed": 100, "options": [], "diagnose": True, "pictures": False,
               "noise": "none", "view": "fixed", "views": 1}  # fmt: skip
-    clean = {0: [(4, 5), (3, 4), (5, 5)], 1: [(2, 4), (4, 5), (3, 3)]}  # (successes, executed)
-    noisy = {0: [(2, 5), (3, 5), (2, 5)], 1: [(2, 5), (2, 4), (2, 5)]}
     for seed, path in enumerate(models):
         cell = tmp_path / "table" / "robotiq-2f85" / "bingham2d" / f"s{seed}"
         _write(cell / "vgn-pile-test-first-seed-100", {**fields, "model": "/elsewhere/best.pt"},
-               [_round(100 + i, *c) for i, c in enumerate(clean[seed])])  # fmt: skip
+               [_round(100 + i, *c) for i, c in enumerate(CLEAN[seed])])  # fmt: skip
         played = (tmp_path / "out" / "robotiq-2f85" / "bingham2d" / f"s{seed}"
                   / "vgn-pile-test-first-seed-100" / "noise-side")  # fmt: skip
         _write(played, {**fields, "model": str(path.resolve()), "noise": "dex", "view": "side"},
-               [_round(100 + i, *c) for i, c in enumerate(noisy[seed])])  # fmt: skip
+               [_round(100 + i, *c) for i, c in enumerate(NOISY[seed])])  # fmt: skip
     page = tmp_path / "page.md"
     page.write_text("<!-- robustness-table: begin -->\n<!-- robustness-table: end -->\n")
-    done = subprocess.run(
-        [sys.executable, "experiments/robustness.py", "--collate-only", "--models",
-         *map(str, models), "--sets", "vgn-pile-test:pile", "--conditions", "noise-side",
-         "--rounds", "3", "--first-seed", "100", "--out", str(tmp_path / "out"),
-         "--baselines", str(tmp_path / "table"), "--docs", str(page),
-         "--result", str(tmp_path / "robustness")],
+    options = ["--sets", "vgn-pile-test:pile", "--conditions", "noise-side", "--rounds", "3",
+               "--first-seed", "100", "--docs", str(page)]  # fmt: skip
+    return models, options
+
+
+CLEAN = {0: [(4, 5), (3, 4), (5, 5)], 1: [(2, 4), (4, 5), (3, 3)]}
+"""Each training seed's clean rounds: (successes, executed)."""
+NOISY = {0: [(2, 5), (3, 5), (2, 5)], 1: [(2, 5), (2, 4), (2, 5)]}
+
+
+def _collate(*argv):
+    return subprocess.run(
+        [sys.executable, "experiments/robustness.py", "--collate-only", *map(str, argv)],
         cwd=ROOT, env=ENV, capture_output=True, text=True,
     )  # fmt: skip
+
+
+def test_training_runs_collate_over_their_seeds_against_the_target_and_vgns_numbers(tmp_path):
+    models, options = _two_training_seeds(tmp_path)
+    clean, noisy = CLEAN, NOISY
+    page = tmp_path / "page.md"
+    done = _collate("--models", *models, *options, "--out", tmp_path / "out",
+                    "--baselines", tmp_path / "table", "--result", tmp_path / "robustness")  # fmt: skip
     assert done.returncode == 0, done.stderr
     result = json.loads((tmp_path / "robustness.json").read_text())
     assert {c["model"] for c in result["cells"]} == {"both-bingham2d-s0", "both-bingham2d-s1"}
@@ -184,3 +198,47 @@ def test_a_model_that_is_neither_shipped_nor_a_checkpoint_is_refused_by_name(tmp
     )  # fmt: skip
     assert done.returncode == 2
     assert "--models" in done.stderr and "missing.pt" in done.stderr
+
+
+def test_the_archive_collates_again_without_the_models_to_the_same_table_and_bytes(tmp_path):
+    import tarfile
+
+    models, options = _two_training_seeds(tmp_path)
+    first = _collate("--models", *models, *options, "--out", tmp_path / "out",
+                     "--baselines", tmp_path / "table", "--result", tmp_path / "first")  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    again = tmp_path / "again"
+    with tarfile.open(tmp_path / "first_rounds.tar.gz") as tar:
+        tar.extractall(again, filter="data")
+    for model in models:  # the checkpoints are not on the machine that collates again
+        model.unlink()
+    second = _collate("--models-from", again / "models.json", *options, "--out", again / "out",
+                      "--baselines", again / "baselines", "--result", tmp_path / "second")  # fmt: skip
+    assert second.returncode == 0, second.stderr
+
+    def numbers(stem):
+        result = json.loads((tmp_path / f"{stem}.json").read_text())
+        cells = [{k: v for k, v in c.items() if k != "source"} for c in result["cells"]]
+        return cells, result["over_seeds"]
+
+    cells, over_seeds = numbers("first")
+    assert len(cells) == 4 and not any(c.get("waiting") for c in cells)  # 2 runs × clean, noisy
+    assert numbers("second") == (cells, over_seeds)
+    archives = [(tmp_path / f"{stem}_rounds.tar.gz").read_bytes() for stem in ("first", "second")]
+    assert archives[0] == archives[1]
+    manifest = json.loads((again / "models.json").read_text())
+    assert [(m["hand"], m["rep"], m["seed"]) for m in manifest] == [
+        ("robotiq-2f85", "bingham2d", 0), ("robotiq-2f85", "bingham2d", 1)]  # fmt: skip
+
+
+def test_models_from_needs_collate_only_and_a_manifest(tmp_path):
+    bad = tmp_path / "models.json"
+    bad.write_text("{not json")
+    done = _collate("--models-from", bad, "--out", tmp_path)
+    assert done.returncode == 2
+    assert "--models-from" in done.stderr and "models.json" in done.stderr
+    played = subprocess.run(
+        [sys.executable, "experiments/robustness.py", "--play-only", "--models-from", str(bad)],
+        cwd=ROOT, env=ENV, capture_output=True, text=True,
+    )  # fmt: skip
+    assert played.returncode == 2 and "--collate-only" in played.stderr
