@@ -58,6 +58,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "experiments/robustness": ("robustness.json", "cells"),
     "experiments/depth_noise": ("depth_noise.json", "summary"),
     "experiments/retrain_ablation": ("retrain_ablation.json", "gaps"),
+    "experiments/judge": ("judge_retrained.json", "picks"),
     "experiments/thin_objects": ("thin_objects.json", "cells"),
 }
 SHARED_MODULES = {"experiments/common"}

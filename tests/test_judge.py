@@ -1,0 +1,95 @@
+"""The judging rounds' collation (experiments/judge.py): each run's numbers from its rounds,
+the run each model ships by SR + CR, the seeds' paired difference, and runs that cannot be
+read yet (not judged, judged with another best.pt) holding their model's pick back."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from symgrasp.model.checkpoint import file_sha256
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+ROUNDS = {  # (successes, executed) of each judging round, 5 objects presented each
+    "m-bingham2d-s0": [(3, 4), (2, 5), (4, 4)],
+    "m-bingham2d-s1": [(4, 5), (3, 3), (5, 5)],
+    "other-bingham2d-s0": [(1, 1), (1, 1), (1, 1)],
+}
+
+
+def _round(seed, successes, executed):
+    attempt = {"target": "box", "score": 1.0, "confidence": 20.0, "candidates": 3,
+               "rejected": 0, "planning_s": 0.1}  # fmt: skip
+    attempts = [{**attempt, "outcome": "success", "mode": "success"}] * successes + [
+        {**attempt, "outcome": "slipped", "mode": "slipped"}] * (executed - successes)  # fmt: skip
+    return {"seed": seed, "objects": 5, "renderer": "gl", "successes": successes,
+            "executed": executed, "attempts": attempts}  # fmt: skip
+
+
+def _campaign(root):
+    for name, counts in ROUNDS.items():
+        run = root / "runs" / name
+        run.mkdir(parents=True)
+        (run / "best.pt").write_bytes(name.encode())
+        (run / "selection.json").write_text(json.dumps({
+            "by": "declutter_sr_cr",
+            "chosen": {"checkpoint": "epoch_002.pt", "epoch": 2, "sha256": "ab" * 32},
+            "declutter": {"folder": str(run / "selection" / "declutter" / "settings")},
+            "checkpoints": [{"checkpoint": "epoch_002.pt", "declutter_sr": 0.9,
+                             "declutter_cr": 0.7}],
+        }))  # fmt: skip
+        folder = root / "bench" / "judge" / name
+        folder.mkdir(parents=True)
+        config = {"model": str(run / "best.pt"), "objects": "vgn-pile-train", "scene": "pile",
+                  "num_objects": 5, "rounds": 3, "seed": 2_000_000}  # fmt: skip
+        (folder / "config.json").write_text(json.dumps(config))
+        played = run / "best.pt" if name != "other-bingham2d-s0" else run / "selection.json"
+        (folder / "model.sha256").write_text(file_sha256(played) + "\n")
+        (folder / "rounds.jsonl").write_text(
+            "".join(json.dumps(_round(2_000_000 + i, *c)) + "\n" for i, c in enumerate(counts))
+        )
+
+
+def test_each_model_ships_its_highest_sr_plus_cr_and_waits_for_runs_not_judged_as_selected(
+    tmp_path,
+):
+    _campaign(tmp_path)
+    done = subprocess.run(
+        [sys.executable, "experiments/judge.py", "--root", str(tmp_path), "--rounds", "3",
+         "--runs", *ROUNDS, "--result", str(tmp_path / "judge")],
+        cwd=ROOT, env=ENV, capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    result = json.loads((tmp_path / "judge.json").read_text())
+    runs = {r["run"]: r for r in result["cells"]}
+
+    def pooled(name):  # SR: successes over executed grasps; CR: over the 15 objects presented
+        counts = ROUNDS[name]
+        successes = sum(s for s, _ in counts)
+        return successes / sum(e for _, e in counts), successes / 15
+
+    for name in ("m-bingham2d-s0", "m-bingham2d-s1"):
+        sr, cr = pooled(name)
+        assert runs[name]["success_ratio"] == pytest.approx(sr)
+        assert runs[name]["clear_ratio"] == pytest.approx(cr)
+        assert runs[name]["epoch"] == 2 and runs[name]["validation_sr"] == 0.9
+    assert "another best.pt" in runs["other-bingham2d-s0"]["missing"]
+    picks = {p["model"]: p for p in result["picks"]}
+    assert picks["m-bingham2d"]["ships"] == "m-bingham2d-s1"  # 12/13 + 12/15 against 9/13 + 9/15
+    (difference,) = picks["m-bingham2d"]["seed_differences"]
+    assert difference["success_ratio"][0] == pytest.approx(
+        pooled("m-bingham2d-s0")[0] - pooled("m-bingham2d-s1")[0]
+    )
+    assert picks["other-bingham2d"]["waiting"] == ["other-bingham2d-s0"]
+
+
+def test_a_run_name_without_its_training_seed_is_refused_by_name(tmp_path):
+    done = subprocess.run(
+        [sys.executable, "experiments/judge.py", "--root", str(tmp_path), "--runs", "wide"],
+        cwd=ROOT, env=ENV, capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 2 and "--runs" in done.stderr and "'wide'" in done.stderr
