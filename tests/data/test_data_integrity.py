@@ -4,6 +4,7 @@ not (swapped, duplicated, a wrong-shaped TSDF, a changed byte), training refuses
 import io
 import json
 import shutil
+import zipfile
 
 import numpy as np
 import pytest
@@ -89,3 +90,24 @@ def test_inspect_names_a_file_the_manifest_does_not_list(dataset):
     problems = manifest_mismatches(dataset)
     assert f"{scene_path(dataset, 7)}: not in the manifest" in problems
     assert f"{scene_path(dataset, 1)}: missing" in problems
+
+
+def test_a_dataset_whose_hash_holds_is_opened_without_the_crc_test(dataset, monkeypatch):
+    """The hash has read every byte: testing each member's CRC again is the cost of opening."""
+
+    def refuse(self):
+        raise AssertionError("testzip called although the dataset hash holds")
+
+    monkeypatch.setattr(zipfile.ZipFile, "testzip", refuse)
+    assert len(GraspDataset(dataset, split="all")) == 3
+
+
+def test_a_member_failing_its_crc_is_named_and_skipped_when_the_hash_does_not_hold(dataset):
+    path = scene_path(dataset, 1)
+    data = bytearray(path.read_bytes())
+    crc = data.index(b"PK\x01\x02") + 16  # the first member's CRC-32 in the central directory
+    data[crc] ^= 0xFF
+    path.write_bytes(bytes(data))
+    with pytest.warns(UserWarning, match=f"skipping scene file {path}.*bad CRC"):
+        opened = GraspDataset(dataset, split="all")
+    assert opened.skipped == [path] and len(opened) == 2
