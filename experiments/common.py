@@ -135,6 +135,40 @@ def add_table1_options(parser: argparse.ArgumentParser, baselines: str = "") -> 
                         help="objects per round (default: 5)")  # fmt: skip
 
 
+def add_round_options(parser: argparse.ArgumentParser, seed: int, rounds: int, what: str) -> None:
+    """``--objects``, ``--seed``, ``--rounds`` and ``--num-objects`` of the training-object
+    rounds a campaign's collation reads (``what`` names them in the help): the declutter
+    validation's objects, ``seed`` and ``rounds`` by default."""
+    from symgrasp.config import VALIDATION_OBJECTS
+
+    parser.add_argument("--objects", default=VALIDATION_OBJECTS,
+                        help=f"object set of {what} (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--seed", type=int, default=seed,
+                        help=f"round seed of the first of {what} (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--rounds", type=int, default=rounds,
+                        help=f"{what}: rounds of each run (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--num-objects", type=int, default=5,
+                        help="objects per round (default: %(default)s)")  # fmt: skip
+
+
+def campaign_root(
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    plan: str,
+    build: Callable[[Path, argparse.Namespace], None],
+) -> None:
+    """``args.root``, a collation's campaign root: the one given with ``--root`` (refused when
+    missing), or in ``--quick`` mode one that ``build`` makes under DIR/``plan`` (refused when
+    ``--root`` is given too)."""
+    if args.quick:
+        if args.root is not None:
+            parser.error("--quick builds its own campaign root under DIR; drop --root")
+        args.root = args.quick / plan
+        build(args.root, args)
+    elif args.root is None:
+        parser.error("--root: give the campaign's root (campaign.py run … --root DIR)")
+
+
 def add_mode_options(parser: argparse.ArgumentParser, play: str, collate: str) -> None:
     """``--play-only`` and ``--collate-only``, at most one of them (a campaign plays each cell in
     a step of its own and collates once at the end); ``play`` and ``collate`` are their help."""

@@ -39,13 +39,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from common import SHIPPED, add_result_option
+from common import SHIPPED, add_result_option, add_round_options, campaign_root
 from retrain_ablation import CONDITIONS, clean_folder, ended_none_found
 
 from symgrasp.atomic import read_json
 from symgrasp.benchmark.compare import paired_change, paired_rounds, percent_change
 from symgrasp.benchmark.runner import MODEL_SHA, read_rounds, recorded_config, summarise
-from symgrasp.config import JUDGE_SEED, VALIDATION_OBJECTS, BenchmarkConfig
+from symgrasp.config import JUDGE_SEED, BenchmarkConfig
 from symgrasp.model.checkpoint import file_sha256
 from symgrasp.scripts import parse_args, run_main, write_result
 
@@ -214,14 +214,7 @@ def main() -> None:
                         "DIR/bench/judge")  # fmt: skip
     parser.add_argument("--runs", nargs="+", default=list(RUNS), metavar="MODEL-sS",
                         help="the runs judged (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--objects", default=VALIDATION_OBJECTS,
-                        help="object set of the judging rounds (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--seed", type=int, default=JUDGE_SEED,
-                        help="round seed of the first judging round (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--rounds", type=int, default=400,
-                        help="judging rounds of each run (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--num-objects", type=int, default=5,
-                        help="objects per round (default: %(default)s)")  # fmt: skip
+    add_round_options(parser, JUDGE_SEED, 400, "the judging rounds")
     add_result_option(parser, "judge_retrained")
     args = parse_args(parser, outputs=("result",),
                       quick={"rounds": 1, "num_objects": 1, "objects": "household-train",
@@ -232,13 +225,7 @@ def main() -> None:
             parse_run(name)
         except argparse.ArgumentTypeError as error:
             parser.error(str(error))
-    if args.quick:
-        if args.root is not None:
-            parser.error("--quick builds its own campaign root under DIR; drop --root")
-        args.root = args.quick / "final"
-        quick_root(args.root, args)
-    elif args.root is None:
-        parser.error("--root: give the final campaign's root (campaign.py run … --root DIR)")
+    campaign_root(parser, args, "final", quick_root)
 
     runs = []
     for name in args.runs:

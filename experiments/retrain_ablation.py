@@ -75,6 +75,8 @@ from common import (
     PAPER_HAND,
     SHIPPED,
     add_result_option,
+    add_round_options,
+    campaign_root,
     percent_mean,
     sensing_gap,
     verdict,
@@ -86,7 +88,7 @@ from symgrasp.benchmark.declutter import NONE_FOUND
 from symgrasp.benchmark.runner import MODEL_SHA, read_rounds, recorded_config, summarise
 from symgrasp.benchmark.seeds import common_rounds, seed_contrast, seed_lead, seed_ratios
 from symgrasp.benchmark.selection import ALIASES, checkpoint_id
-from symgrasp.config import VALIDATION_OBJECTS, VALIDATION_SEED, BenchmarkConfig
+from symgrasp.config import VALIDATION_SEED, BenchmarkConfig
 from symgrasp.model.checkpoint import file_sha256
 from symgrasp.scripts import parse_args, run_main, write_result
 
@@ -421,27 +423,13 @@ def main() -> None:
     parser.add_argument("--rep", default="bingham2d",
                         help=f"the arms' representation, ARM-REP-sS (default: %(default)s; the "
                         f"{PAPER_HAND}'s ablation)")  # fmt: skip
-    parser.add_argument("--objects", default=VALIDATION_OBJECTS,
-                        help="object set the rounds were played on (default: %(default)s, the "
-                        "declutter validation's)")  # fmt: skip
-    parser.add_argument("--seed", type=int, default=VALIDATION_SEED,
-                        help="round seed of the first round (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--rounds", type=int, default=200,
-                        help="rounds each run played in each condition (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--num-objects", type=int, default=5,
-                        help="objects per round (default: %(default)s)")  # fmt: skip
+    add_round_options(parser, VALIDATION_SEED, 200, "the declutter validation's rounds")
     add_result_option(parser, "retrain_ablation")
     args = parse_args(parser, outputs=("result",),
                       quick={"rounds": 1, "num_objects": 1, "objects": "household-train",
                              "seeds": [0]},
                       also=f"{SHIPPED} for every run, selected and played under DIR/retrain")  # fmt: skip
-    if args.quick:
-        if args.root is not None:
-            parser.error("--quick builds its own campaign root under DIR; drop --root")
-        args.root = args.quick / "retrain"
-        quick_root(args.root, args)
-    elif args.root is None:
-        parser.error("--root: give the campaign's root (campaign.py run … --root DIR)")
+    campaign_root(parser, args, "retrain", quick_root)
 
     rounds, runs = gather(args)
     cells = [arm_cell(rounds, arm, condition) for arm in args.arms for condition in CONDITIONS]
