@@ -99,25 +99,33 @@ def test_channels_last_float32_outputs_match_a_float64_pass_of_the_same_weights(
         )
 
 
+CUDA = pytest.param(
+    "cuda", marks=pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here")
+)
+
+
+@pytest.mark.parametrize("device", ["cpu", CUDA])
 @pytest.mark.parametrize("layout", [torch.contiguous_format, torch.channels_last_3d])
-def test_pointwise_convolution_equals_a_1x1x1_conv3d_in_value_and_gradient(layout):
+def test_pointwise_convolution_equals_a_1x1x1_conv3d_in_value_and_gradient(layout, device):
     """`PointwiseConv3d` is a matrix product standing in for a 1×1×1 convolution: the same
-    state dict, and outputs and gradients of `F.conv3d` computed in float64."""
+    state dict, and outputs and gradients of `F.conv3d` computed in float64 on the CPU; its
+    output is channels-last on every device."""
     torch.manual_seed(0)
     reference = nn.Conv3d(24, 16, 1).double()
-    pointwise = PointwiseConv3d(24, 16, 1).to(memory_format=torch.channels_last_3d)
+    pointwise = PointwiseConv3d(24, 16, 1).to(device, memory_format=torch.channels_last_3d)
     pointwise.load_state_dict({k: v.float() for k, v in reference.state_dict().items()})
     x = torch.randn(2, 24, 8, 6, 4, dtype=torch.float64).contiguous(memory_format=layout)
-    xs = x.float().requires_grad_()
+    xs = x.float().to(device).requires_grad_()
     xd = x.clone().requires_grad_()
     out, expected = pointwise(xs), reference(xd)
+    assert out.is_contiguous(memory_format=torch.channels_last_3d)
     upstream = torch.randn_like(expected)
-    out.backward(upstream.float())
+    out.backward(upstream.float().to(device))
     expected.backward(upstream)
-    torch.testing.assert_close(out.double(), expected, rtol=1e-5, atol=1e-5)
-    torch.testing.assert_close(xs.grad.double(), xd.grad, rtol=1e-5, atol=1e-5)
+    torch.testing.assert_close(out.double().cpu(), expected, rtol=1e-5, atol=1e-5)
+    torch.testing.assert_close(xs.grad.double().cpu(), xd.grad, rtol=1e-5, atol=1e-5)
     for mine, theirs in zip(pointwise.parameters(), reference.parameters(), strict=True):
-        torch.testing.assert_close(mine.grad.double(), theirs.grad, rtol=1e-4, atol=1e-4)
+        torch.testing.assert_close(mine.grad.double().cpu(), theirs.grad, rtol=1e-4, atol=1e-4)
 
 
 def test_every_1x1x1_convolution_of_the_network_is_pointwise():
