@@ -149,6 +149,19 @@ def add_round_options(parser: argparse.ArgumentParser, seed: int, rounds: int, w
                         help=f"{what}: rounds of each run (default: %(default)s)")  # fmt: skip
     parser.add_argument("--num-objects", type=int, default=5,
                         help="objects per round (default: %(default)s)")  # fmt: skip
+    add_table_clearance(parser)
+
+
+def add_table_clearance(parser: argparse.ArgumentParser) -> None:
+    """``--table-clearance``: the approach check's table rule of the rounds a script plays and
+    reads (`symgrasp.config.TABLE_CLEARANCE`)."""
+    from symgrasp.config import TABLE_CLEARANCE
+
+    parser.add_argument("--table-clearance", type=float, default=TABLE_CLEARANCE, metavar="C",
+                        help="gap [m] the open hand keeps from the table for a grasp to be "
+                        "executed (bench declutter --table-clearance; default: %(default)s); "
+                        "-0.002 plays and reads rounds by the rule before 2026-11-27, which "
+                        "every result committed before that date used")  # fmt: skip
 
 
 def campaign_root(

@@ -69,7 +69,8 @@ def parse_run(text: str) -> tuple[str, int]:
 def wanted(args: argparse.Namespace) -> dict[str, Any]:
     """The configuration fields the judging rounds must have been played with."""
     return {"objects": args.objects, "scene": "pile", "num_objects": args.num_objects,
-            "rounds": args.rounds, "seed": args.seed, **CONDITIONS["clean"]}  # fmt: skip
+            "rounds": args.rounds, "seed": args.seed, "table_clearance": args.table_clearance,
+            **CONDITIONS["clean"]}  # fmt: skip
 
 
 def judged(name: str, args: argparse.Namespace) -> tuple[list[dict] | None, dict[str, Any]]:
@@ -195,14 +196,16 @@ def quick_root(root: Path, args: argparse.Namespace) -> None:
     from symgrasp.detect.pretrained import shipped_path
 
     validation = DeclutterValidation(objects=args.objects, rounds=args.rounds,
-                                     num_objects=args.num_objects)  # fmt: skip
+                                     num_objects=args.num_objects,
+                                     table_clearance=args.table_clearance)  # fmt: skip
     for name in args.runs:
         run = root / "runs" / name
         run.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(shipped_path(SHIPPED), run / "epoch_001.pt")
         select_checkpoint(run, "declutter", validation=validation)
         config = BenchmarkConfig(model=str(run / "best.pt"), objects=args.objects,
-                                 rounds=args.rounds, seed=args.seed, num_objects=args.num_objects)  # fmt: skip
+                                 rounds=args.rounds, seed=args.seed, num_objects=args.num_objects,
+                                 table_clearance=args.table_clearance)  # fmt: skip
         run_or_reuse(config, root / "bench" / "judge" / name)
 
 

@@ -42,6 +42,7 @@ from common import (
     add_mode_options,
     add_result_option,
     add_table1_options,
+    add_table_clearance,
     table1_rounds,
     update_page,
 )
@@ -76,12 +77,10 @@ def cell_name(cell: tuple[str, str, str]) -> str:
     return f"{cell[0]}/{cell[1]}"
 
 
-def vgn_config(
-    hand: str, objects: str, scene: str, rounds: int, num_objects: int
-) -> BenchmarkConfig:
+def vgn_config(hand: str, objects: str, scene: str, args: argparse.Namespace) -> BenchmarkConfig:
     return BenchmarkConfig(
-        model="vgn", objects=objects, scene=scene, num_objects=num_objects, rounds=rounds,
-        options=(("gripper", hand),),
+        model="vgn", objects=objects, scene=scene, num_objects=args.num_objects,
+        rounds=args.rounds, options=(("gripper", hand),), table_clearance=args.table_clearance,
     )  # fmt: skip
 
 
@@ -93,12 +92,14 @@ def baseline_rounds(
     per round, from round seed 0) and holds them all (`table1_rounds`), else its own folder
     under ``--out`` (played when ``play``); None when neither holds them."""
     model = f"{rep}-{hand}"
-    world = {"objects": objects, "scene": scene, "num_objects": args.num_objects, "seed": 0}
+    world = {"objects": objects, "scene": scene, "num_objects": args.num_objects, "seed": 0,
+             "table_clearance": args.table_clearance}  # fmt: skip
     stored, table = table1_rounds(model, objects, scene, args.baselines, args.rounds, world)
     if stored is not None:
         return stored, str(table)
     config = BenchmarkConfig(model=model, objects=objects, scene=scene,
-                             num_objects=args.num_objects, rounds=args.rounds)  # fmt: skip
+                             num_objects=args.num_objects, rounds=args.rounds,
+                             table_clearance=args.table_clearance)  # fmt: skip
     own = args.out / hand / rep / objects_folder(objects, scene)
     if play:
         return run_or_reuse(config, own, parallel_from_args(args)), str(own)
@@ -109,7 +110,7 @@ def collate(args: argparse.Namespace, cells: list[tuple[str, str, str]]) -> list
     """Every cell's numbers (None for VGN's or a baseline's rounds not played yet)."""
     out = []
     for hand, objects, scene in cells:
-        config = vgn_config(hand, objects, scene, args.rounds, args.num_objects)
+        config = vgn_config(hand, objects, scene, args)
         rounds = saved_rounds(config, args.out / hand / "vgn" / objects_folder(objects, scene))
         cell: dict[str, Any] = {"gripper": hand, "objects": objects, "scene": scene}
         if rounds is None:
@@ -189,6 +190,7 @@ def main() -> None:
                         "(default: %(default)s)")  # fmt: skip
     add_parallel_options(parser, "rounds")
     add_result_option(parser, "peers_declutter")
+    add_table_clearance(parser)
     args = parse_args(parser, outputs=("out", "baselines", "result", "docs"),
                       quick={"rounds": 1, "num_objects": 2, "cells": ["franka/large-box"]},
                       also="a copy of the page")  # fmt: skip
@@ -198,7 +200,7 @@ def main() -> None:
 
     if not args.collate_only:
         for hand, objects, scene in cells:
-            config = vgn_config(hand, objects, scene, args.rounds, args.num_objects)
+            config = vgn_config(hand, objects, scene, args)
             folder = args.out / hand / "vgn" / objects_folder(objects, scene)
             print(f"VGN {hand} {objects} ({scene}) → {folder}")
             run_or_reuse(config, folder, parallel_from_args(args))

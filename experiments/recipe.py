@@ -30,7 +30,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from common import SHIPPED, add_result_option
+from common import SHIPPED, add_result_option, add_table_clearance
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark import selection as sel
@@ -103,6 +103,7 @@ def main() -> None:
     parser.set_defaults(workers=2)
     parser.add_argument("--out", default="out/bench/recipe", help="judging benchmark folders")
     add_result_option(parser, "recipe")
+    add_table_clearance(parser)
     args = parse_args(
         parser, outputs=("out", "result"),
         quick={"rounds": 1, "num_objects": 1, "workers": 1, "objects": "household-train"},
@@ -121,8 +122,9 @@ def main() -> None:
             f"({', '.join(others) or 'none'})"
         )
     validation = sel.DeclutterValidation(
-        objects=args.objects, rounds=args.rounds, seed=args.seed, num_objects=args.num_objects
-    )
+        objects=args.objects, rounds=args.rounds, seed=args.seed, num_objects=args.num_objects,
+        table_clearance=args.table_clearance,
+    )  # fmt: skip
     parallel = parallel_from_args(args)
     folders, cells = {}, []
     for factor, runs in factors.items():

@@ -140,7 +140,8 @@ def run_name(arm: str, rep: str, seed: int) -> str:
 def wanted(condition: str, args: argparse.Namespace) -> dict[str, Any]:
     """The configuration fields a run's rounds in ``condition`` must have been played with."""
     return {"objects": args.objects, "scene": "pile", "num_objects": args.num_objects,
-            "rounds": args.rounds, "seed": args.seed, **CONDITIONS[condition]}  # fmt: skip
+            "rounds": args.rounds, "seed": args.seed, "table_clearance": args.table_clearance,
+            **CONDITIONS[condition]}  # fmt: skip
 
 
 def clean_folder(run: Path) -> tuple[Path | None, str | None]:
@@ -395,7 +396,8 @@ def quick_root(root: Path, args: argparse.Namespace) -> None:
     from symgrasp.detect.pretrained import shipped_path
 
     validation = DeclutterValidation(objects=args.objects, rounds=args.rounds, seed=args.seed,
-                                     num_objects=args.num_objects)  # fmt: skip
+                                     num_objects=args.num_objects,
+                                     table_clearance=args.table_clearance)  # fmt: skip
     for arm in args.arms:
         for seed in args.seeds:
             name = run_name(arm, args.rep, seed)

@@ -81,6 +81,7 @@ from common import (
     add_mode_options,
     add_result_option,
     add_table1_options,
+    add_table_clearance,
     cell_rounds,
     percent_mean,
     sensing_gap,
@@ -200,6 +201,7 @@ def config(
     """The benchmark of ``model`` on the cell's rounds in ``condition``."""
     return BenchmarkConfig(model=model.name, objects=objects, scene=scene, rounds=args.rounds,
                            seed=args.first_seed, num_objects=args.num_objects,
+                           table_clearance=args.table_clearance,
                            **CONDITIONS[condition])  # fmt: skip
 
 
@@ -440,6 +442,7 @@ def main() -> None:
                         "(default: %(default)s)")  # fmt: skip
     add_parallel_options(parser, "rounds")
     add_result_option(parser, "robustness")
+    add_table_clearance(parser)
     args = parse_args(parser, outputs=("out", "baselines", "result", "docs"),
                       quick={"rounds": 1, "num_objects": 2, "models": [SHIPPED],
                              "sets": [("household-test", "pile")]},

@@ -87,6 +87,15 @@ DEFAULT_VALIDITY = 0.08
 grid), so its probabilities are low on unfamiliar piles, and 0.5 left most rounds without a
 grasp."""
 
+TABLE_CLEARANCE = 0.001
+"""Gap [m] the open hand keeps from the table: the labels' collision check (`DataConfig`'s
+``clearance``: boxes grown by it, held it above the table) and the declutter benchmark's
+choice of a grasp to execute (`symgrasp.benchmark.declutter.first_free`), so that a detector
+executes only what its labels could have taught. Before 2026-11-27 the benchmark let the
+hand's boxes, shrunk by 2 mm, sink 2 mm below the table (``table_clearance`` −0.002): a pad of a
+tilted grasp up to ≈ 5 mm deep, which the physics stops as an approach collision
+(docs/benchmark.md, "The table in the approach check")."""
+
 TEST_SEED_LIMIT = 10_000
 """Declutter round seeds below this are reserved for test benchmarks (the docs' tables use
 0…99 and 1000…1099): model selection (`symgrasp.benchmark.selection`) never plays them."""
@@ -190,7 +199,7 @@ class SceneConfig:
     """Range [rad] of the camera's angle from the vertical."""
     surface_spacing: float = 0.003
     """Spacing [m] of the surface samples of the swept-hand collision check."""
-    clearance: float = 0.001
+    clearance: float = TABLE_CLEARANCE
     """Gap [m] the open hand must keep from objects and table (negative: allowed
     penetration)."""
     label_spread: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
@@ -516,6 +525,10 @@ class BenchmarkConfig:
     floor) and divides the image by it before the planner and the collision check see it
     (`symgrasp.perception.table_depth_scale`): undoes the dex noise's scale factor, for every
     planner alike (docs/benchmark.md, "Sensing")."""
+    table_clearance: float = TABLE_CLEARANCE
+    """Gap [m] the open hand must keep from the table for a grasp to be executed
+    (`symgrasp.benchmark.declutter.first_free`); −0.002 plays the rule of the benchmarks before
+    2026-11-27 (`TABLE_CLEARANCE`)."""
 
     def __post_init__(self) -> None:
         if self.scene not in SCENES:
@@ -525,6 +538,7 @@ class BenchmarkConfig:
         check_range("rounds", self.rounds, 1, 100_000)
         check_range("seed", self.seed, 0, SEED_MAX - self.rounds)
         check_sensing(self.noise, self.view, self.views)
+        check_range("table_clearance", self.table_clearance, -0.01, 0.05, integer=False)
 
 
 MAX_WORKERS = 4096

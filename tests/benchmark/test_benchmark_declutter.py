@@ -4,12 +4,18 @@ from collections import Counter
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
-from symgrasp.benchmark.declutter import NONE_FOUND, picture_observer, run_round
+from symgrasp.benchmark.declutter import NONE_FOUND, first_free, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES
-from symgrasp.detect import GraspDetector
+from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.objects.sets import resolve
+from symgrasp.sim import ROBOTIQ_2F85
+from symgrasp.sim.collision import SIGNS, hand_boxes
+from symgrasp.sim.execute import Outcome, execute_grasp, top_grasp
 from symgrasp.sim.objects import object_set
+from symgrasp.sim.world import World
+from symgrasp.workspace import TABLE_HEIGHT
 
 HOUSEHOLD = resolve("household-test")
 
@@ -67,3 +73,24 @@ def test_pictures_are_drawn_per_attempt(detector, tmp_path):
 def test_bad_round_arguments_are_refused(detector):
     with pytest.raises(ValueError, match="num_objects"):
         run_round(detector, HOUSEHOLD, num_objects=0)
+
+
+@pytest.mark.parametrize(("depth", "free"), [(-0.003, False), (0.003, True)])
+def test_first_free_keeps_the_labels_table_clearance_and_the_physics_agrees(depth, free):
+    """A grasp tilted 27° whose open hand reaches ``depth`` [m] below (−) or above the table, on
+    an empty table: `first_free` passes it only with the labels' clearance kept (the rule before
+    2026-11-27, ``table_clearance`` −0.002, passed both), and the physics stops the sunk one on
+    its way in as an approach collision, while the other closes on nothing."""
+    T = top_grasp(np.array([0.15, 0.15, 0.0]))
+    T[:3, :3] = Rotation.from_euler("x", 27, degrees=True).as_matrix() @ T[:3, :3]
+    boxes = hand_boxes(ROBOTIQ_2F85)
+    corners = boxes.centre[:, None] + np.einsum(
+        "bij,bcj->bci", boxes.rotation, SIGNS * boxes.half[:, None]
+    )
+    T[2, 3] = TABLE_HEIGHT - (T[2, :3] @ corners.reshape(-1, 3).T).min() + depth
+    grasp = Grasp(T, score=1.0)
+    chosen, rejected = first_free([grasp], ROBOTIQ_2F85, np.zeros((0, 3)))
+    assert (chosen is grasp, rejected) == ((True, 0) if free else (False, 1))
+    assert first_free([grasp], ROBOTIQ_2F85, np.zeros((0, 3)), table_clearance=-0.002)[0] is grasp
+    outcome = execute_grasp(World([], gripper=ROBOTIQ_2F85), T).outcome
+    assert outcome is (Outcome.NO_CONTACT if free else Outcome.APPROACH_COLLISION)

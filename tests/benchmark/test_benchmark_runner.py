@@ -111,7 +111,7 @@ def test_bootstrap_interval_shrinks_like_one_over_sqrt_rounds():
 
 
 def test_a_crashing_round_is_recorded_and_the_benchmark_goes_on(fake_rounds, tmp_path):
-    def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, **_):
         if seed == 11:
             raise RuntimeError("simulation unstable")
         from symgrasp.benchmark.declutter import Round
@@ -148,7 +148,7 @@ def test_a_summary_never_averages_over_failed_rounds():
 def test_resume_plays_failed_rounds_again_and_keeps_one_record_per_seed(fake_rounds, tmp_path):
     broken = {11, 12}
 
-    def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, **_):
         if seed in broken:
             raise RuntimeError(f"object set incomplete in round {seed}")
         from symgrasp.benchmark.declutter import Attempt, Round
@@ -176,7 +176,7 @@ def test_a_later_finished_record_of_a_seed_wins_over_a_failed_one(tmp_path):
 
 
 def test_a_benchmark_whose_every_round_failed_stops_naming_the_first_error(fake_rounds, tmp_path):
-    def failing_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
+    def failing_round(detector, objects, num_objects, seed, **_):
         raise RuntimeError(f"no object in round {seed}")
 
     fake_rounds(failing_round)
@@ -207,8 +207,8 @@ def test_rounds_in_process_use_no_more_torch_threads_than_the_process_was_given(
     from symgrasp.benchmark.declutter import Round
 
     seen = []
-    monkeypatch.setattr(runner, "run_round", lambda detector, objects, num_objects, seed, scene,
-                        sensor, observer, diagnose: Round(seed, num_objects, "gl"))  # fmt: skip
+    monkeypatch.setattr(runner, "run_round", lambda detector, objects, num_objects, seed, **_:
+                        Round(seed, num_objects, "gl"))  # fmt: skip
     monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: (
         seen.append(threads), runner._WORKER.update(config=config, planner=None, out=out, objects=None)))  # fmt: skip
     monkeypatch.setattr(runner.os, "cpu_count", lambda: 16)
@@ -262,7 +262,7 @@ def test_cli_thresholds_reach_the_detector(tmp_path):
 def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(fake_rounds, tmp_path):
     played = []
 
-    def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, **_):
         from symgrasp.benchmark.declutter import Round
 
         played.append(seed)
@@ -292,7 +292,7 @@ def test_the_sensing_reaches_the_rounds_is_recorded_and_resume_refuses_another(
 
     sensors = []
 
-    def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, sensor, **_):
         sensors.append(sensor)
         return Round(seed, num_objects, "gl")
 

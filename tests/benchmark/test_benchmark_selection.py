@@ -231,8 +231,11 @@ def test_validation_settings_are_checked_when_made_and_name_their_cache_stably()
         sel.DeclutterValidation(seed=5)
     with pytest.raises(ValueError, match="objects"):
         sel.DeclutterValidation(objects="vgn-pile-test")
-    # The cache folder of 50 rounds, as runs selected before this class existed named it.
-    assert sel.DeclutterValidation(rounds=50).slug == "vgn-pile-train-pile5-r50-s1000000-88f84857"
+    # The cache folder of 50 rounds, as runs selected before this class existed named it, and
+    # before the table clearance was the labels' (2026-11-27); the new rule plays elsewhere.
+    old = sel.DeclutterValidation(rounds=50, table_clearance=-0.002)
+    assert old.slug == "vgn-pile-train-pile5-r50-s1000000-88f84857"
+    assert sel.DeclutterValidation(rounds=50).slug != old.slug
     assert sel.DeclutterValidation(rounds=49).slug != sel.DeclutterValidation(rounds=50).slug
 
 
@@ -296,7 +299,7 @@ def test_failed_validation_rounds_name_their_cause_and_are_not_cached(
 
     broken = [True]
 
-    def fake_round(detector, objects, num_objects, seed, scene, sensor, observer, diagnose):
+    def fake_round(detector, objects, num_objects, seed, **_):
         if broken[0] and seed % 2:
             raise RuntimeError("mesh file unreadable")
         return Round(seed, num_objects, "gl", [Attempt("success", None, 1, 0, 0.1, 1)])

@@ -6,7 +6,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from symgrasp.sim import FRANKA, ROBOTIQ_2F85
-from symgrasp.sim.collision import ALL_PAIRS, CHUNK, hand_boxes, hand_collides
+from symgrasp.sim.collision import ALL_PAIRS, CHUNK, SIGNS, hand_boxes, hand_collides
+from symgrasp.sim.execute import top_grasp
 from symgrasp.sim.protocol import PREGRASP_DISTANCE
 
 
@@ -73,3 +74,60 @@ def test_no_grasps_and_no_points():
     T, points = _grasps_among_points(FRANKA, 3, seed=4)
     assert hand_collides(np.zeros((0, 4, 4)), FRANKA, points).shape == (0,)
     assert not hand_collides(T, FRANKA, np.zeros((0, 3)), table_height=-1).any()
+
+
+def _lowest_corner(T, gripper, grow=0.0):
+    """[m] z of the lowest corner, at the grasp or the pre-grasp, of the hand's boxes (grown by
+    ``grow``) for each grasp ``T`` (G, 4, 4): the closed form the table rule is read against."""
+    boxes = hand_boxes(gripper)
+    half = boxes.half + grow
+    corners = boxes.centre[:, None] + np.einsum(
+        "bij,bcj->bci", boxes.rotation, SIGNS * half[:, None]
+    )
+    ends = np.concatenate([corners, corners - [PREGRASP_DISTANCE, 0, 0]], axis=1).reshape(-1, 3)
+    return (T[:, 2, 3][:, None] + (T[:, 2, :3] @ ends.T)).min(axis=1)
+
+
+@pytest.mark.parametrize("gripper", [FRANKA, ROBOTIQ_2F85], ids=lambda g: g.name)
+def test_a_top_down_grasp_keeps_its_table_clearance_in_closed_form(gripper):
+    """Straight down, the boxes' lowest corner is the fingertips' reach r below the TCP: with
+    ``table_tolerance`` −c the hand is free exactly from TCP height r + 2c (boxes grown by c,
+    kept c above the table); the default rule's +2 mm lets it 4 mm into the table."""
+    reach = -_lowest_corner(top_grasp(np.zeros(3))[None], gripper)[0]  # the grasp's own
+    table = 0.05
+    for tolerance, threshold in ((-0.001, reach + 0.002), (0.002, reach - 0.004)):
+        for dz, free in ((-1e-4, False), (1e-4, True)):
+            T = top_grasp(np.array([0.1, 0.1, table + threshold + dz]))[None]
+            hit = hand_collides(T, gripper, np.zeros((0, 3)), table_tolerance=tolerance)
+            assert bool(hit[0]) is not free, (tolerance, dz)
+
+
+def test_the_table_rule_bounds_how_deep_a_tilted_hand_may_reach():
+    """For any rotation, a hand free under ``table_tolerance`` −c keeps its true boxes at least
+    2c above the table, and one whose boxes stay (1 + √3)·c above it is free; the default +2 mm
+    let tilted boxes sink below the table by more than 2 mm (the rule before 2026-11-27)."""
+    c, table = 0.001, 0.05
+    rng = np.random.default_rng(5)
+    T = np.tile(np.eye(4), (400, 1, 1))
+    T[:, :3, :3] = Rotation.random(400, random_state=5).as_matrix()
+    T[:, :2, 3] = 0.15
+    T[:, 2, 3] = 0.0
+    T[:, 2, 3] = table - _lowest_corner(T, ROBOTIQ_2F85) + rng.uniform(-0.006, 0.006, 400)
+    lowest = _lowest_corner(T, ROBOTIQ_2F85) - table
+    free = ~hand_collides(T, ROBOTIQ_2F85, np.zeros((0, 3)), table_tolerance=-c)
+    assert 0.2 < free.mean() < 0.8
+    assert np.all(lowest[free] >= 2 * c - 1e-9)
+    assert np.all(free[lowest >= (1 + np.sqrt(3)) * c + 1e-9])
+    lenient = ~hand_collides(T, ROBOTIQ_2F85, np.zeros((0, 3)))
+    assert lowest[lenient].min() < -0.003
+
+
+def test_the_table_rule_defaults_to_the_points_tolerance():
+    T = np.tile(top_grasp(np.array([0.1, 0.1, 0.0])), (41, 1, 1))
+    T[:, 2, 3] = np.linspace(0.05, 0.09, 41)
+    for tolerance in (0.002, -0.001):
+        same = hand_collides(T, ROBOTIQ_2F85, np.zeros((0, 3)), tolerance=tolerance)
+        given = hand_collides(
+            T, ROBOTIQ_2F85, np.zeros((0, 3)), tolerance=tolerance, table_tolerance=tolerance
+        )
+        assert list(same) == list(given) and 0 < same.mean() < 1

@@ -136,6 +136,7 @@ def _round_task(seed: int) -> dict[str, Any]:
         sensor=Sensor(config.noise, config.view, config.views, table_scale=config.table_scale),
         observer=observer,
         diagnose=config.diagnose,
+        table_clearance=config.table_clearance,
     )  # fmt: skip
     return round_record(record)
 
@@ -274,7 +275,12 @@ def recorded_config(out: str | Path) -> dict[str, Any] | None:
         recorded = check_json(results["config"], out / "results.json", "benchmark configuration")
     else:
         return None
-    return {**_plain(BenchmarkConfig()), **recorded}  # fields added later: their defaults
+    return {**_plain(BenchmarkConfig()), **PLAYED_BEFORE, **recorded}
+
+
+PLAYED_BEFORE = {"table_clearance": -0.002}
+"""What a folder recorded before a field was added played, where it is not the field's
+default; other fields added later read as their defaults."""
 
 
 def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) -> None:

@@ -36,8 +36,9 @@ from typing import Any
 from torch.utils.data import DataLoader
 
 from symgrasp.atomic import read_json, write_atomic, write_csv
-from symgrasp.benchmark.runner import run_or_reuse, summarise
+from symgrasp.benchmark.runner import PLAYED_BEFORE, run_or_reuse, summarise
 from symgrasp.config import (
+    TABLE_CLEARANCE,
     TEST_SEED_LIMIT,
     VALIDATION_OBJECTS,
     VALIDATION_ROUNDS,
@@ -145,6 +146,7 @@ class DeclutterValidation:
     num_objects: int = 5
     scene: str = "pile"
     mesh_unit: str = "auto"
+    table_clearance: float = TABLE_CLEARANCE
 
     def __post_init__(self) -> None:
         check_validation_rounds(self.objects, self.rounds, self.seed)
@@ -152,8 +154,11 @@ class DeclutterValidation:
 
     @property
     def slug(self) -> str:
-        """A folder name for these settings: readable, and unique by a hash."""
-        settings = asdict(self)
+        """A folder name for these settings: readable, and unique by a hash (of the settings a
+        folder played before a field existed, `runner.PLAYED_BEFORE`, as it was hashed then)."""
+        settings = {
+            k: v for k, v in asdict(self).items() if k not in PLAYED_BEFORE or v != PLAYED_BEFORE[k]
+        }
         digest = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:8]
         name = re.sub(r"[^A-Za-z0-9_.-]+", "_", Path(str(self.objects)).name)[:40]
         return f"{name}-{self.scene}{self.num_objects}-r{self.rounds}-s{self.seed}-{digest}"
@@ -188,6 +193,7 @@ def declutter_validation(
     num_objects: int = 5,
     scene: str = "pile",
     mesh_unit: str = "auto",
+    table_clearance: float = TABLE_CLEARANCE,
     options: tuple[tuple[str, Any], ...] = (),
     workers: int | None = None,
     parallel: ParallelConfig | None = None,
@@ -198,7 +204,8 @@ def declutter_validation(
     Rounds use seeds ``seed … seed + rounds − 1`` (refused when they reach the test seeds,
     `check_validation_rounds`), ``num_objects`` objects of ``objects`` as a ``scene``, the
     detector's default thresholds unless ``options`` (keyword arguments of
-    `GraspDetector.from_pretrained`) say otherwise, and no failure diagnosis (its replays cost
+    `GraspDetector.from_pretrained`) say otherwise, the benchmark's ``table_clearance``, and no
+    failure diagnosis (its replays cost
     time and change no ratio). ``workers`` local processes, or the executor ``parallel``.
 
     Returns the pooled ``success_ratio`` and ``clear_ratio`` with their bootstrap 95 %
@@ -212,7 +219,7 @@ def declutter_validation(
     config = BenchmarkConfig(
         model=str(checkpoint), objects=objects, mesh_unit=mesh_unit, scene=scene,
         num_objects=num_objects, rounds=rounds, seed=seed, options=tuple(options),
-        diagnose=False,
+        diagnose=False, table_clearance=table_clearance,
     )  # fmt: skip
     if parallel is None:
         parallel = ParallelConfig(workers=workers)

@@ -10,6 +10,7 @@ from symgrasp.cli.fields import add_config_options, config_from_args
 from symgrasp.cli.options import SEED, add_mesh_unit, add_shared, input_folder
 from symgrasp.config import (
     MAX_OBJECTS,
+    TABLE_CLEARANCE,
     TEST_SEED_LIMIT,
     VALIDATION_OBJECTS,
     VALIDATION_ROUNDS,
@@ -121,6 +122,12 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
         help="layout of the declutter validation's rounds (default: pile)",
     )  # fmt: skip
     add_mesh_unit(parser)
+    parser.add_argument(
+        "--table-clearance", type=float, default=TABLE_CLEARANCE, metavar="C",
+        help="gap [m] the open hand keeps from the table for a grasp to be executed in the "
+        f"declutter validation (bench declutter --table-clearance; default: {TABLE_CLEARANCE}; "
+        "-0.002: the rule of selections before 2026-11-27, whose cached rounds it reads)",
+    )  # fmt: skip
     add_parallel_options(parser, "declutter validation rounds")
     parser.add_argument(
         "--revalidate", action="store_true",
@@ -156,7 +163,7 @@ def _run_select(args: argparse.Namespace) -> None:
 
     validation = DeclutterValidation(
         objects=args.objects, rounds=args.rounds, seed=args.seed, num_objects=args.num_objects,
-        scene=args.scene, mesh_unit=args.mesh_unit,
+        scene=args.scene, mesh_unit=args.mesh_unit, table_clearance=args.table_clearance,
     )  # fmt: skip
     revalidate = Revalidation(args.data, batch_size=args.batch_size, device=args.device)
     selection = select_checkpoint(

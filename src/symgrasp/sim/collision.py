@@ -60,6 +60,11 @@ def hand_boxes(gripper: GripperSpec) -> HandBoxes:
     return HandBoxes(*World([], gripper=gripper).hand_boxes())
 
 
+def _corners(boxes: HandBoxes, half: np.ndarray) -> np.ndarray:
+    """(B, 8, 3) The corners, in the TCP frame, of ``boxes`` with half-extents ``half``."""
+    return boxes.centre[:, None] + np.einsum("bij,bcj->bci", boxes.rotation, SIGNS * half[:, None])
+
+
 def hand_collides(
     T_world_tcp: np.ndarray,
     gripper: GripperSpec,
@@ -67,6 +72,7 @@ def hand_collides(
     tolerance: float = 0.002,
     sweep: float = PREGRASP_DISTANCE,
     table_height: float = TABLE_HEIGHT,
+    table_tolerance: float | None = None,
 ) -> np.ndarray:
     """Whether the open hand, anywhere between pre-grasp and grasp, hits the table or holds a
     scene point deeper than ``tolerance`` [m] inside one of its boxes.
@@ -75,24 +81,30 @@ def hand_collides(
         T_world_tcp: (G, 4, 4) grasp poses.
         gripper: the hand.
         points: (P, 3) scene surface samples in the world frame [m].
-        tolerance: boxes are shrunk by this much (touching contacts are allowed).
+        tolerance: boxes are shrunk by this much (touching contacts are allowed; negative:
+            grown, a clearance kept).
         sweep: approach length [m] behind the grasp.
         table_height: z of the table plane [m].
+        table_tolerance: the same for the table (default: ``tolerance``): a corner of the
+            boxes shrunk by it may lie down to ``table_tolerance`` below the plane. A positive
+            value counts twice (a tilted box sinks up to ≈ 2.7 × it), so a planner that
+            knows where its table is passes a negative one, a clearance
+            (`symgrasp.benchmark.declutter.first_free`).
 
     Returns:
         (G,) bool.
     """
     T = np.asarray(T_world_tcp, dtype=float)
     boxes = hand_boxes(gripper)
-    half = np.maximum(boxes.half - tolerance, 1e-4)  # tolerance < 0 grows the boxes
+    table_tolerance = tolerance if table_tolerance is None else table_tolerance
     hit = np.zeros(len(T), dtype=bool)
     # table: a corner of any box, at the grasp or at the pre-grasp, below the plane
-    corners = boxes.centre[:, None] + np.einsum(
-        "bij,bcj->bci", boxes.rotation, SIGNS * half[:, None]
-    )  # (B, 8, 3) in the TCP frame
-    ends = np.concatenate([corners, corners - [sweep, 0, 0]], axis=1).reshape(-1, 3)
+    on_table = _corners(boxes, np.maximum(boxes.half - table_tolerance, 1e-4))
+    ends = np.concatenate([on_table, on_table - [sweep, 0, 0]], axis=1).reshape(-1, 3)
     z = T[:, 2, 3][:, None] + np.einsum("j,gjc->gc", [0, 0, 1.0], T[:, :3, :3] @ ends.T)
-    hit |= (z < table_height - tolerance).any(axis=1)
+    hit |= (z < table_height - table_tolerance).any(axis=1)
+    half = np.maximum(boxes.half - tolerance, 1e-4)  # tolerance < 0 grows the boxes
+    corners = _corners(boxes, half)
     if len(points) == 0:
         return hit
     pts = np.asarray(points, dtype=np.float32).astype(float)
