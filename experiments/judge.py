@@ -91,7 +91,8 @@ def judged(name: str, args: argparse.Namespace) -> tuple[list[dict] | None, dict
     recorded = recorded_config(folder)
     if recorded is None:
         return None, {**record, "missing": "not judged"}
-    if (folder / MODEL_SHA).read_text().strip() != file_sha256(run / "best.pt"):
+    played = folder / MODEL_SHA  # absent in folders from before the record: taken as they are
+    if played.exists() and played.read_text().strip() != file_sha256(run / "best.pt"):
         return None, {
             **record,
             "missing": "judged another best.pt than the run's (selected again since?)",

@@ -290,13 +290,19 @@ def write_archive(cells: list[dict[str, Any]], args: argparse.Namespace) -> None
     condition (`common.ARCHIVED` files of its folder) under ``out/`` or ``baselines/`` as they
     lie under ``--out`` or ``--baselines``, and the ``MANIFEST`` of ``--models``: what
     ``--models-from`` collates again without them."""
-    roots = {"out": args.out, "baselines": args.baselines}
+    roots = {"out": Path(args.out).resolve(), "baselines": Path(args.baselines).resolve()}
     folders = {}
     for cell in cells:
         if cell.get("waiting"):
             continue
-        source = Path(cell["source"])
-        name, root = next((n, r) for n, r in roots.items() if source.is_relative_to(r))
+        source = Path(cell["source"]).resolve()
+        found = next(((n, r) for n, r in roots.items() if source.is_relative_to(r)), None)
+        if found is None:
+            raise ValueError(
+                f"the rounds of {source} lie under neither --out {args.out} nor --baselines "
+                f"{args.baselines}: the archive keeps a cell's folder by its path under one of them"
+            )
+        name, root = found
         folders[f"{name}/{source.relative_to(root).as_posix()}"] = source
     manifest = [{"name": m.name, "hand": m.hand, "rep": m.rep, "seed": m.seed} for m in args.models]
     archive = Path(f"{args.result}_rounds.tar.gz")

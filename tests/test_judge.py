@@ -93,3 +93,17 @@ def test_a_run_name_without_its_training_seed_is_refused_by_name(tmp_path):
         cwd=ROOT, env=ENV, capture_output=True, text=True,
     )  # fmt: skip
     assert done.returncode == 2 and "--runs" in done.stderr and "'wide'" in done.stderr
+
+
+def test_a_judging_folder_from_before_the_model_record_is_taken_as_it_is(tmp_path):
+    _campaign(tmp_path)
+    (tmp_path / "bench" / "judge" / "m-bingham2d-s0" / "model.sha256").unlink()
+    done = subprocess.run(
+        [sys.executable, "experiments/judge.py", "--root", str(tmp_path), "--rounds", "3",
+         "--runs", "m-bingham2d-s0", "--result", str(tmp_path / "judge"),
+         "--table-clearance", "-0.002"],
+        cwd=ROOT, env=ENV, capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    (cell,) = json.loads((tmp_path / "judge.json").read_text())["cells"]
+    assert "missing" not in cell and cell["success_ratio"] > 0

@@ -244,3 +244,27 @@ def test_models_from_needs_collate_only_and_a_manifest(tmp_path):
         cwd=ROOT, env=ENV, capture_output=True, text=True,
     )  # fmt: skip
     assert played.returncode == 2 and "--collate-only" in played.stderr
+
+
+def test_the_archive_takes_folders_by_their_resolved_paths_and_names_one_outside(
+    tmp_path, monkeypatch
+):
+    import argparse
+    import tarfile
+
+    monkeypatch.syspath_prepend(str(ROOT / "experiments"))
+    import robustness
+
+    monkeypatch.chdir(tmp_path)
+    for folder in ("out/a/clean", "table/b"):
+        (tmp_path / folder).mkdir(parents=True)
+        (tmp_path / folder / "rounds.jsonl").write_text("{}\n")
+    args = argparse.Namespace(out=Path("out"), baselines=tmp_path / "table", models=[],
+                              result=tmp_path / "r")  # fmt: skip
+    cells = [{"source": str(tmp_path / "out/a/clean")}, {"source": "table/b"}, {"waiting": "x"}]
+    robustness.write_archive(cells, args)
+    with tarfile.open(tmp_path / "r_rounds.tar.gz") as tar:
+        names = set(tar.getnames())
+    assert {"out/a/clean/rounds.jsonl", "baselines/b/rounds.jsonl"} <= names
+    with pytest.raises(ValueError, match=r"elsewhere.* neither --out out nor --baselines"):
+        robustness.write_archive([{"source": str(tmp_path / "elsewhere")}], args)
