@@ -15,7 +15,7 @@ def top_down(observation: Observation) -> list[Grasp]:
     top = points[np.argmax(points[:, 2])]
     pose = np.eye(4)
     pose[:3, :3] = [[0, 0, 1], [0, 1, 0], [-1, 0, 0]]  # e_x down, e_z along world x
-    pose[:3, 3] = top - (0, 0, 0.02)  # the TCP 2 cm below the top
+    pose[:3, 3] = top - (0, 0, 0.015)  # the TCP 1.5 cm below the top
     return [Grasp(pose, score=float(top[2]))]
 
 
