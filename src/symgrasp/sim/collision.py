@@ -103,10 +103,10 @@ def hand_collides(
     ends = np.concatenate([on_table, on_table - [sweep, 0, 0]], axis=1).reshape(-1, 3)
     z = T[:, 2, 3][:, None] + np.einsum("j,gjc->gc", [0, 0, 1.0], T[:, :3, :3] @ ends.T)
     hit |= (z < table_height - table_tolerance).any(axis=1)
-    half = np.maximum(boxes.half - tolerance, 1e-4)  # tolerance < 0 grows the boxes
-    corners = _corners(boxes, half)
     if len(points) == 0:
         return hit
+    half = np.maximum(boxes.half - tolerance, 1e-4)  # tolerance < 0 grows the boxes
+    corners = _corners(boxes, half)
     pts = np.asarray(points, dtype=np.float32).astype(float)
     tree = cKDTree(pts) if len(T) * len(pts) > ALL_PAIRS else None
     for start in range(0, len(T), CHUNK):
