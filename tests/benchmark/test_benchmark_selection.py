@@ -12,7 +12,13 @@ from torch.utils.data import Dataset
 
 from symgrasp.benchmark import selection as sel
 from symgrasp.cli import main
-from symgrasp.config import TEST_SEED_LIMIT, VALIDATION_SEED, NetworkConfig, ValidityLoss
+from symgrasp.config import (
+    TABLE_CLEARANCE,
+    TEST_SEED_LIMIT,
+    VALIDATION_SEED,
+    NetworkConfig,
+    ValidityLoss,
+)
 from symgrasp.model import TrainConfig, train
 from symgrasp.model.checkpoint import load_checkpoint
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
@@ -181,6 +187,27 @@ def test_declutter_selection_caches_each_checkpoint_and_breaks_sr_ties_by_clear_
     cached[0].unlink()  # a checkpoint whose result was lost: only it reruns
     sel.select_checkpoint(run, "declutter", validation=_rounds(3))
     assert calls == ["epoch_001.pt"]
+
+
+def test_selecting_again_rewrites_best_pt_byte_for_byte_under_the_rule_it_was_chosen_by(
+    run, monkeypatch
+):
+    # A campaign's step reruns `select` on a run selected before the table clearance existed:
+    # best.pt must not change (rounds played with it are tied to its SHA-256).
+    monkeypatch.setattr(sel, "declutter_validation", _fake_declutter([], {1: (0.5, 0.4),
+                        2: (0.8, 0.5), 3: (0.7, 0.6)}))  # fmt: skip
+    old_rule = sel.DeclutterValidation(rounds=3, table_clearance=-0.002)
+    sel.select_checkpoint(run, "declutter", validation=old_rule)
+    recorded = load_checkpoint(run / "best.pt")["selection"]["declutter"]
+    assert "table_clearance" not in recorded and recorded["rounds"] == 3
+    before = (run / "best.pt").read_bytes()
+    sel.select_checkpoint(run, "declutter", validation=old_rule)
+    assert (run / "best.pt").read_bytes() == before
+    sel.select_checkpoint(run, "declutter", validation=_rounds(3))
+    assert (
+        load_checkpoint(run / "best.pt")["selection"]["declutter"]["table_clearance"]
+        == TABLE_CLEARANCE
+    )
 
 
 def test_a_checkpoint_that_hardly_grasps_wins_on_sr_alone_but_not_by_default(run, monkeypatch):

@@ -153,13 +153,18 @@ class DeclutterValidation:
         BenchmarkConfig(**asdict(self))
 
     @property
-    def slug(self) -> str:
-        """A folder name for these settings: readable, and unique by a hash (of the settings a
-        folder played before a field existed, `runner.PLAYED_BEFORE`, as it was hashed then)."""
-        settings = {
+    def settings(self) -> dict[str, Any]:
+        """The settings as recorded (in the slug's hash and in best.pt's ``"selection"``): a
+        field at the value rounds were played with before it existed (`runner.PLAYED_BEFORE`)
+        is left out, so a selection made then keeps its folder and its best.pt byte for byte."""
+        return {
             k: v for k, v in asdict(self).items() if k not in PLAYED_BEFORE or v != PLAYED_BEFORE[k]
         }
-        digest = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:8]
+
+    @property
+    def slug(self) -> str:
+        """A folder name for these settings: readable, and unique by a hash of `settings`."""
+        digest = hashlib.sha256(json.dumps(self.settings, sort_keys=True).encode()).hexdigest()[:8]
         name = re.sub(r"[^A-Za-z0-9_.-]+", "_", Path(str(self.objects)).name)[:40]
         return f"{name}-{self.scene}{self.num_objects}-r{self.rounds}-s{self.seed}-{digest}"
 
@@ -448,7 +453,7 @@ def select_checkpoint(
             "checkpoint": chosen["checkpoint"], "epoch": chosen["epoch"],
             "value": chosen[measure], "sha256": chosen["sha256"],
         },
-        "declutter": {**asdict(validation), "folder": str(folder)}
+        "declutter": {**validation.settings, "folder": str(folder)}
         if measure in DECLUTTER_MEASURES else None,
         "revalidated": revalidate is not None,
         "checkpoints": table,
