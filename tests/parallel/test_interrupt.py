@@ -165,6 +165,37 @@ def test_sigterm_does_not_wait_for_the_tasks_in_flight(tmp_path):
     assert not any(_alive(pid) for pid in workers)
 
 
+def test_ctrl_c_while_the_workers_start_is_no_traceback_of_theirs(tmp_path):
+    # The workers ignore SIGINT from their initializer on; a Ctrl-C while they still import
+    # what it needs (here a setup whose module takes 3 s, as torch can) must not print a
+    # KeyboardInterrupt of theirs either.
+    (tmp_path / "slow_to_import.py").write_text("import time\ntime.sleep(3)\ndef setup(): pass\n")
+    code = (
+        "import sys, time\n"
+        "import slow_to_import\n"
+        "from symgrasp.parallel.base import Job\n"
+        "from symgrasp.parallel.local import ProcessPool\n"
+        "try:\n"
+        "    with ProcessPool(2) as pool:\n"
+        "        list(pool.map(Job(time.sleep, slow_to_import.setup), [60] * 4, 'sleeps'))\n"
+        "except KeyboardInterrupt:\n"
+        "    sys.exit(130)\n"
+    )
+    path = os.pathsep.join([str(Path(symgrasp.__file__).parents[1]), str(tmp_path)])
+    process = subprocess.Popen(
+        [sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": path},
+        stderr=subprocess.PIPE, text=True, start_new_session=True,
+        preexec_fn=_as_from_a_terminal,
+    )  # fmt: skip
+    deadline = time.monotonic() + 30
+    while len(workers := _workers(process.pid)) < 2:
+        assert time.monotonic() < deadline, "no workers in 30 s"
+        time.sleep(0.01)
+    time.sleep(1.5)  # both past Python's start, inside the 3 s import
+    os.killpg(process.pid, signal.SIGINT)
+    _stopped(process, workers, 130)
+
+
 @pytest.mark.parametrize(
     ("argv", "line"),
     [

@@ -13,6 +13,7 @@ import signal
 import sys
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
 from typing import Any
 
 from symgrasp.parallel.base import Executor, Job, attempt, bounded
@@ -39,10 +40,12 @@ def _start_worker(parent: int, setup: Callable[..., None] | None, setup_args: tu
 
     Ctrl-C reaches the whole process group; the parent stops the workers, so they ignore it
     (one interrupted in its setup would break the pool, and the parent might then report a
-    dead worker instead of the interrupt). PR_SET_PDEATHSIG is the kernel's guarantee that the worker gets
-    SIGKILL when the parent dies, even by SIGKILL, mid-task; the pid check covers a parent
-    that died before the call."""
+    dead worker instead of the interrupt). Until here SIGINT stayed blocked, as the parent
+    spawned the worker (`_spawning`): a Ctrl-C while it imported is dropped, not a traceback.
+    PR_SET_PDEATHSIG is the kernel's guarantee that the worker gets SIGKILL when the parent
+    dies, even by SIGKILL, mid-task; the pid check covers a parent that died before the call."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     if sys.platform == "linux":
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
@@ -50,6 +53,19 @@ def _start_worker(parent: int, setup: Callable[..., None] | None, setup_args: tu
             os._exit(1)
     if setup is not None:
         setup(*setup_args)
+
+
+@contextmanager
+def _spawning() -> Iterator[None]:
+    """Block SIGINT in this thread meanwhile: a worker started now inherits the mask through
+    exec and keeps it until its initializer ignores SIGINT, so a Ctrl-C while it is still
+    importing is not a KeyboardInterrupt of its own. This process's Ctrl-C waits (pending) for
+    the end of the block, or another thread takes it; none is lost."""
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 
 
 class ProcessPool(Executor):
@@ -69,7 +85,8 @@ class ProcessPool(Executor):
             self._pool = pool
 
             def submit(arg: Any) -> Future:
-                return pool.submit(attempt, job.task, arg)
+                with _spawning():  # a submit may start a worker
+                    return pool.submit(attempt, job.task, arg)
 
             def finished(futures: list[Future]) -> set[Future]:
                 return wait(futures, return_when=FIRST_COMPLETED).done
