@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from symgrasp.benchmark.declutter import NONE_FOUND, first_free, picture_observer, run_round
-from symgrasp.benchmark.failures import MODES
+from symgrasp.benchmark.failures import MODES, STRUCK
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.objects.sets import resolve
 from symgrasp.sim import ROBOTIQ_2F85
@@ -54,7 +54,9 @@ def test_a_round_is_reproducible_undisturbed_by_diagnosis_and_its_counts_add_up(
         assert (a.mode == NONE_FOUND) == (a.outcome == NONE_FOUND)
         assert (a.target is None) == (a.outcome == NONE_FOUND)
         assert a.target is None or a.target in families
+        assert set(a.struck) <= set(STRUCK) and (not a.struck or "collision" in a.outcome)
     assert [a.target for a in first.attempts] == [a.target for a in again.attempts]
+    assert [a.struck for a in first.attempts] == [a.struck for a in again.attempts]
     # what was presented and what is left: the lifted objects' families taken out, no more
     assert len(first.presented) == first.objects and set(first.presented) <= families
     lifted = Counter(a.target for a in first.attempts if a.success)
@@ -92,5 +94,6 @@ def test_first_free_keeps_the_labels_table_clearance_and_the_physics_agrees(dept
     chosen, rejected = first_free([grasp], ROBOTIQ_2F85, np.zeros((0, 3)))
     assert (chosen is grasp, rejected) == ((True, 0) if free else (False, 1))
     assert first_free([grasp], ROBOTIQ_2F85, np.zeros((0, 3)), table_clearance=-0.002)[0] is grasp
-    outcome = execute_grasp(World([], gripper=ROBOTIQ_2F85), T).outcome
-    assert outcome is (Outcome.NO_CONTACT if free else Outcome.APPROACH_COLLISION)
+    result = execute_grasp(World([], gripper=ROBOTIQ_2F85), T)
+    assert result.outcome is (Outcome.NO_CONTACT if free else Outcome.APPROACH_COLLISION)
+    assert result.touched == (() if free else (-1,))  # the table

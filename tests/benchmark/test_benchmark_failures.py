@@ -5,8 +5,10 @@ import pytest
 
 from symgrasp.benchmark.failures import (
     MODES,
+    STRUCK,
     aimed_object,
     failure_mode,
+    struck,
     turned_about_approach,
 )
 from symgrasp.sim import ROBOTIQ_2F85, World, execute_grasp, large_box
@@ -110,3 +112,34 @@ def test_a_grasp_is_aimed_at_the_nearest_surface_not_the_nearest_centre():
     turned[0, :3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
     assert aimed_object(World([long, cube], turned), near_end) == 1
     assert aimed_object(World([]), near_end) is None
+
+
+def test_what_a_collision_struck_is_read_from_the_touched_indices():
+    assert struck((-1, 0, 2), 0) == STRUCK == ("table", "target", "neighbour")
+    assert struck((2, 1), 1) == ("target", "neighbour") and struck((3,), None) == ("neighbour",)
+    assert struck((), 0) == ()
+
+
+def test_a_collision_names_the_target_a_neighbour_or_the_table_as_the_physics_touched():
+    target = _box((0.025, 0.025, 0.03))
+    poses = np.tile(np.eye(4), (2, 1, 1))
+    poses[:, :3, 3] = [[*CENTRE, TABLE_HEIGHT], [CENTRE[0] + 0.065, CENTRE[1], TABLE_HEIGHT]]
+    # Closing along x over the target: the open finger at +42.5 mm comes down on the 40 mm
+    # neighbour standing 15 mm beside it.
+    pose = top_grasp(np.r_[CENTRE, _height(TABLE_HEIGHT + 0.06)])
+    world = World([target, _box((0.02, 0.02, 0.04))], poses, gripper=GRIPPER)
+    world.settle(0.5)
+    aimed = aimed_object(world, pose)
+    result = execute_grasp(world, pose)
+    assert (result.outcome, aimed) == (Outcome.APPROACH_COLLISION, 0)
+    assert struck(result.touched, aimed) == ("neighbour",)
+    along = top_grasp(np.r_[CENTRE, _height(TABLE_HEIGHT + 0.03)], yaw=np.pi / 2)
+    world = World([large_box()], gripper=GRIPPER)  # closing along its 200 mm: onto its top
+    world.settle(0.5)
+    result = execute_grasp(world, along)
+    assert result.outcome is Outcome.APPROACH_COLLISION
+    assert struck(result.touched, aimed_object(world, along)) == ("target",)
+    into_the_table = top_grasp(np.r_[CENTRE, TABLE_HEIGHT - 0.02])
+    result = execute_grasp(World([], gripper=GRIPPER), into_the_table)
+    assert (result.outcome, result.touched) == (Outcome.APPROACH_COLLISION, (-1,))
+    assert struck(result.touched, None) == ("table",)

@@ -83,6 +83,17 @@ def test_attempts_are_counted_per_aimed_at_family():
     }
 
 
+def test_what_collisions_struck_is_counted_once_per_attempt_and_kind():
+    first = _round(0, 3, ["approach_collision", "pregrasp_collision", "success"])
+    hits = [["table", "neighbour"], ["neighbour"], []]
+    for attempt, hit in zip(first["attempts"], hits, strict=True):
+        attempt["struck"] = hit
+    rounds = [first, _round(1, 2, ["approach_collision"])]  # an older record: nothing struck
+    struck = summarise(rounds)["struck"]
+    assert struck == {"table": 1, "neighbour": 2} and list(struck) == ["table", "neighbour"]
+    assert summarise([_round(2, 1, ["success"])])["struck"] == {}
+
+
 def test_the_objects_left_on_the_table_are_counted_per_family_most_often_left_first():
     rounds = [
         {**_round(0, 3, ["success", "none_found"]), "presented": ["box", "box", "banana"],

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from symgrasp.benchmark.failures import aimed_object, failure_mode
+from symgrasp.benchmark.failures import aimed_object, failure_mode, struck
 from symgrasp.benchmark.sensing import Sensor
 from symgrasp.config import TABLE_CLEARANCE
 from symgrasp.detect import Grasp
@@ -58,6 +58,8 @@ class Attempt:
         target: the family of the object the grasp was for: the lifted one on success,
             else the one nearest the TCP (`symgrasp.benchmark.failures.aimed_object`); None
             when none was found.
+        struck: for a collision, what the hand hit where it stopped
+            (`symgrasp.benchmark.failures.struck`); empty otherwise.
     """
 
     outcome: str
@@ -68,6 +70,7 @@ class Attempt:
     objects_before: int
     mode: str | None = None
     target: str | None = None
+    struck: tuple[str, ...] = ()
 
     @property
     def success(self) -> bool:
@@ -159,7 +162,7 @@ def run_round(
         planning = time.perf_counter() - start
         before = len(world.objects)
         mode: str | None = NONE_FOUND if diagnose else None
-        target = None
+        target, hit = None, ()
         if chosen is None:
             outcome = NONE_FOUND
         else:
@@ -169,10 +172,11 @@ def run_round(
             result = execute_grasp(world, chosen.pose)
             outcome = result.outcome.value
             target = families[aimed if result.object_index is None else result.object_index]
+            hit = struck(result.touched, aimed)
             if state is not None:
                 mode = failure_mode(world, state, chosen.pose, result.outcome)
         attempt = Attempt(
-            outcome, chosen, len(candidates), rejected, planning, before, mode, target
+            outcome, chosen, len(candidates), rejected, planning, before, mode, target, hit
         )
         record.attempts.append(attempt)
         if observer is not None:

@@ -19,7 +19,10 @@ Replays run on `World.snapshot` copies and the world is put back exactly as the 
 trial left it, so diagnosing does not change the round (tested).
 
 A grasp is also attributed to the object it was aimed at (`aimed_object`), so modes can be
-broken down by object family: does a representation fail on boxes and not on spheres?
+broken down by object family: does a representation fail on boxes and not on spheres? And a
+collision names what the hand hit where it stopped (`struck`): the table, the target or a
+neighbour, which points at different causes (the approach check's table rule, a grasp too
+deep, the unseen side of the pile).
 """
 
 from __future__ import annotations
@@ -47,6 +50,18 @@ _BY_OUTCOME = {
     Outcome.SLIPPED: "slip",
     Outcome.MULTIPLE: "multiple",
 }
+
+
+STRUCK = ("table", "target", "neighbour")
+"""What a collision can have hit, in report order (``table``: the table or a wall)."""
+
+
+def struck(touched: tuple[int, ...], aimed: int | None) -> tuple[str, ...]:
+    """What a collision hit, in `STRUCK` order, from what the hand touched where it stopped
+    (`symgrasp.sim.execute.GraspResult.touched`: object indices, ``-1`` the table or a wall)
+    and the index of the object the grasp was aimed at (`aimed_object`)."""
+    hit = {"table" if i < 0 else "target" if i == aimed else "neighbour" for i in touched}
+    return tuple(kind for kind in STRUCK if kind in hit)
 
 
 def turned_about_approach(T_world_tcp: np.ndarray, angle: float) -> np.ndarray:

@@ -42,7 +42,7 @@ import numpy as np
 
 from symgrasp.atomic import check_json, read_json, write_atomic
 from symgrasp.benchmark.declutter import Round, picture_observer, run_round
-from symgrasp.benchmark.failures import MODES
+from symgrasp.benchmark.failures import MODES, STRUCK
 from symgrasp.benchmark.sensing import Sensor
 from symgrasp.config import BenchmarkConfig, ParallelConfig
 from symgrasp.folders import Outputs, check_folder, check_owned, writes_folder
@@ -98,6 +98,7 @@ def round_record(record: Round) -> dict[str, Any]:
                 "outcome": a.outcome,
                 "mode": a.mode,
                 "target": a.target,
+                "struck": list(a.struck),
                 "score": None if a.grasp is None else a.grasp.score,
                 "confidence": None if a.grasp is None else a.grasp.confidence,
                 "candidates": a.candidates,
@@ -176,15 +177,19 @@ def run_rounds(
 
 
 def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
-    """Pooled SR and CR with bootstrap 95 % intervals, outcome and failure-mode counts,
-    executed grasps, successes and wrong yaws per aimed-at object family, the objects left on
-    the table per family (`left_on_table`), planning time, all over the rounds that finished; ``rounds`` counts every round and ``errors`` lists the
-    failed ones (seed and message), which nothing is averaged over."""
+    """Pooled SR and CR with bootstrap 95 % intervals, outcome and failure-mode counts, what
+    the collisions hit (``struck``: attempts per `STRUCK` kind, one attempt under each kind it
+    touched; records older than the field count nowhere), executed grasps, successes and
+    wrong yaws per aimed-at object family, the objects left on the table per family
+    (`left_on_table`), planning time, all over the rounds that finished; ``rounds`` counts
+    every round and ``errors`` lists the failed ones (seed and message), which nothing is
+    averaged over."""
     done = [r for r in rounds if "error" not in r]
     counts = dict(zip(COUNTS, round_counts(done), strict=True))
     outcomes = Counter(a["outcome"] for r in done for a in r["attempts"])
     modes = Counter(a.get("mode") for r in done for a in r["attempts"])
     modes.pop(None, None)
+    hit = Counter(kind for r in done for a in r["attempts"] for kind in a.get("struck", ()))
     planning = [a["planning_s"] for r in done for a in r["attempts"]]
     summary = {
         "rounds": len(rounds),
@@ -198,6 +203,7 @@ def summarise(rounds: list[dict[str, Any]], seed: int = 0) -> dict[str, Any]:
         },
         "outcomes": dict(sorted(outcomes.items())),
         "modes": {mode: modes[mode] for mode in MODES if mode in modes},
+        "struck": {kind: hit[kind] for kind in STRUCK if kind in hit},
         "families": _by_family([a for r in done for a in r["attempts"]]),
         "left_on_table": left_on_table(done),
         "planning_s_median": float(np.median(planning)) if planning else float("nan"),

@@ -182,6 +182,8 @@ def _run_declutter(args: argparse.Namespace) -> None:
     summary = run_benchmark(config, args.out, args.resume, parallel)
     print(markdown_table(summary, config), end="")
     print(f"outcomes {summary['outcomes']}")
+    if summary["struck"]:
+        print(f"collisions hit (attempts; table includes walls) {summary['struck']}")
     left = [f"{f} {c['left']}/{c['presented']}" for f, c in summary["left_on_table"].items()
             if c["left"]]  # fmt: skip
     if left:

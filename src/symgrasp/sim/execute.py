@@ -36,10 +36,13 @@ class Outcome(enum.Enum):
 
 @dataclass(frozen=True)
 class GraspResult:
-    """Outcome of a trial and the index (before removal) of the lifted object, if any."""
+    """Outcome of a trial, the index (before removal) of the lifted object, if any, and for
+    a collision what the hand touched where it stopped (`World.hand_touches`: objects by
+    index, ``-1`` the table or a wall)."""
 
     outcome: Outcome
     object_index: int | None = None
+    touched: tuple[int, ...] = ()
 
     @property
     def success(self) -> bool:
@@ -89,12 +92,12 @@ def _trial(world: World, T: np.ndarray, hold_time: float) -> GraspResult:
     pregrasp = T.copy()
     pregrasp[:3, 3] -= PREGRASP_DISTANCE * T[:3, 0]
     world.set_hand_pose(pregrasp)
-    if world.hand_in_collision():
-        return GraspResult(Outcome.PREGRASP_COLLISION)
+    if touched := world.hand_touches():
+        return GraspResult(Outcome.PREGRASP_COLLISION, touched=tuple(touched))
 
     lag = world.move_hand(T, duration=0.25, stop_force=BLOCKED_FORCE)
     if lag > BLOCKED_ERROR:
-        return GraspResult(Outcome.APPROACH_COLLISION)
+        return GraspResult(Outcome.APPROACH_COLLISION, touched=tuple(world.hand_touches()))
 
     start_z = world.object_positions()[:, 2].copy()
     world.actuate(close=True)

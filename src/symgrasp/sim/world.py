@@ -417,6 +417,10 @@ class World:
                 total += wrench[0]
         return total
 
+    def hand_touches(self) -> list[int]:
+        """What the hand touches, sorted: objects by index, ``-1`` for the table or a wall."""
+        return sorted({int(self._geom_object[o]) for _, o in self._hand_contacts()})
+
     def objects_in_hand(self) -> list[int]:
         """Indices of objects that touch the hand, sorted."""
         return sorted({int(self._geom_object[o]) for _, o in self._hand_contacts()} - {-1})
