@@ -153,15 +153,11 @@ def add_round_options(parser: argparse.ArgumentParser, seed: int, rounds: int, w
 
 
 def add_table_clearance(parser: argparse.ArgumentParser) -> None:
-    """``--table-clearance``: the approach check's table rule of the rounds a script plays and
-    reads (`symgrasp.config.TABLE_CLEARANCE`)."""
-    from symgrasp.config import TABLE_CLEARANCE
+    """``--table-clearance`` (`symgrasp.cli.options.add_table_clearance`) for the rounds a
+    script plays and reads."""
+    from symgrasp.cli.options import add_table_clearance as add
 
-    parser.add_argument("--table-clearance", type=float, default=TABLE_CLEARANCE, metavar="C",
-                        help="gap [m] the open hand keeps from the table for a grasp to be "
-                        "executed (bench declutter --table-clearance; default: %(default)s); "
-                        "-0.002 plays and reads rounds by the rule before 2026-11-27, which "
-                        "every result committed before that date used")  # fmt: skip
+    add(parser, "the rounds played and read")
 
 
 def campaign_root(

@@ -7,10 +7,9 @@ import argparse
 
 from symgrasp.arguments import integer
 from symgrasp.cli.fields import add_config_options, config_from_args
-from symgrasp.cli.options import SEED, add_mesh_unit, add_shared, input_folder
+from symgrasp.cli.options import SEED, add_mesh_unit, add_shared, add_table_clearance, input_folder
 from symgrasp.config import (
     MAX_OBJECTS,
-    TABLE_CLEARANCE,
     TEST_SEED_LIMIT,
     VALIDATION_OBJECTS,
     VALIDATION_ROUNDS,
@@ -122,12 +121,7 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
         help="layout of the declutter validation's rounds (default: pile)",
     )  # fmt: skip
     add_mesh_unit(parser)
-    parser.add_argument(
-        "--table-clearance", type=float, default=TABLE_CLEARANCE, metavar="C",
-        help="gap [m] the open hand keeps from the table for a grasp to be executed in the "
-        f"declutter validation (bench declutter --table-clearance; default: {TABLE_CLEARANCE}; "
-        "-0.002: the rule of selections before 2026-11-27, whose cached rounds it reads)",
-    )  # fmt: skip
+    add_table_clearance(parser, "the declutter validation rounds")
     add_parallel_options(parser, "declutter validation rounds")
     parser.add_argument(
         "--revalidate", action="store_true",

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from symgrasp.arguments import integer, number, sentence
-from symgrasp.config import MAX_VIEWS, SEED_MAX, SceneConfig
+from symgrasp.config import MAX_VIEWS, SEED_MAX, TABLE_CLEARANCE, BenchmarkConfig, SceneConfig
 from symgrasp.fields import field_docs
 from symgrasp.folders import check_folder, check_path
 from symgrasp.names import (
@@ -187,6 +187,17 @@ def add_mesh_unit(parser: argparse.ArgumentParser) -> None:
     configuration."""
     help = sentence(field_docs(SceneConfig)["mesh_unit"])
     add_shared(parser, "mesh_unit", f"{help} (default: auto)", "auto")
+
+
+def add_table_clearance(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--table-clearance``, as `BenchmarkConfig.table_clearance` documents it, on a command
+    that plays or reads declutter rounds without a benchmark configuration (``what``: the
+    rounds, for the help)."""
+    help = sentence(field_docs(BenchmarkConfig)["table_clearance"])
+    parser.add_argument(
+        "--table-clearance", type=float, default=TABLE_CLEARANCE, metavar="C",
+        help=f"{help}, in {what} (default: {TABLE_CLEARANCE})",
+    )  # fmt: skip
 
 
 def add_confidence_options(parser: argparse.ArgumentParser) -> None:
