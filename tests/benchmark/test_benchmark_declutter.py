@@ -97,3 +97,24 @@ def test_first_free_keeps_the_labels_table_clearance_and_the_physics_agrees(dept
     result = execute_grasp(World([], gripper=ROBOTIQ_2F85), T)
     assert result.outcome is (Outcome.NO_CONTACT if free else Outcome.APPROACH_COLLISION)
     assert result.touched == (() if free else (-1,))  # the table
+
+
+@pytest.mark.parametrize(
+    ("depth", "clearance", "free"),
+    [(0.0015, -0.002, True), (0.0015, -0.001, False), (0.0015, 0.0, False),
+     (-0.0005, 0.0, True), (-0.0005, 0.001, False)],
+)  # fmt: skip
+def test_first_free_keeps_the_surface_clearance_from_the_observed_points(depth, clearance, free):
+    """One observed point ``depth`` [m] inside (−: outside) the outer face of a fingertip of
+    the open hand, high above the table: it passes when the clearance asked for lets it."""
+    T = top_grasp(np.array([0.15, 0.15, TABLE_HEIGHT + 0.15]))
+    boxes = hand_boxes(ROBOTIQ_2F85)
+    tip = int(np.argmax(boxes.centre[:, 2]))  # the fingertip on +e_z, nothing beyond it
+    axis = int(np.argmin(boxes.half[tip]))  # its pad's normal
+    assert np.delete(boxes.half[tip], axis).min() > 0.0015  # so no other face is nearer
+    in_box = np.zeros(3)
+    in_box[axis] = boxes.half[tip][axis] - depth
+    point = T[:3, :3] @ (boxes.centre[tip] + boxes.rotation[tip] @ in_box) + T[:3, 3]
+    grasp = Grasp(T, score=1.0)
+    chosen, rejected = first_free([grasp], ROBOTIQ_2F85, point[None], surface_clearance=clearance)
+    assert (chosen is grasp, rejected) == ((True, 0) if free else (False, 1))

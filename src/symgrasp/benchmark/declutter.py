@@ -6,8 +6,8 @@ are handed to the planner (any
 `symgrasp.detect.planner.GraspPlanner`: a `GraspDetector`, VGN's network, a user's
 function); its grasps are tried in its order (a detector's: gravity-rejection score) and the
 first whose open hand, from the pre-grasp along the approach to the grasp, misses the
-*observed* surface and keeps ``table_clearance`` above the table (`first_free`, what a robot
-can check; the surface is the zero crossings of the images, noise and all, fused into the
+*observed* surface by ``surface_clearance`` and keeps ``table_clearance`` above the table
+(`first_free`, what a robot can check; the surface is the zero crossings of the images, noise and all, fused into the
 workspace TSDF, the same for every planner) is executed (`symgrasp.sim.execute.execute_grasp`); a successful grasp
 removes its object. The round ends when the table is clear, no grasp is found, or
 ``max_failures`` attempts in a row fail.
@@ -26,7 +26,7 @@ import numpy as np
 
 from symgrasp.benchmark.failures import aimed_object, failure_mode, struck
 from symgrasp.benchmark.sensing import Sensor
-from symgrasp.config import TABLE_CLEARANCE
+from symgrasp.config import SURFACE_CLEARANCE, TABLE_CLEARANCE
 from symgrasp.detect import Grasp
 from symgrasp.detect.detector import fuse
 from symgrasp.detect.planner import GraspPlanner
@@ -128,6 +128,7 @@ def run_round(
     observer: Observer | None = None,
     diagnose: bool = True,
     table_clearance: float = TABLE_CLEARANCE,
+    surface_clearance: float = SURFACE_CLEARANCE,
 ) -> Round:
     """Play one declutter round with ``planner`` (its gripper) on ``num_objects`` objects of
     the set ``objects`` (resolved once by `symgrasp.objects.sets.resolve`, for all the rounds
@@ -137,7 +138,7 @@ def run_round(
     ``max_attempts`` defaults to twice the number of objects; ``sensor`` (default: one
     noiseless image from the fixed camera) says what the cameras see before each attempt,
     drawn from ``seed`` and the attempt's index (`symgrasp.benchmark.sensing`);
-    ``table_clearance`` is `first_free`'s. With
+    ``table_clearance`` and ``surface_clearance`` are `first_free`'s. With
     ``diagnose``, each failed grasp is replayed at other yaws to name its failure mode
     (`symgrasp.benchmark.failures`); the round itself is the same either way.
     """
@@ -158,7 +159,9 @@ def run_round(
         candidates = list(planner.plan(observation))
         seen = fuse(observation.depth, observation.intrinsic, observation.T_world_camera)
         points = seen.point_cloud().cpu().numpy()
-        chosen, rejected = first_free(candidates, planner.gripper, points, table_clearance)
+        chosen, rejected = first_free(
+            candidates, planner.gripper, points, table_clearance, surface_clearance
+        )
         planning = time.perf_counter() - start
         before = len(world.objects)
         mode: str | None = NONE_FOUND if diagnose else None
@@ -236,18 +239,21 @@ def first_free(
     gripper: GripperSpec,
     points: np.ndarray,
     table_clearance: float = TABLE_CLEARANCE,
+    surface_clearance: float = SURFACE_CLEARANCE,
     batch: int = 8,
 ) -> tuple[Grasp | None, int]:
-    """The first candidate whose approach misses ``points`` (its boxes shrunk by 2 mm: the
-    fingers touch what they grasp, and the points are noisy) and whose boxes, grown by
-    ``table_clearance`` [m], stay that far above the table, as the labels' check keeps them
+    """The first candidate whose open hand, swept from the pre-grasp, keeps ``surface_clearance``
+    [m] from ``points`` (by default −2 mm: points that deep inside its boxes pass, the fingers
+    touch what they grasp and the points are noisy; `symgrasp.config.SURFACE_CLEARANCE`) and
+    ``table_clearance`` above the table, as the labels' check keeps it
     (`symgrasp.config.TABLE_CLEARANCE`); and how many before it were rejected. Checked in small
     batches: the first one usually passes."""
     for start in range(0, len(candidates), batch):
         chunk = candidates[start : start + batch]
         hits = hand_collides(
-            np.array([g.pose for g in chunk]), gripper, points, table_tolerance=-table_clearance
-        )
+            np.array([g.pose for g in chunk]), gripper, points, tolerance=-surface_clearance,
+            table_tolerance=-table_clearance,
+        )  # fmt: skip
         free = np.flatnonzero(~hits)
         if len(free):
             return chunk[free[0]], start + int(free[0])

@@ -138,6 +138,7 @@ def _round_task(seed: int) -> dict[str, Any]:
         observer=observer,
         diagnose=config.diagnose,
         table_clearance=config.table_clearance,
+        surface_clearance=config.surface_clearance,
     )  # fmt: skip
     return round_record(record)
 
