@@ -423,7 +423,7 @@ class World:
 
     def objects_in_hand(self) -> list[int]:
         """Indices of objects that touch the hand, sorted."""
-        return sorted({int(self._geom_object[o]) for _, o in self._hand_contacts()} - {-1})
+        return [i for i in self.hand_touches() if i >= 0]
 
     def move_hand(
         self,
