@@ -1,5 +1,6 @@
 """Physics sanity of grasp trials: each case has an answer known without the simulator."""
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -21,6 +22,7 @@ from symgrasp.sim.execute import (
     top_grasp,
 )
 from symgrasp.sim.objects import ObjectSpec, Part
+from symgrasp.sim.physics import HAND_GROUP
 from symgrasp.workspace import TABLE_HEIGHT
 
 GRIPPERS = ["franka", "robotiq-2f85"]
@@ -269,3 +271,27 @@ def test_pushing_refuses_bad_arguments_and_leaves_no_force_behind():
         pull_out_forces(world, 0, np.zeros((2, 3)))
     with pytest.raises(ValueError, match="gripper"):
         World([_box((0.02, 0.02, 0.02))]).push_until_slip(0, np.zeros((5, 3)), slip=0.005)
+
+
+def _hand_force_by_contact(world: World) -> float:
+    """The normal forces of the contacts with one geom in the hand, summed in contact order."""
+    hand, wrench, total = world.model.geom_group == HAND_GROUP, np.zeros(6), 0.0
+    for i in range(world.data.ncon):
+        c = world.data.contact[i]
+        if hand[c.geom1] != hand[c.geom2]:
+            mujoco.mj_contactForce(world.model, world.data, i, wrench)
+            total += wrench[0]
+    return total
+
+
+@pytest.mark.parametrize("gripper", GRIPPERS)
+def test_a_guarded_move_onto_a_wide_box_stops_on_the_force_the_box_puts_on_the_hand(gripper):
+    world = _settled(_box((0.07, 0.07, 0.03), mass=1.0), gripper)
+    world.move_hand(top_grasp(np.r_[CENTRE, TABLE_HEIGHT + 0.25]), 0.5)
+    assert world.hand_contact_force() == 0.0 and world.hand_touches() == []
+    assert not world.hand_in_collision()
+    # the fingertips 2 cm into the top of a box wider than the open hand
+    into = top_grasp(np.r_[CENTRE, TABLE_HEIGHT + 0.04 - get_gripper(gripper).tip_beyond_tcp])
+    assert world.move_hand(into, 1.0, stop_force=20.0) == float("inf")
+    assert world.hand_contact_force() == _hand_force_by_contact(world) > 20.0
+    assert world.hand_in_collision() and world.hand_touches() == world.objects_in_hand() == [0]

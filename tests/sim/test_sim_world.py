@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from symgrasp.sim import FRANKA, World, large_box, make_scene, object_set
-from symgrasp.sim.objects import TEST_FAMILIES, TRAIN_FAMILIES, ObjectSpec, Part
+from symgrasp.sim.objects import TEST_FAMILIES, TRAIN_FAMILIES, ConvexPart, ObjectSpec, Part
 from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 
 
@@ -111,3 +111,22 @@ def test_a_world_whose_every_object_left_still_answers_where_its_objects_are():
     assert world.object_positions().shape == (0, 3)
     assert list(world.outside_workspace()) == []
     world.settle(0.05)
+
+
+def test_hull_points_bound_an_object_as_its_mesh_does_to_the_bit():
+    """Bounds and farthest distances of a convex set are reached at its hull's vertices, which
+    are some of the points it is the hull of: the same floats, so the same results."""
+    rng = np.random.default_rng(3)
+    cloud = rng.normal(scale=0.02, size=(60, 3))  # mostly inside its own hull
+    blob = ObjectSpec(
+        "b", "b", (ConvexPart(cloud), ConvexPart(np.r_[cloud, cloud] + 0.01)), 0.1, 0.5
+    )
+    for obj in (blob, blob.scaled(0.8312), object_set("household-train", 2, 0)[1]):
+        mesh, points = obj.mesh().vertices, obj.hull_points()
+        assert len(points) >= len(mesh) and np.array_equal(points.min(0), mesh.min(0))
+        assert np.array_equal(points.max(0), mesh.max(0))
+        centre = (mesh.min(0) + mesh.max(0)) / 2
+        far = np.linalg.norm(points - centre, axis=1).max()
+        assert far == np.linalg.norm(mesh - centre, axis=1).max()
+    cube = ConvexPart(np.array(np.meshgrid(*[[0.0, 0.5, 1.0]] * 3)).reshape(3, -1).T * 0.02)
+    assert cube.volume == pytest.approx(0.02**3, rel=1e-12)

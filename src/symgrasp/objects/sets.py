@@ -132,7 +132,7 @@ def _load(path: Path, mesh_unit: str, in_subfolder: bool) -> ObjectSpec:
     else:
         name = path.parent.name if in_subfolder else None
         obj, hint = load_mesh(path, mesh_unit, name), "check its units: --mesh-unit"
-    size = np.ptp(np.concatenate([p.mesh().vertices for p in obj.parts]), axis=0)
+    size = np.ptp(obj.hull_points(), axis=0)
     if size.max() > WORKSPACE_SIZE:
         raise ValueError(
             f"{path}: the object is {size.max():.3f} m long, larger than the "

@@ -128,21 +128,15 @@ class ConvexPart:
         v = np.asarray(self.vertices, dtype=float)
         if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4 or not np.isfinite(v).all():
             raise ValueError(f"vertices must be a finite (V ≥ 4, 3) array, got shape {v.shape}")
-        if self._hull_volume(v) <= 1e-12:
+        try:
+            hull = ConvexHull(v)
+        except Exception:  # qhull refuses flat and repeated point sets
+            hull = None
+        if hull is None or hull.volume <= 1e-12:
             raise ValueError("vertices span no volume (a flat or degenerate convex part)")
         v.setflags(write=False)
         object.__setattr__(self, "vertices", v)
-
-    @staticmethod
-    def _hull_volume(v: np.ndarray) -> float:
-        try:
-            return float(ConvexHull(v).volume)
-        except Exception:  # qhull refuses flat and repeated point sets
-            return 0.0
-
-    @functools.cached_property
-    def _hull(self) -> ConvexHull:
-        return ConvexHull(self.vertices)
+        object.__setattr__(self, "_hull", hull)
 
     @property
     def volume(self) -> float:
@@ -238,6 +232,15 @@ class ObjectSpec:
         """Surface mesh of the union (parts concatenated; inner faces stay inside)."""
         return trimesh.util.concatenate([p.mesh() for p in self.parts])
 
+    def hull_points(self) -> np.ndarray:
+        """Points (P, 3) in the object frame with the convex hull of `mesh`'s vertices: a convex
+        part's own vertices, a primitive part's mesh vertices. Bounds and farthest distances
+        read from them are `mesh`'s to the bit, without the hulls that a just-scaled object
+        (every scene's) would first build."""
+        return np.concatenate(
+            [p.vertices if isinstance(p, ConvexPart) else p.mesh().vertices for p in self.parts]
+        )
+
     def sample_surface(self, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Exactly ``n`` points on the outer surface and their outward normals, both (n, 3)
         (`surface_samples` until there are enough)."""
@@ -253,7 +256,7 @@ class ObjectSpec:
     def footprint(self) -> tuple[np.ndarray, float]:
         """Smallest-ish circle holding the upright object seen from above: its centre (2,) in
         the object frame (the bounding-box centre) and its radius [m]."""
-        xy = self.mesh().vertices[:, :2]
+        xy = self.hull_points()[:, :2]
         centre = (xy.min(axis=0) + xy.max(axis=0)) / 2
         return centre, float(np.max(np.linalg.norm(xy - centre, axis=1)))
 

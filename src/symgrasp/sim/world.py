@@ -394,32 +394,29 @@ class World:
         thickness = sum(float(m.geom_size[g][2]) for g in pads)  # two half-thicknesses
         return max(0.0, abs(z[0] - z[1]) - thickness)
 
-    def _hand_contacts(self) -> list[tuple[int, int]]:
-        """(hand geom, other geom) for every current contact of the hand with the rest."""
-        pairs = []
-        for c in self.data.contact[: self.data.ncon]:
-            g1, g2 = int(c.geom1), int(c.geom2)
-            h1, h2 = self._hand_geom[g1], self._hand_geom[g2]
-            if h1 != h2:
-                pairs.append((g1, g2) if h1 else (g2, g1))
-        return pairs
+    def _hand_contacts(self) -> tuple[np.ndarray, np.ndarray]:
+        """The rows of the current contacts between the hand and the rest, (K,), and their
+        geoms, (K, 2): the hand's first."""
+        geom = self.data.contact.geom[: self.data.ncon]
+        hand = self._hand_geom[geom]
+        rows = np.flatnonzero(hand[:, 0] != hand[:, 1])
+        return rows, np.where(hand[rows, :1], geom[rows], geom[rows, ::-1])
 
     def hand_in_collision(self) -> bool:
         """Whether the hand touches the table or any object."""
-        return bool(self._hand_contacts())
+        return len(self._hand_contacts()[0]) > 0
 
     def hand_contact_force(self) -> float:
         """Total normal force [N] that the table and objects exert on the hand."""
         total, wrench = 0.0, np.zeros(6)
-        for i, c in enumerate(self.data.contact[: self.data.ncon]):
-            if self._hand_geom[c.geom1] != self._hand_geom[c.geom2]:
-                mujoco.mj_contactForce(self.model, self.data, i, wrench)
-                total += wrench[0]
+        for i in self._hand_contacts()[0]:
+            mujoco.mj_contactForce(self.model, self.data, int(i), wrench)
+            total += wrench[0]
         return total
 
     def hand_touches(self) -> list[int]:
         """What the hand touches, sorted: objects by index, ``-1`` for the table or a wall."""
-        return sorted({int(self._geom_object[o]) for _, o in self._hand_contacts()})
+        return sorted({int(o) for o in self._geom_object[self._hand_contacts()[1][:, 1]]})
 
     def objects_in_hand(self) -> list[int]:
         """Indices of objects that touch the hand, sorted."""
@@ -484,7 +481,7 @@ def pile_scene(
     for i, obj in enumerate(objects):
         # rotate about the bounding-box centre; the object then stays in a ball of this
         # radius, and stacking the balls keeps the falling objects apart
-        vertices = obj.mesh().vertices
+        vertices = obj.hull_points()
         centre = vertices.min(axis=0) / 2 + vertices.max(axis=0) / 2
         radius = float(np.max(np.linalg.norm(vertices - centre, axis=1)))
         z += radius
@@ -546,7 +543,7 @@ VGN_PACKED_ATTEMPTS = 12
 
 
 def _bounding_centre(obj: ObjectSpec) -> np.ndarray:
-    vertices = obj.mesh().vertices
+    vertices = obj.hull_points()
     return vertices.min(axis=0) / 2 + vertices.max(axis=0) / 2
 
 
