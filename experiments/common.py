@@ -149,15 +149,22 @@ def add_round_options(parser: argparse.ArgumentParser, seed: int, rounds: int, w
                         help=f"{what}: rounds of each run (default: %(default)s)")  # fmt: skip
     parser.add_argument("--num-objects", type=int, default=5,
                         help="objects per round (default: %(default)s)")  # fmt: skip
-    add_table_clearance(parser)
+    add_approach_check(parser)
 
 
-def add_table_clearance(parser: argparse.ArgumentParser) -> None:
-    """``--table-clearance`` (`symgrasp.cli.options.add_table_clearance`) for the rounds a
-    script plays and reads."""
-    from symgrasp.cli.options import add_table_clearance as add
+def add_approach_check(parser: argparse.ArgumentParser) -> None:
+    """``--table-clearance`` and ``--surface-clearance``
+    (`symgrasp.cli.options.add_approach_check`) for the rounds a script plays and reads."""
+    from symgrasp.cli.options import add_approach_check as add
 
     add(parser, "the rounds played and read")
+
+
+def approach_check(args: argparse.Namespace) -> dict[str, float]:
+    """The approach check's fields given on the command line (`add_approach_check`)."""
+    from symgrasp.cli.options import approach_check as given
+
+    return given(args)
 
 
 def campaign_root(

@@ -66,9 +66,10 @@ from typing import Any
 from common import (
     GRIPPERS,
     SHIPPED,
+    add_approach_check,
     add_mode_options,
     add_result_option,
-    add_table_clearance,
+    approach_check,
     update_page,
     write_rounds_archive,
 )
@@ -171,7 +172,7 @@ def play(cell: Cell, args: argparse.Namespace, prefixes: dict[str, str]) -> dict
         except ValueError:  # not trained, or not selected yet: stored rounds, if any
             stored = stored_rounds(cell, args) if args.collate_only else None
             return {"rounds": stored, "waiting": None if stored else f"{run.name} (not selected)"}
-    config = cell.config(model, args.rounds, args.num_objects, args.table_clearance)
+    config = cell.config(model, args.rounds, args.num_objects, **approach_check(args))
     folder = cell.folder(args.out)
     if args.collate_only:
         rounds = saved_rounds(config, folder)
@@ -189,7 +190,7 @@ def stored_rounds(cell: Cell, args: argparse.Namespace) -> list[dict] | None:
     recorded = recorded_config(folder)
     if recorded is None:
         return None
-    config = cell.config(recorded["model"], args.rounds, args.num_objects, args.table_clearance)
+    config = cell.config(recorded["model"], args.rounds, args.num_objects, **approach_check(args))
     return saved_rounds(config, folder, check_model=False)
 
 
@@ -510,7 +511,7 @@ def main() -> None:
     parser.add_argument("--archive", default="experiments/results/declutter_rounds.tar.gz",
                         help="the collated cells' rounds as one .tar.gz; unpacked into --out, "
                         "they collate again without the training runs")  # fmt: skip
-    add_table_clearance(parser)
+    add_approach_check(parser)
     args = parse_args(
         parser, outputs=("out", "result", "figure", "docs", "archive"),
         quick={"rounds": 1, "num_objects": 1, "workers": 1, "seeds": [0, 1],

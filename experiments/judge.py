@@ -39,7 +39,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from common import SHIPPED, add_result_option, add_round_options, campaign_root
+from common import SHIPPED, add_result_option, add_round_options, approach_check, campaign_root
 from retrain_ablation import CONDITIONS, clean_folder, ended_none_found
 
 from symgrasp.atomic import read_json
@@ -69,7 +69,7 @@ def parse_run(text: str) -> tuple[str, int]:
 def wanted(args: argparse.Namespace) -> dict[str, Any]:
     """The configuration fields the judging rounds must have been played with."""
     return {"objects": args.objects, "scene": "pile", "num_objects": args.num_objects,
-            "rounds": args.rounds, "seed": args.seed, "table_clearance": args.table_clearance,
+            "rounds": args.rounds, "seed": args.seed, **approach_check(args),
             **CONDITIONS["clean"]}  # fmt: skip
 
 
@@ -198,7 +198,7 @@ def quick_root(root: Path, args: argparse.Namespace) -> None:
 
     validation = DeclutterValidation(objects=args.objects, rounds=args.rounds,
                                      num_objects=args.num_objects,
-                                     table_clearance=args.table_clearance)  # fmt: skip
+                                     **approach_check(args))  # fmt: skip
     for name in args.runs:
         run = root / "runs" / name
         run.mkdir(parents=True, exist_ok=True)
@@ -206,7 +206,7 @@ def quick_root(root: Path, args: argparse.Namespace) -> None:
         select_checkpoint(run, "declutter", validation=validation)
         config = BenchmarkConfig(model=str(run / "best.pt"), objects=args.objects,
                                  rounds=args.rounds, seed=args.seed, num_objects=args.num_objects,
-                                 table_clearance=args.table_clearance)  # fmt: skip
+                                 **approach_check(args))  # fmt: skip
         run_or_reuse(config, root / "bench" / "judge" / name)
 
 

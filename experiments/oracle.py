@@ -39,7 +39,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import add_mode_options, add_result_option, add_table1_options, add_table_clearance
+from common import (
+    add_approach_check,
+    add_mode_options,
+    add_result_option,
+    add_table1_options,
+    approach_check,
+)
 from peers_table import baseline_rounds, cell_name
 
 from symgrasp.benchmark.cells import objects_folder
@@ -82,7 +88,7 @@ def oracle_config(hand: str, objects: str, scene: str, args: argparse.Namespace)
         options += (("directions", args.directions),)
     return BenchmarkConfig(
         model=ORACLE, objects=objects, scene=scene, num_objects=args.num_objects,
-        rounds=args.rounds, options=options, table_clearance=args.table_clearance,
+        rounds=args.rounds, options=options, **approach_check(args),
     )  # fmt: skip
 
 
@@ -230,7 +236,7 @@ def main() -> None:
                      "those it has)")  # fmt: skip
     add_parallel_options(parser, "rounds")
     add_result_option(parser, "oracle")
-    add_table_clearance(parser)
+    add_approach_check(parser)
     args = parse_args(parser, outputs=("out", "baselines", "result"),
                       quick={"rounds": 1, "num_objects": 2, "grasps": 10, "directions": 4,
                              "cells": ["franka/large-box"]})  # fmt: skip

@@ -39,10 +39,11 @@ from pathlib import Path
 from typing import Any
 
 from common import (
+    add_approach_check,
     add_mode_options,
     add_result_option,
     add_table1_options,
-    add_table_clearance,
+    approach_check,
     table1_rounds,
     update_page,
 )
@@ -80,7 +81,7 @@ def cell_name(cell: tuple[str, str, str]) -> str:
 def vgn_config(hand: str, objects: str, scene: str, args: argparse.Namespace) -> BenchmarkConfig:
     return BenchmarkConfig(
         model="vgn", objects=objects, scene=scene, num_objects=args.num_objects,
-        rounds=args.rounds, options=(("gripper", hand),), table_clearance=args.table_clearance,
+        rounds=args.rounds, options=(("gripper", hand),), **approach_check(args),
     )  # fmt: skip
 
 
@@ -93,13 +94,13 @@ def baseline_rounds(
     under ``--out`` (played when ``play``); None when neither holds them."""
     model = f"{rep}-{hand}"
     world = {"objects": objects, "scene": scene, "num_objects": args.num_objects, "seed": 0,
-             "table_clearance": args.table_clearance}  # fmt: skip
+             **approach_check(args)}  # fmt: skip
     stored, table = table1_rounds(model, objects, scene, args.baselines, args.rounds, world)
     if stored is not None:
         return stored, str(table)
     config = BenchmarkConfig(model=model, objects=objects, scene=scene,
                              num_objects=args.num_objects, rounds=args.rounds,
-                             table_clearance=args.table_clearance)  # fmt: skip
+                             **approach_check(args))  # fmt: skip
     own = args.out / hand / rep / objects_folder(objects, scene)
     if play:
         return run_or_reuse(config, own, parallel_from_args(args)), str(own)
@@ -190,7 +191,7 @@ def main() -> None:
                         "(default: %(default)s)")  # fmt: skip
     add_parallel_options(parser, "rounds")
     add_result_option(parser, "peers_declutter")
-    add_table_clearance(parser)
+    add_approach_check(parser)
     args = parse_args(parser, outputs=("out", "baselines", "result", "docs"),
                       quick={"rounds": 1, "num_objects": 2, "cells": ["franka/large-box"]},
                       also="a copy of the page")  # fmt: skip

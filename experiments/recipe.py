@@ -30,7 +30,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from common import SHIPPED, add_result_option, add_table_clearance
+from common import SHIPPED, add_approach_check, add_result_option, approach_check
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark import selection as sel
@@ -103,7 +103,7 @@ def main() -> None:
     parser.set_defaults(workers=2)
     parser.add_argument("--out", default="out/bench/recipe", help="judging benchmark folders")
     add_result_option(parser, "recipe")
-    add_table_clearance(parser)
+    add_approach_check(parser)
     args = parse_args(
         parser, outputs=("out", "result"),
         quick={"rounds": 1, "num_objects": 1, "workers": 1, "objects": "household-train"},
@@ -123,7 +123,7 @@ def main() -> None:
         )
     validation = sel.DeclutterValidation(
         objects=args.objects, rounds=args.rounds, seed=args.seed, num_objects=args.num_objects,
-        table_clearance=args.table_clearance,
+        **approach_check(args),
     )  # fmt: skip
     parallel = parallel_from_args(args)
     folders, cells = {}, []

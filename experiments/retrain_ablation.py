@@ -76,6 +76,7 @@ from common import (
     SHIPPED,
     add_result_option,
     add_round_options,
+    approach_check,
     campaign_root,
     percent_mean,
     sensing_gap,
@@ -140,7 +141,7 @@ def run_name(arm: str, rep: str, seed: int) -> str:
 def wanted(condition: str, args: argparse.Namespace) -> dict[str, Any]:
     """The configuration fields a run's rounds in ``condition`` must have been played with."""
     return {"objects": args.objects, "scene": "pile", "num_objects": args.num_objects,
-            "rounds": args.rounds, "seed": args.seed, "table_clearance": args.table_clearance,
+            "rounds": args.rounds, "seed": args.seed, **approach_check(args),
             **CONDITIONS[condition]}  # fmt: skip
 
 
@@ -397,7 +398,7 @@ def quick_root(root: Path, args: argparse.Namespace) -> None:
 
     validation = DeclutterValidation(objects=args.objects, rounds=args.rounds, seed=args.seed,
                                      num_objects=args.num_objects,
-                                     table_clearance=args.table_clearance)  # fmt: skip
+                                     **approach_check(args))  # fmt: skip
     for arm in args.arms:
         for seed in args.seeds:
             name = run_name(arm, args.rep, seed)

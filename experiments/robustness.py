@@ -78,10 +78,11 @@ from typing import Any
 
 from common import (
     SHIPPED,
+    add_approach_check,
     add_mode_options,
     add_result_option,
     add_table1_options,
-    add_table_clearance,
+    approach_check,
     cell_rounds,
     percent_mean,
     sensing_gap,
@@ -201,7 +202,7 @@ def config(
     """The benchmark of ``model`` on the cell's rounds in ``condition``."""
     return BenchmarkConfig(model=model.name, objects=objects, scene=scene, rounds=args.rounds,
                            seed=args.first_seed, num_objects=args.num_objects,
-                           table_clearance=args.table_clearance,
+                           **approach_check(args),
                            **CONDITIONS[condition])  # fmt: skip
 
 
@@ -448,7 +449,7 @@ def main() -> None:
                         "(default: %(default)s)")  # fmt: skip
     add_parallel_options(parser, "rounds")
     add_result_option(parser, "robustness")
-    add_table_clearance(parser)
+    add_approach_check(parser)
     args = parse_args(parser, outputs=("out", "baselines", "result", "docs"),
                       quick={"rounds": 1, "num_objects": 2, "models": [SHIPPED],
                              "sets": [("household-test", "pile")]},

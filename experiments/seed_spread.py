@@ -33,7 +33,7 @@ import argparse
 import itertools
 from typing import Any
 
-from common import SHIPPED, add_result_option, add_table_clearance
+from common import SHIPPED, add_approach_check, add_result_option, approach_check
 
 from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.runner import run_or_reuse, summarise
@@ -136,7 +136,7 @@ def main() -> None:
     parser.set_defaults(workers=2)
     parser.add_argument("--out", default="out/bench/table", help="benchmark cell folders")
     add_result_option(parser, "seed_spread")
-    add_table_clearance(parser)
+    add_approach_check(parser)
     args = parse_args(
         parser, outputs=("out", "result"),
         quick={"rounds": 1, "num_objects": 1, "workers": 1, "seeds": [0, 1],
@@ -150,7 +150,7 @@ def main() -> None:
         run = cell.run(args.runs, args.prefix)
         model = shipped_path(SHIPPED) if args.quick else selected_checkpoint(run)
         folder = cell.folder(args.out)
-        config = cell.config(model, args.rounds, args.num_objects, args.table_clearance)
+        config = cell.config(model, args.rounds, args.num_objects, **approach_check(args))
         rounds[rep, seed, objects] = run_or_reuse(config, folder, parallel)
         cells.append({"rep": rep, "seed": seed, "objects": objects, "run": str(run),
                       "folder": str(folder), "summary": summarise(rounds[rep, seed, objects])})  # fmt: skip

@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import SHIPPED, add_result_option, add_table_clearance
+from common import SHIPPED, add_approach_check, add_result_option, approach_check
 from scipy.stats import spearmanr
 
 from symgrasp.benchmark import selection as sel
@@ -263,7 +263,7 @@ def main() -> None:
     parser.add_argument("--out", default="out/bench/selection", help="test benchmark folders")
     add_result_option(parser, "selection")
     parser.add_argument("--figure", default="docs/figures/selection.png", help="scatter figure")
-    add_table_clearance(parser)
+    add_approach_check(parser)
     args = parse_args(
         parser,
         outputs=("out", "result", "figure"),
@@ -282,7 +282,7 @@ def main() -> None:
     parallel = parallel_from_args(args)
     validation = sel.DeclutterValidation(
         objects=args.val_objects, rounds=args.val_rounds, seed=args.val_seed,
-        num_objects=args.num_objects, table_clearance=args.table_clearance,
+        num_objects=args.num_objects, **approach_check(args),
     )  # fmt: skip
     revalidate = args.revalidate or bool(args.quick)
     rows = []
@@ -296,7 +296,7 @@ def main() -> None:
             config = BenchmarkConfig(
                 model=str(path.resolve()), objects=args.test_objects,
                 num_objects=args.num_objects, rounds=args.test_rounds, seed=args.test_seed,
-                diagnose=False, table_clearance=args.table_clearance,
+                diagnose=False, **approach_check(args),
             )  # fmt: skip
             folder = Path(args.out) / run.name / sel.checkpoint_id(path)
             test = summarise(run_or_reuse(config, folder, parallel), args.test_seed)

@@ -30,7 +30,7 @@ import argparse
 import math
 from pathlib import Path
 
-from common import add_result_option, add_table_clearance
+from common import add_approach_check, add_result_option, approach_check
 
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import (
@@ -114,7 +114,7 @@ def main() -> None:
     parser.set_defaults(workers=2)
     parser.add_argument("--out", default="out/validity_sweep", help="per-cell benchmark folders")
     add_result_option(parser, "validity_sweep")
-    add_table_clearance(parser)
+    add_approach_check(parser)
     args = parse_args(
         parser,
         outputs=("out", "result"),
@@ -137,7 +137,7 @@ def main() -> None:
                         model=model, objects=objects, num_objects=args.num_objects,
                         rounds=rounds, seed=seed, diagnose=False,
                         options=(("validity_threshold", validity),),
-                        table_clearance=args.table_clearance,
+                        **approach_check(args),
                     )  # fmt: skip
                     folder = Path(args.out) / model / objects / str(validity)
                     played[validity] = run_or_reuse(config, folder, parallel_from_args(args))

@@ -20,6 +20,9 @@ ROUNDS = {  # (successes, executed) of each judging round, 5 objects presented e
     "other-bingham2d-s0": [(1, 1), (1, 1), (1, 1)],
 }
 
+OLD_RULE = ["--table-clearance", "-0.002", "--surface-clearance", "-0.002"]
+"""The folders record no clearances: played by the approach check before 2026-11-27."""
+
 
 def _round(seed, successes, executed):
     attempt = {"target": "box", "score": 1.0, "confidence": 20.0, "candidates": 3,
@@ -60,9 +63,9 @@ def test_each_model_ships_its_highest_sr_plus_cr_and_waits_for_runs_not_judged_a
     _campaign(tmp_path)
     done = subprocess.run(
         [sys.executable, "experiments/judge.py", "--root", str(tmp_path), "--rounds", "3",
-         "--runs", *ROUNDS, "--result", str(tmp_path / "judge"), "--table-clearance", "-0.002"],
+         "--runs", *ROUNDS, "--result", str(tmp_path / "judge"), *OLD_RULE],
         cwd=ROOT, env=ENV, capture_output=True, text=True,
-    )  # fmt: skip  # the folders record no table clearance: played by the rule before 2026-11-27
+    )  # fmt: skip
     assert done.returncode == 0, done.stderr
     result = json.loads((tmp_path / "judge.json").read_text())
     runs = {r["run"]: r for r in result["cells"]}
@@ -100,8 +103,7 @@ def test_a_judging_folder_from_before_the_model_record_is_taken_as_it_is(tmp_pat
     (tmp_path / "bench" / "judge" / "m-bingham2d-s0" / "model.sha256").unlink()
     done = subprocess.run(
         [sys.executable, "experiments/judge.py", "--root", str(tmp_path), "--rounds", "3",
-         "--runs", "m-bingham2d-s0", "--result", str(tmp_path / "judge"),
-         "--table-clearance", "-0.002"],
+         "--runs", "m-bingham2d-s0", "--result", str(tmp_path / "judge"), *OLD_RULE],
         cwd=ROOT, env=ENV, capture_output=True, text=True,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr

@@ -76,10 +76,11 @@ def _select(run, epochs, monkeypatch, rounds=ROUNDS):
     (run / "metrics.csv").write_text("epoch,val_total\n" + rows)
 
     def validate(checkpoint, out, objects, rounds, seed, *, num_objects, scene, mesh_unit,
-                 table_clearance, parallel=None):  # fmt: skip
+                 table_clearance, surface_clearance, parallel=None):  # fmt: skip
         config = BenchmarkConfig(model=str(checkpoint), objects=objects, mesh_unit=mesh_unit,
                                  scene=scene, num_objects=num_objects, rounds=rounds, seed=seed,
-                                 diagnose=False, table_clearance=table_clearance)  # fmt: skip
+                                 diagnose=False, table_clearance=table_clearance,
+                                 surface_clearance=surface_clearance)  # fmt: skip
         played = epochs[Path(checkpoint).name][:rounds]
         _write_benchmark(Path(out), config, played)
         summary = summarise(played)
@@ -326,8 +327,8 @@ def test_the_final_plan_validates_each_arm_as_stage_1_did():
     """experiments/campaigns/final.toml: its bingham2d arms are selected and validated under noise
     as retrain.toml's (the same rounds, so that they read against stage 1's numbers), and the
     calibrated images differ from the wide data in the sensing alone (same scenes, labels and
-    databases: a paired ablation). Both by the approach check's table rule of stage 1 (the
-    default before 2026-11-27), which final.toml names."""
+    databases: a paired ablation). Both by the approach check's rule of stage 1 (the default
+    before 2026-11-27), which final.toml names."""
     steps = campaign_steps("experiments/campaigns/final.toml")
     stage1 = campaign_steps("experiments/campaigns/retrain.toml")
     for arm in ("wide", "wide-calibrated"):
@@ -336,9 +337,10 @@ def test_the_final_plan_validates_each_arm_as_stage_1_did():
             dense = f"dense-{REP}-s{seed}"
             for step in ("select", "val-noise-table"):
                 final = shlex.split(steps[f"{step}-{run}"]["run"])
-                i = final.index("--table-clearance")
-                assert final[i + 1] == "-0.002"
-                del final[i : i + 2]
+                for option in ("--table-clearance", "--surface-clearance"):
+                    i = final.index(option)
+                    assert final[i + 1] == "-0.002"
+                    del final[i : i + 2]
                 assert final == shlex.split(stage1[f"{step}-{dense}"]["run"].replace(dense, run))
     wide = shlex.split(steps["data-wide"]["run"])
     calibrated = shlex.split(steps["data-wide-calibrated"]["run"].split("&&")[-1])

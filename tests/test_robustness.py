@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from conftest import campaign_steps
 
-from symgrasp.config import TABLE_CLEARANCE
+from symgrasp.config import SURFACE_CLEARANCE, TABLE_CLEARANCE
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
@@ -60,7 +60,8 @@ def test_the_clean_rounds_are_table_1s_where_it_recorded_the_same_configuration(
     cell.mkdir(parents=True)
     recorded = {"model": "/elsewhere/best.pt", "objects": "household-test", "mesh_unit": "auto",
                 "scene": "pile", "num_objects": 2, "rounds": 100, "seed": 0, "options": [],
-                "diagnose": True, "pictures": False, "table_clearance": TABLE_CLEARANCE}  # fmt: skip
+                "diagnose": True, "pictures": False, "table_clearance": TABLE_CLEARANCE,
+                "surface_clearance": SURFACE_CLEARANCE}  # fmt: skip
     (cell / "config.json").write_text(json.dumps(recorded))
     attempts = [
         {
@@ -133,7 +134,8 @@ def _two_training_seeds(tmp_path):
         models.append(path)
     fields = {"objects": "vgn-pile-test", "mesh_unit": "auto", "scene": "pile", "num_objects": 5,
               "rounds": 3, "seed": 100, "options": [], "diagnose": True, "pictures": False,
-              "noise": "none", "view": "fixed", "views": 1, "table_clearance": TABLE_CLEARANCE}  # fmt: skip
+              "noise": "none", "view": "fixed", "views": 1, "table_clearance": TABLE_CLEARANCE,
+                "surface_clearance": SURFACE_CLEARANCE}  # fmt: skip
     for seed, path in enumerate(models):
         cell = tmp_path / "table" / "robotiq-2f85" / "bingham2d" / f"s{seed}"
         _write(cell / "vgn-pile-test-first-seed-100", {**fields, "model": "/elsewhere/best.pt"},

@@ -105,28 +105,32 @@ def test_an_existing_folder_needs_resume_and_the_same_configuration(played, tmp_
         runner.run_benchmark(BenchmarkConfig(rounds=2, seed=3), tmp_path, resume=True)
 
 
-def test_a_folder_recorded_before_the_table_clearance_was_played_with_the_old_rule(
+def test_a_folder_recorded_before_the_clearances_was_played_with_the_old_rule(
     fake_rounds, tmp_path
 ):
-    """Rounds are played with the configuration's table clearance; a folder whose config.json
-    predates the field played −0.002 (`runner.PLAYED_BEFORE`): a resume with the new default is
-    refused naming it, one with −0.002 reuses the folder."""
+    """Rounds are played with the configuration's clearances; a folder whose config.json
+    predates the fields played −0.002 for both (`runner.PLAYED_BEFORE`): a resume with the new
+    defaults is refused naming them, one with −0.002 reuses the folder."""
     given = []
 
-    def fake_round(detector, objects, num_objects, seed, table_clearance, **_):
-        given.append(table_clearance)
+    def fake_round(detector, objects, num_objects, seed, table_clearance, surface_clearance, **_):
+        given.append((table_clearance, surface_clearance))
         return Round(seed, num_objects, "gl", [Attempt("success", None, 1, 0, 0.1, num_objects)])
 
     fake_rounds(fake_round)
-    old = BenchmarkConfig(rounds=2, seed=0, table_clearance=-0.002)
+    old = BenchmarkConfig(rounds=2, seed=0, table_clearance=-0.002, surface_clearance=-0.002)
     rounds = runner.run_or_reuse(old, tmp_path)
-    assert given == [-0.002, -0.002]
+    assert given == [(-0.002, -0.002)] * 2
     recorded = json.loads((tmp_path / "config.json").read_text())
-    del recorded["table_clearance"]
+    del recorded["table_clearance"], recorded["surface_clearance"]
     (tmp_path / "config.json").write_text(json.dumps(recorded))
     assert runner.recorded_config(tmp_path)["table_clearance"] == -0.002
-    with pytest.raises(ValueError, match=r"another configuration \(its table_clearance differ\)"):
+    assert runner.recorded_config(tmp_path)["surface_clearance"] == -0.002
+    refused = r"another configuration \(its surface_clearance, table_clearance differ\)"
+    with pytest.raises(ValueError, match=refused):
         runner.run_or_reuse(BenchmarkConfig(rounds=2, seed=0), tmp_path)
+    with pytest.raises(ValueError, match=r"\(its surface_clearance differ\)"):
+        runner.run_or_reuse(BenchmarkConfig(rounds=2, seed=0, table_clearance=-0.002), tmp_path)
     assert runner.run_or_reuse(old, tmp_path) == rounds and len(given) == 2
 
 

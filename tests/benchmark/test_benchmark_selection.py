@@ -13,6 +13,7 @@ from torch.utils.data import Dataset
 from symgrasp.benchmark import selection as sel
 from symgrasp.cli import main
 from symgrasp.config import (
+    SURFACE_CLEARANCE,
     TABLE_CLEARANCE,
     TEST_SEED_LIMIT,
     VALIDATION_SEED,
@@ -192,21 +193,23 @@ def test_declutter_selection_caches_each_checkpoint_and_breaks_sr_ties_by_clear_
 def test_selecting_again_rewrites_best_pt_byte_for_byte_under_the_rule_it_was_chosen_by(
     run, monkeypatch
 ):
-    # A campaign's step reruns `select` on a run selected before the table clearance existed:
-    # best.pt must not change (rounds played with it are tied to its SHA-256).
+    # A campaign's step reruns `select` on a run selected before the approach check's
+    # clearances existed: best.pt must not change (rounds played with it are tied to its SHA-256).
     monkeypatch.setattr(sel, "declutter_validation", _fake_declutter([], {1: (0.5, 0.4),
                         2: (0.8, 0.5), 3: (0.7, 0.6)}))  # fmt: skip
-    old_rule = sel.DeclutterValidation(rounds=3, table_clearance=-0.002)
+    old_rule = sel.DeclutterValidation(rounds=3, table_clearance=-0.002, surface_clearance=-0.002)
     sel.select_checkpoint(run, "declutter", validation=old_rule)
     recorded = load_checkpoint(run / "best.pt")["selection"]["declutter"]
-    assert "table_clearance" not in recorded and recorded["rounds"] == 3
+    assert not {"table_clearance", "surface_clearance"} & recorded.keys()
+    assert recorded["rounds"] == 3
     before = (run / "best.pt").read_bytes()
     sel.select_checkpoint(run, "declutter", validation=old_rule)
     assert (run / "best.pt").read_bytes() == before
     sel.select_checkpoint(run, "declutter", validation=_rounds(3))
-    assert (
-        load_checkpoint(run / "best.pt")["selection"]["declutter"]["table_clearance"]
-        == TABLE_CLEARANCE
+    recorded = load_checkpoint(run / "best.pt")["selection"]["declutter"]
+    assert (recorded["table_clearance"], recorded["surface_clearance"]) == (
+        TABLE_CLEARANCE,
+        SURFACE_CLEARANCE,
     )
 
 
@@ -259,10 +262,11 @@ def test_validation_settings_are_checked_when_made_and_name_their_cache_stably()
     with pytest.raises(ValueError, match="objects"):
         sel.DeclutterValidation(objects="vgn-pile-test")
     # The cache folder of 50 rounds, as runs selected before this class existed named it, and
-    # before the table clearance was the labels' (2026-11-27); the new rule plays elsewhere.
-    old = sel.DeclutterValidation(rounds=50, table_clearance=-0.002)
+    # before the approach check kept the labels' 1 mm (2026-11-27); the new rules play elsewhere.
+    old = sel.DeclutterValidation(rounds=50, table_clearance=-0.002, surface_clearance=-0.002)
     assert old.slug == "vgn-pile-train-pile5-r50-s1000000-88f84857"
-    assert sel.DeclutterValidation(rounds=50).slug != old.slug
+    for new in ({"table_clearance": 0.001}, {"surface_clearance": 0.001}, {}):
+        assert sel.DeclutterValidation(rounds=50, **new).slug != old.slug
     assert sel.DeclutterValidation(rounds=49).slug != sel.DeclutterValidation(rounds=50).slug
 
 

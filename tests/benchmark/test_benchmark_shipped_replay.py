@@ -1,7 +1,7 @@
 """Every shipped model replays the first attempt of its Table 1 cell's first round
 (experiments/results/declutter_rounds.tar.gz): the model file is the one docs/results.md
 measured, with the scene, the chosen grasp's score and its outcome the same (played with the
-approach check's table rule of those cells, `runner.PLAYED_BEFORE`).
+approach check's rule of those cells, `runner.PLAYED_BEFORE`).
 
 Only the first attempt: the later ones carry the physics of the earlier ones and the CPU's
 float rounding along, and on another processor a near-tied candidate or one at the validity
@@ -38,8 +38,7 @@ def test_a_shipped_model_replays_the_first_round_of_its_table_cell(name, monkeyp
         stored = json.loads(tar.extractfile(cell).readline())
     assert stored["seed"] == 0
     played = round_record(  # with the approach check the cells were played with
-        run_round(detector, resolve("vgn-pile-test"), 5, seed=0, max_attempts=1,
-                  table_clearance=PLAYED_BEFORE["table_clearance"])
+        run_round(detector, resolve("vgn-pile-test"), 5, seed=0, max_attempts=1, **PLAYED_BEFORE)
     )  # fmt: skip
     first, recorded = played["attempts"][0], stored["attempts"][0]
     for key in ("outcome", "mode", "target", "candidates", "rejected"):

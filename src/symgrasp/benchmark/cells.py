@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from symgrasp.config import SCENES, TABLE_CLEARANCE, BenchmarkConfig
+from symgrasp.config import SCENES, SURFACE_CLEARANCE, TABLE_CLEARANCE, BenchmarkConfig
 
 NO_THRESHOLD = (("confidence_threshold", 0.0),)
 """The detector options of the paper's "2D Bingham" row: its confidence threshold off."""
@@ -71,12 +71,14 @@ class Cell:
         rounds: int = 100,
         num_objects: int = 5,
         table_clearance: float = TABLE_CLEARANCE,
+        surface_clearance: float = SURFACE_CLEARANCE,
     ) -> BenchmarkConfig:
         """The benchmark the cell plays with the checkpoint ``model``: ``rounds`` rounds of
         ``num_objects`` objects from round seed ``first_seed``, failure diagnosis on, the
-        approach check's ``table_clearance``."""
+        approach check's ``table_clearance`` and ``surface_clearance``."""
         return BenchmarkConfig(
             model=str(Path(model).resolve()), objects=self.objects, scene=self.scene,
             num_objects=num_objects, rounds=rounds, seed=self.first_seed,
             options=() if self.threshold else NO_THRESHOLD, table_clearance=table_clearance,
+            surface_clearance=surface_clearance,
         )  # fmt: skip

@@ -285,7 +285,7 @@ def recorded_config(out: str | Path) -> dict[str, Any] | None:
     return {**_plain(BenchmarkConfig()), **PLAYED_BEFORE, **recorded}
 
 
-PLAYED_BEFORE = {"table_clearance": -0.002}
+PLAYED_BEFORE = {"table_clearance": -0.002, "surface_clearance": -0.002}
 """What a folder recorded before a field was added played, where it is not the field's
 default; other fields added later read as their defaults."""
 

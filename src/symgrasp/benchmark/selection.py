@@ -38,6 +38,7 @@ from torch.utils.data import DataLoader
 from symgrasp.atomic import read_json, write_atomic, write_csv
 from symgrasp.benchmark.runner import PLAYED_BEFORE, run_or_reuse, summarise
 from symgrasp.config import (
+    SURFACE_CLEARANCE,
     TABLE_CLEARANCE,
     TEST_SEED_LIMIT,
     VALIDATION_OBJECTS,
@@ -147,6 +148,7 @@ class DeclutterValidation:
     scene: str = "pile"
     mesh_unit: str = "auto"
     table_clearance: float = TABLE_CLEARANCE
+    surface_clearance: float = SURFACE_CLEARANCE
 
     def __post_init__(self) -> None:
         check_validation_rounds(self.objects, self.rounds, self.seed)
@@ -199,6 +201,7 @@ def declutter_validation(
     scene: str = "pile",
     mesh_unit: str = "auto",
     table_clearance: float = TABLE_CLEARANCE,
+    surface_clearance: float = SURFACE_CLEARANCE,
     options: tuple[tuple[str, Any], ...] = (),
     workers: int | None = None,
     parallel: ParallelConfig | None = None,
@@ -209,9 +212,8 @@ def declutter_validation(
     Rounds use seeds ``seed … seed + rounds − 1`` (refused when they reach the test seeds,
     `check_validation_rounds`), ``num_objects`` objects of ``objects`` as a ``scene``, the
     detector's default thresholds unless ``options`` (keyword arguments of
-    `GraspDetector.from_pretrained`) say otherwise, the benchmark's ``table_clearance``, and no
-    failure diagnosis (its replays cost
-    time and change no ratio). ``workers`` local processes, or the executor ``parallel``.
+    `GraspDetector.from_pretrained`) say otherwise, the approach check's ``table_clearance`` and
+    ``surface_clearance``, and no failure diagnosis (its replays cost time and change no ratio). ``workers`` local processes, or the executor ``parallel``.
 
     Returns the pooled ``success_ratio`` and ``clear_ratio`` with their bootstrap 95 %
     intervals (``*_ci95``), the counts (``rounds``, ``objects``, ``executed``, ``successes``,
@@ -225,6 +227,7 @@ def declutter_validation(
         model=str(checkpoint), objects=objects, mesh_unit=mesh_unit, scene=scene,
         num_objects=num_objects, rounds=rounds, seed=seed, options=tuple(options),
         diagnose=False, table_clearance=table_clearance,
+        surface_clearance=surface_clearance,
     )  # fmt: skip
     if parallel is None:
         parallel = ParallelConfig(workers=workers)

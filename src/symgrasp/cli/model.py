@@ -7,7 +7,14 @@ import argparse
 
 from symgrasp.arguments import integer
 from symgrasp.cli.fields import add_config_options, config_from_args
-from symgrasp.cli.options import SEED, add_mesh_unit, add_shared, add_table_clearance, input_folder
+from symgrasp.cli.options import (
+    SEED,
+    add_approach_check,
+    add_mesh_unit,
+    add_shared,
+    approach_check,
+    input_folder,
+)
 from symgrasp.config import (
     MAX_OBJECTS,
     TEST_SEED_LIMIT,
@@ -121,7 +128,7 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
         help="layout of the declutter validation's rounds (default: pile)",
     )  # fmt: skip
     add_mesh_unit(parser)
-    add_table_clearance(parser, "the declutter validation rounds")
+    add_approach_check(parser, "the declutter validation rounds")
     add_parallel_options(parser, "declutter validation rounds")
     parser.add_argument(
         "--revalidate", action="store_true",
@@ -157,7 +164,7 @@ def _run_select(args: argparse.Namespace) -> None:
 
     validation = DeclutterValidation(
         objects=args.objects, rounds=args.rounds, seed=args.seed, num_objects=args.num_objects,
-        scene=args.scene, mesh_unit=args.mesh_unit, table_clearance=args.table_clearance,
+        scene=args.scene, mesh_unit=args.mesh_unit, **approach_check(args),
     )  # fmt: skip
     revalidate = Revalidation(args.data, batch_size=args.batch_size, device=args.device)
     selection = select_checkpoint(

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from symgrasp.arguments import integer, number, sentence
-from symgrasp.config import MAX_VIEWS, SEED_MAX, TABLE_CLEARANCE, BenchmarkConfig, SceneConfig
+from symgrasp.config import MAX_VIEWS, SEED_MAX, BenchmarkConfig, SceneConfig
 from symgrasp.fields import field_docs
 from symgrasp.folders import check_folder, check_path
 from symgrasp.names import (
@@ -189,15 +189,27 @@ def add_mesh_unit(parser: argparse.ArgumentParser) -> None:
     add_shared(parser, "mesh_unit", f"{help} (default: auto)", "auto")
 
 
-def add_table_clearance(parser: argparse.ArgumentParser, what: str) -> None:
-    """``--table-clearance``, as `BenchmarkConfig.table_clearance` documents it, on a command
-    that plays or reads declutter rounds without a benchmark configuration (``what``: the
-    rounds, for the help)."""
-    help = sentence(field_docs(BenchmarkConfig)["table_clearance"])
-    parser.add_argument(
-        "--table-clearance", type=float, default=TABLE_CLEARANCE, metavar="C",
-        help=f"{help}, in {what} (default: {TABLE_CLEARANCE})",
-    )  # fmt: skip
+APPROACH_CHECK = ("table_clearance", "surface_clearance")
+"""`BenchmarkConfig`'s fields of the approach check (`symgrasp.benchmark.declutter.first_free`):
+the gaps the open hand keeps from the table and from the observed surface."""
+
+
+def add_approach_check(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--table-clearance`` and ``--surface-clearance``, as `BenchmarkConfig` documents them,
+    on a command that plays or reads declutter rounds without a benchmark configuration
+    (``what``: the rounds, for the help); `approach_check` reads them."""
+    docs, defaults = field_docs(BenchmarkConfig), BenchmarkConfig()
+    for name in APPROACH_CHECK:
+        default = getattr(defaults, name)
+        parser.add_argument(
+            "--" + name.replace("_", "-"), type=float, default=default, metavar="C",
+            help=f"{sentence(docs[name])}, in {what} (default: {default})",
+        )  # fmt: skip
+
+
+def approach_check(args: argparse.Namespace) -> dict[str, float]:
+    """The approach check's fields given on the command line (`add_approach_check`)."""
+    return {name: getattr(args, name) for name in APPROACH_CHECK}
 
 
 def add_confidence_options(parser: argparse.ArgumentParser) -> None:
