@@ -35,17 +35,43 @@ id, the boot and tick it started at, its start time): ``status`` tells a running
 whose driver was killed (a process id reused after a restart included), and a second ``run``
 on the same root while the first still runs a step is refused. Output goes to
 ``ROOT/logs/NAME.log``. ``show`` prints the steps as ``run`` would start them, their vars filled
-in, one JSON object a line (``name``, ``cores``, ``needs``, ``run``). ``--quick`` runs a four-step plan of Python one-liners (one failing)
-twice and writes ``campaign.json``.
+in, one JSON object a line (``name``, ``cores``, ``needs``, ``keep``, ``run``). ``--quick`` runs
+a four-step plan of Python one-liners (one failing) twice and writes ``campaign.json``.
+
+**The bank: a campaign that outlives its machine.** A root is no safer than the disk it is on,
+and a development machine can be replaced between sessions with everything that was not
+committed. With ``--bank DIR`` (a folder of the repository, committed at each stop) every step
+that finishes leaves its record there, ``DIR/NAME/record.json`` (its command, ``{root}`` in place
+of the root, and the SHA-256 of each kept file), with copies of the files its ``keep`` patterns match under the root
+(``DIR/NAME/files/…``)::
+
+    [[step]]
+    name = "select-s0"
+    needs = ["train-s0"]
+    run = "symgrasp select {runs}/s0 ..."
+    keep = ["runs/s0/best.pt", "runs/s0/selection.json", "bench/s0/**", "!bench/s0/**/*.log"]
+
+A pattern is a path relative to the root (or under ``{root}``) whose ``*`` and ``?`` stay within
+one folder and whose ``**`` spans folders; one that starts with ``!`` leaves out what it
+matches. A step finishes only when each of its patterns matches a file. On a root without a
+step's done marker, ``run`` restores a banked step whose command is unchanged and whose copies
+still have their recorded hashes (its files back in the root, the marker written) and does not
+run it. A banked step that keeps nothing (a dataset too large to commit) counts as done while
+nothing still to run needs it; when a step to run does, it runs again (its command's own
+resume and fixed seeds make the same outputs): so a plan should keep, on the steps that end a
+chain, whatever a later step or the report reads.
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime
+import hashlib
 import json
 import os
+import re
 import shlex
+import shutil
 import subprocess
 import sys
 import time
@@ -73,6 +99,8 @@ class Step:
     """The file that defines it."""
     cores: int = 1
     needs: tuple[str, ...] = field(default=())
+    keep: tuple[str, ...] = field(default=())
+    """Patterns of the files under the root that the bank keeps (the module docstring)."""
 
 
 def read_plan(paths: list[Path], root: Path) -> list[Step]:
@@ -113,20 +141,130 @@ def _steps(path: Path, plan: dict[str, Any], values: dict[str, str]) -> list[Ste
     """The steps of one plan file, their commands filled in from ``values``."""
     steps = []
     for entry in plan.get("step", []):
-        unknown = set(entry) - {"name", "run", "cores", "needs"}
+        unknown = set(entry) - {"name", "run", "cores", "needs", "keep"}
         if unknown or not {"name", "run"} <= set(entry):
             raise SystemExit(
                 f"error: plan {path}: step {entry.get('name', '?')!r} needs 'name' and 'run' "
-                f"and may have 'cores', 'needs'; got {sorted(entry)}"
+                f"and may have 'cores', 'needs', 'keep'; got {sorted(entry)}"
             )
         try:
             run = " ".join(entry["run"].split()).format(**values)
+            keep = tuple(_relative(pattern.format(**values), values["root"], path, entry["name"])
+                         for pattern in entry.get("keep", ()))  # fmt: skip
         except KeyError as error:
             raise SystemExit(f"error: plan {path}: step {entry['name']!r} uses {error}, "
                              f"which [vars] does not define") from None  # fmt: skip
         steps.append(Step(entry["name"], run, path, int(entry.get("cores", 1)),
-                          tuple(entry.get("needs", ()))))  # fmt: skip
+                          tuple(entry.get("needs", ())), keep))  # fmt: skip
     return steps
+
+
+def _relative(pattern: str, root: str, plan: Path, name: str) -> str:
+    """A keep pattern relative to the root (``!`` kept in front)."""
+    exclude, body = ("!", pattern[1:]) if pattern.startswith("!") else ("", pattern)
+    if body.startswith(root + "/"):
+        body = body[len(root) + 1 :]
+    if not body or body.startswith("/") or ".." in body.split("/"):
+        raise SystemExit(f"error: plan {plan}: step {name!r} keeps {pattern!r}, which is not a "
+                         "path under the root")  # fmt: skip
+    return exclude + body
+
+
+def _pattern(glob: str) -> re.Pattern[str]:
+    """``glob`` as a regular expression over POSIX paths: ``**`` any folders, ``*`` and ``?``
+    within one."""
+    parts = re.split(r"(\*\*/?|\*|\?)", glob)
+    wild = {"**/": "(?:.*/)?", "**": ".*", "*": "[^/]*", "?": "[^/]"}
+    return re.compile("".join(wild.get(part, re.escape(part)) for part in parts))
+
+
+def kept_files(step: Step, root: Path) -> list[str]:
+    """The files under ``root`` that ``step.keep`` matches, relative and sorted.
+
+    Raises:
+        SystemExit: a pattern (not ``!``) matches no file.
+    """
+    files = sorted(path.relative_to(root).as_posix() for path in root.rglob("*")
+                   if path.is_file() and not path.is_symlink())  # fmt: skip
+    chosen: set[str] = set()
+    for pattern in step.keep:
+        if pattern.startswith("!"):
+            chosen -= {f for f in chosen if _pattern(pattern[1:]).fullmatch(f)}
+            continue
+        matched = {f for f in files if _pattern(pattern).fullmatch(f)}
+        if not matched:
+            raise SystemExit(f"step {step.name!r} keeps {pattern!r}, which matches no file "
+                             f"under {root}")  # fmt: skip
+        chosen |= matched
+    return sorted(chosen)
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as file:
+        for block in iter(lambda: file.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _copy(source: Path, target: Path) -> None:
+    """Copy ``source`` to ``target`` atomically (a temporary file renamed over it)."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    temporary = target.with_name(f".{target.name}.tmp")
+    shutil.copyfile(source, temporary)
+    os.replace(temporary, target)
+
+
+def deposit(step: Step, root: Path, bank: Path) -> None:
+    """Bank ``step``: its record and copies of its kept files, replacing any earlier ones."""
+    files = kept_files(step, root)
+    staging, old = bank / f".{step.name}.tmp", bank / f".{step.name}.old"
+    for folder in (staging, old):
+        shutil.rmtree(folder, ignore_errors=True)
+    for name in files:
+        _copy(root / name, staging / "files" / name)
+    record = {"run": _rooted(step, root), "banked": _now().isoformat(),
+              "files": {name: _sha256(staging / "files" / name) for name in files}}  # fmt: skip
+    staging.mkdir(parents=True, exist_ok=True)
+    (staging / "record.json").write_text(json.dumps(record, indent=1) + "\n")
+    if (bank / step.name).exists():
+        os.replace(bank / step.name, old)
+    os.replace(staging, bank / step.name)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def _rooted(step: Step, root: Path) -> str:
+    """``step``'s command as the bank records it: ``{root}`` for the root, which another
+    machine may place elsewhere."""
+    return step.run.replace(str(root), "{root}")
+
+
+def banked(step: Step, root: Path, bank: Path | None) -> dict[str, str] | None:
+    """The kept files (name → SHA-256) of ``step``'s record in ``bank``, or None where there
+    is none for its command, or a copy lacks or differs from its recorded hash."""
+    record_path = None if bank is None else bank / step.name / "record.json"
+    if record_path is None or not record_path.is_file():
+        return None
+    record = json.loads(record_path.read_text())
+    if record.get("run") != _rooted(step, root):
+        return None
+    files = record["files"]
+    for name, digest in files.items():
+        copy = bank / step.name / "files" / name
+        if not copy.is_file() or _sha256(copy) != digest:
+            print(f"bank: {copy} is missing or not the file its record names; "
+                  f"{step.name} is not restored", flush=True)  # fmt: skip
+            return None
+    return files
+
+
+def withdraw(step: Step, files: dict[str, str], root: Path, bank: Path) -> None:
+    """Put ``step``'s banked files back under ``root`` and mark it done."""
+    for name, digest in files.items():
+        target = root / name
+        if not (target.is_file() and _sha256(target) == digest):
+            _copy(bank / step.name / "files" / name, target)
+    _mark(root / "done", step.name, step.run)
 
 
 def is_done(step: Step, root: Path) -> bool:
@@ -181,14 +319,38 @@ def _mark(folder: Path, name: str, text: str) -> None:
     os.replace(temporary, folder / name)
 
 
-def run(steps: list[Step], root: Path, cores: int) -> dict[str, str]:
+def _to_run_again(steps: list[Step], outcome: dict[str, str], resting: set[str]) -> set[str]:
+    """The banked steps in ``resting`` (nothing of theirs in the root) that a step still to run
+    needs, directly or through another such step."""
+    by_name = {step.name: step for step in steps}
+    wanted: set[str] = set()
+    waiting = [step for step in steps if step.name not in outcome and step.name not in resting]
+    while waiting:
+        for need in waiting.pop().needs:
+            if need in resting and need not in wanted:
+                wanted.add(need)
+                waiting.append(by_name[need])
+    return wanted
+
+
+def run(steps: list[Step], root: Path, cores: int, bank: Path | None = None) -> dict[str, str]:
     """Run the plan's missing steps (see the module docstring); each step's outcome."""
     for name, (pid, identity, started) in _running(root).items():
         if _alive(pid, identity):
             raise SystemExit(f"error: step {name!r} is still running (process {pid}, started "
                              f"{started}): another campaign.py runs on {root}; stop it first")  # fmt: skip
         (root / "running" / name).unlink()  # its driver was killed: the step resumes below
+    resting = set()
+    for step in steps:
+        files = None if is_done(step, root) else banked(step, root, bank)
+        if files is not None and step.keep:
+            withdraw(step, files, root, bank)
+            print(f"{step.name}: restored from {bank}", flush=True)
+        elif files is not None:
+            resting.add(step.name)
     outcome = {step.name: "done" for step in steps if is_done(step, root)}
+    again = _to_run_again(steps, outcome, resting)
+    outcome |= {name: "banked" for name in resting - again}
     running: dict[str, tuple[Step, subprocess.Popen, datetime.datetime]] = {}
     (root / "logs").mkdir(parents=True, exist_ok=True)
     while True:
@@ -197,10 +359,14 @@ def run(steps: list[Step], root: Path, cores: int) -> dict[str, str]:
                 continue
             del running[name]
             now = _now()
-            if process.returncode == 0:
+            kept = process.returncode == 0 and _deposit_or_why(step, root, bank)
+            if kept is True:
                 _mark(root / "done", name, step.run)
                 (root / "failed" / name).unlink(missing_ok=True)
                 outcome[name] = "done"
+            elif kept:
+                _mark(root / "failed", name, f"{kept} at {now.isoformat()}\n")
+                outcome[name] = f"failed ({kept})"
             else:
                 _mark(root / "failed", name, f"exit {process.returncode} at {now.isoformat()}\n")
                 outcome[name] = f"failed (exit {process.returncode})"
@@ -209,7 +375,7 @@ def run(steps: list[Step], root: Path, cores: int) -> dict[str, str]:
             print(f"{now.isoformat()} {name}: {outcome[name]} after {minutes:.0f} min", flush=True)
         free = cores - sum(step.cores for step, _, _ in running.values())
         for step in steps:
-            ready = all(outcome.get(need) == "done" for need in step.needs)
+            ready = all(outcome.get(need) in ("done", "banked") for need in step.needs)
             if step.name in outcome or step.name in running or not ready or step.cores > free:
                 continue
             log = open(root / "logs" / f"{step.name}.log", "a")  # the child's output
@@ -233,13 +399,28 @@ def run(steps: list[Step], root: Path, cores: int) -> dict[str, str]:
     return outcome
 
 
-def status(steps: list[Step], root: Path) -> dict[str, str]:
-    """Each step's state on disk: done, running, stopped with its driver, failed, or not yet."""
+def _deposit_or_why(step: Step, root: Path, bank: Path | None) -> bool | str:
+    """Bank a step that exited 0: True, or why it could not (a keep pattern matched nothing)."""
+    if bank is None:
+        return True
+    try:
+        deposit(step, root, bank)
+    except SystemExit as error:
+        return str(error)
+    return True
+
+
+def status(steps: list[Step], root: Path, bank: Path | None = None) -> dict[str, str]:
+    """Each step's state on disk: done, banked, running, stopped with its driver, failed, or
+    not yet."""
     states, running = {}, _running(root)
     for step in steps:
         failed = root / "failed" / step.name
         if is_done(step, root):
             states[step.name] = "done"
+        elif banked(step, root, bank) is not None:
+            states[step.name] = ("banked: the next run restores it" if step.keep else
+                                 "banked: runs again only if a step to run needs it")  # fmt: skip
         elif step.name in running:
             pid, identity, started = running[step.name]
             states[step.name] = (f"running since {started} (process {pid})"
@@ -287,6 +468,10 @@ def main() -> None:
                         "default: out/campaign)")  # fmt: skip
     parser.add_argument("--cores", type=int, default=os.cpu_count() or 1,
                         help="cores the running steps may use together (default: all)")  # fmt: skip
+    parser.add_argument("--bank", type=Path, default=None,
+                        help="folder (in the repository, committed) that keeps each finished "
+                        "step's record and the files its 'keep' patterns match; a root without "
+                        "them takes them back from it (default: no bank)")  # fmt: skip
     args = parse_args(
         parser,
         outputs=("root",),
@@ -300,23 +485,24 @@ def main() -> None:
         parser.error("the plan's TOML file is needed")
     root = args.root.resolve()
     steps = read_plan(args.plan, root)
+    bank = None if args.bank is None else args.bank.resolve()
     if args.action == "status":
-        for name, state in status(steps, root).items():
+        for name, state in status(steps, root, bank).items():
             print(f"{name:30s} {state}")
         return
     if args.action == "show":
         for step in steps:
             print(json.dumps({"name": step.name, "cores": step.cores, "needs": list(step.needs),
-                              "run": step.run}))  # fmt: skip
+                              "keep": list(step.keep), "run": step.run}))  # fmt: skip
         return
-    outcome = run(steps, root, args.cores)
+    outcome = run(steps, root, args.cores, bank)
     if args.quick:  # again: only what failed runs
         again = run(steps, root, args.cores)
         command = " ".join(["python", *sys.argv])
         write_result(args.quick / "campaign", "campaign driver, quick plan", command, [],
                      steps={"first run": outcome, "second run": again})  # fmt: skip
         return
-    failed = [name for name, state in status(steps, root).items() if state != "done"]
+    failed = [name for name, state in outcome.items() if state not in ("done", "banked")]
     if failed:
         raise SystemExit(f"not done: {', '.join(failed)} (logs in {root / 'logs'})")
 

@@ -1,7 +1,8 @@
 """experiments/campaign.py, run as a script: a plan's steps run in dependency order within the
-cores, resume by their done markers, run again when their command changes, and a bad plan is one
-clear line."""
+cores, resume by their done markers, run again when their command changes, outlive their root
+through the bank, and a bad plan is one clear line."""
 
+import hashlib
 import json
 import os
 import subprocess
@@ -37,10 +38,10 @@ def _plan(tmp_path, text, name="plan.toml"):
     return path
 
 
-def _step(name, code, needs=(), cores=1):
+def _step(name, code, needs=(), cores=1, keep=()):
     run = f"{sys.executable} -c '{code}'"  # a TOML multi-line literal string: quotes as they are
     return (f'[[step]]\nname = "{name}"\ncores = {cores}\nneeds = {list(needs)!r}\n'
-            f"run = '''{run}'''\n")  # fmt: skip
+            f"keep = {list(keep)!r}\nrun = '''{run}'''\n")  # fmt: skip
 
 
 def test_steps_run_after_their_needs_and_a_changed_command_runs_again(tmp_path):
@@ -68,8 +69,8 @@ def test_show_prints_the_steps_with_their_vars_filled_in(tmp_path):
     done = _campaign("show", [_plan(tmp_path, text)], tmp_path)
     assert done.returncode == 0, done.stderr
     assert [json.loads(line) for line in done.stdout.splitlines()] == [
-        {"name": "a", "cores": 2, "needs": [], "run": f"make {tmp_path}/out"},
-        {"name": "b", "cores": 1, "needs": ["a"], "run": f"use {tmp_path}/out"},
+        {"name": "a", "cores": 2, "needs": [], "keep": [], "run": f"make {tmp_path}/out"},
+        {"name": "b", "cores": 1, "needs": ["a"], "keep": [], "run": f"use {tmp_path}/out"},
     ]
 
 
@@ -129,6 +130,8 @@ def test_a_second_plan_file_uses_the_first_ones_vars_and_steps(tmp_path):
          "needs ['b'], which are not steps listed before it"),
         ('[[step]]\nname = "a"\nrun = "x"\n[[step]]\nname = "a"\nrun = "y"\n', "names repeat"),
         ("[[step]\n", "plan.toml"),
+        ('[[step]]\nname = "a"\nrun = "x"\nkeep = ["/etc/x"]\n', "not a path under the root"),
+        ('[[step]]\nname = "a"\nrun = "x"\nkeep = ["../x"]\n', "not a path under the root"),
     ],
 )  # fmt: skip
 def test_a_bad_plan_is_one_line_naming_the_file_and_step(tmp_path, text, message):
@@ -180,3 +183,105 @@ def test_a_malformed_running_marker_is_one_line_naming_the_file(tmp_path):
     done = _campaign("status", [plan], tmp_path)
     assert done.returncode == 1 and done.stderr.count("\n") == 1
     assert "running marker" in done.stderr and "step holds '12345'" in done.stderr
+
+
+def _chain(log):
+    """A dataset, a training run, its selection (kept) and a report (kept); each step appends its
+    letter to ``log``, outside every root."""
+    write = (
+        'import pathlib; p = pathlib.Path("{{root}}/{path}"); p.parent.mkdir(parents=True, '
+        'exist_ok=True); p.write_text({text}); open("' + str(log) + '", "a").write("{letter}")'
+    )
+    return "".join([
+        _step("data", write.format(path="data/scenes.txt", text='"scenes"', letter="D")),
+        _step("train", write.format(path="runs/s0/last.txt",
+              text='open("{root}/data/scenes.txt").read() + " model"', letter="T"),
+              needs=["data"]),
+        _step("select", write.format(path="runs/s0/best.txt",
+              text='open("{root}/runs/s0/last.txt").read() + " best"', letter="S"),
+              needs=["train"], keep=["{root}/runs/s0/best.txt"]),
+        _step("report", write.format(path="report/s0/table.md",
+              text='open("{root}/runs/s0/best.txt").read() + " table"', letter="R"),
+              needs=["select"], keep=["report/**", "!**/*.log"]),
+    ])  # fmt: skip
+
+
+def _banked_status(plan, root, bank):
+    done = _campaign("status", [plan], root, "--bank", bank)
+    assert done.returncode == 0, done.stderr
+    return dict(line.split(maxsplit=1) for line in done.stdout.splitlines())
+
+
+def test_a_fresh_root_takes_kept_steps_back_from_the_bank_and_runs_nothing_again(tmp_path):
+    log, bank, first = tmp_path / "log.txt", tmp_path / "bank", tmp_path / "first"
+    plan = _plan(tmp_path, _chain(log))
+    assert _campaign("run", [plan], first, "--bank", bank).returncode == 0
+    assert log.read_text() == "DTSR"
+    (first / "report" / "s0" / "note.log").write_text("not kept")
+    assert sorted(p.relative_to(bank).as_posix() for p in bank.rglob("*") if p.is_file()) == [
+        "data/record.json", "report/files/report/s0/table.md", "report/record.json",
+        "select/files/runs/s0/best.txt", "select/record.json", "train/record.json",
+    ]  # fmt: skip
+    record = json.loads((bank / "select" / "record.json").read_text())
+    shown = [json.loads(line) for line in _campaign("show", [plan], first).stdout.splitlines()]
+    assert record["run"] == shown[2]["run"].replace(str(first), "{root}")
+    assert shown[2]["keep"] == ["runs/s0/best.txt"]
+    assert record["files"] == {"runs/s0/best.txt": hashlib.sha256(b"scenes model best").hexdigest()}
+
+    second = tmp_path / "second"  # the machine was replaced: a new, empty root
+    assert _status([plan], second) == dict.fromkeys(("data", "train", "select", "report"), "to do")
+    assert _banked_status(plan, second, bank) == {
+        "data": "banked: runs again only if a step to run needs it",
+        "train": "banked: runs again only if a step to run needs it",
+        "select": "banked: the next run restores it",
+        "report": "banked: the next run restores it",
+    }
+    done = _campaign("run", [plan], second, "--bank", bank)
+    assert done.returncode == 0, done.stderr
+    assert log.read_text() == "DTSR"  # nothing ran again
+    assert "select: restored from" in done.stdout and "report: restored from" in done.stdout
+    for kept in ("runs/s0/best.txt", "report/s0/table.md"):
+        assert (second / kept).read_bytes() == (first / kept).read_bytes()
+    assert not (second / "data").exists() and not (second / "report" / "s0" / "note.log").exists()
+    assert _banked_status(plan, second, bank)["report"] == "done"
+
+
+def test_a_banked_step_that_keeps_nothing_runs_again_when_a_new_step_needs_it(tmp_path):
+    log, bank = tmp_path / "log.txt", tmp_path / "bank"
+    text = _chain(log)
+    assert _campaign("run", [_plan(tmp_path, text)], tmp_path / "a", "--bank", bank).returncode == 0
+    seed1 = _step("train-s1", 'open("{root}/data/scenes.txt").read(); open("' + str(log)
+                  + '", "a").write("1")', needs=["data"])  # fmt: skip
+    done = _campaign("run", [_plan(tmp_path, text + seed1)], tmp_path / "b", "--bank", bank)
+    assert done.returncode == 0, done.stderr
+    assert log.read_text() == "DTSR" + "D1"  # the dataset again, for the new run alone
+
+
+def test_the_bank_refuses_an_altered_copy_and_a_changed_command(tmp_path):
+    log, bank = tmp_path / "log.txt", tmp_path / "bank"
+    text = _chain(log)
+    plan = _plan(tmp_path, text)
+    assert _campaign("run", [plan], tmp_path / "a", "--bank", bank).returncode == 0
+    (bank / "report" / "files" / "report" / "s0" / "table.md").write_text("edited")
+    done = _campaign("run", [plan], tmp_path / "b", "--bank", bank)
+    assert done.returncode == 0, done.stderr
+    assert "is missing or not the file its record names; report is not restored" in done.stdout
+    assert log.read_text() == "DTSR" + "R"  # the report again, on the restored selection
+    assert (tmp_path / "b" / "report" / "s0" / "table.md").read_text() == "scenes model best table"
+    changed = _plan(tmp_path, text.replace('" best"', '" best!"'))
+    assert _campaign("run", [changed], tmp_path / "c", "--bank", bank).returncode == 0
+    # the changed selection and what it needs; the report, its command unchanged, comes back
+    # from the bank, as it would stay done in a root that was kept
+    assert log.read_text() == "DTSRR" + "DTS"
+
+
+def test_a_keep_pattern_that_matches_nothing_fails_its_step(tmp_path):
+    text = "".join([
+        _step("made", 'open("{root}/a.txt", "w")', keep=["b/*.txt"]),
+        _step("after", 'open("{root}/after.txt", "w")', needs=["made"]),
+    ])  # fmt: skip
+    done = _campaign("run", [_plan(tmp_path, text)], tmp_path / "root", "--bank", tmp_path / "bank")
+    assert done.returncode == 1
+    assert "made: failed (step 'made' keeps 'b/*.txt', which matches no file under" in done.stdout
+    assert not (tmp_path / "root" / "after.txt").exists()
+    assert not (tmp_path / "bank" / "made").exists()

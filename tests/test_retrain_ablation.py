@@ -7,6 +7,7 @@ none_found, the effects against today and the main effects, the robustness gaps 
 of training seeds for both conditions, the runs missing or unusable named with the reason, and
 that the campaign plan writes the runs and folders the script reads."""
 
+import importlib.util
 import json
 import os
 import shlex
@@ -368,28 +369,92 @@ def test_every_final_run_is_judged_on_the_rounds_no_checkpoint_was_chosen_by():
         assert "--seed" not in select  # the selections' own rounds, from 1 000 000
 
 
-def test_the_franka_data_waits_for_its_offset_decision():
-    """final.toml: the Franka's data is made after the oracle's two readings of its databases'
-    offset range (the same rounds, only --oracle-offset differing) and the recorded decision
-    (today's range: its data takes no --offset)."""
+def test_the_franka_data_takes_the_offset_range_its_recorded_decision_chose():
+    """final.toml: the Franka's data keeps today's offset range (no --offset), as the committed
+    decision on the oracle's two readings says, where the Robotiq's takes the wide one."""
     steps = campaign_steps("experiments/campaigns/final.toml")
-    today = shlex.split(steps["oracle-franka-today"]["run"])
-    wide = shlex.split(steps["oracle-franka-wide"]["run"])
-    i = wide.index("--oracle-offset")
-    assert wide[i : i + 3] == ["--oracle-offset", "-0.03", "0.03"]
-    del wide[i : i + 3]
-    assert [w for w in wide if "oracle-franka" not in w] == [
-        w for w in today if "oracle-franka" not in w
-    ]
-    assert today[today.index("--gripper") + 1] == "franka"
-    gate = steps["franka-offset-decision"]
-    assert set(gate["needs"]) == {"oracle-franka-today", "oracle-franka-wide"}
-    assert gate["run"] == "test -s /root/franka-offset-decision.md"
-    assert steps["data-franka"]["needs"] == ["franka-offset-decision"]
-    assert "--offset" not in steps["data-franka"]["run"] and "--offset" in steps["data-wide"]["run"]
+    decision = (ROOT / "experiments/results/franka_offset_decision.md").read_text()
+    assert "today" in decision and "85.4" in decision and "79.4" in decision
+    assert "--offset" not in steps["data-franka"]["run"]
+    assert "--offset -0.03 0.03" in steps["data-wide"]["run"]
     for name, step in steps.items():
         if "--gripper franka" in step["run"] and name.startswith("dense-franka"):
             assert step["needs"] == ["data-franka"]
+
+
+def _campaign_module():
+    spec = importlib.util.spec_from_file_location("campaign", ROOT / "experiments/campaign.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("campaign", module)  # its dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_bank_keeps_what_the_collations_read_each_file_by_one_step(tmp_path):
+    """final.toml + retrain_cells.toml under --bank: a root holding what every step writes (a
+    run's checkpoints, its selection records, each benchmark's rounds, each Table 1 cell on
+    both round-seed ranges, each robustness condition) has each file the reports read kept by
+    exactly one step, the one that wrote it, and no checkpoint but best.pt kept."""
+    campaign = _campaign_module()
+    shown = campaign_steps(
+        "experiments/campaigns/final.toml", "experiments/campaigns/retrain_cells.toml"
+    )
+    steps = [campaign.Step(s["name"], s["run"], Path("plan"), s["cores"], tuple(s["needs"]),
+                           tuple(s["keep"])) for s in shown.values()]  # fmt: skip
+    writer = {}  # file under the root → the step that writes it
+    hands = {"wide": "robotiq-2f85", "wide-calibrated": "robotiq-2f85", "dense-franka": "franka"}
+    for name in shown:
+        if not name.startswith("select-"):
+            continue
+        run = name.removeprefix("select-")
+        for file in ("best.pt", "selection.json", "selection.csv",
+                     "selection/declutter/v1/epoch_001-ab12/rounds.jsonl"):  # fmt: skip
+            writer[f"runs/{run}/{file}"] = name
+        for file in ("epoch_001.pt", "last.pt"):
+            writer[f"runs/{run}/{file}"] = None  # the training's: not kept
+    for name, step in shown.items():
+        words = shlex.split(step["run"])
+        if words[:3] == ["symgrasp", "bench", "declutter"]:
+            out = Path(words[words.index("--out") + 1]).relative_to("/root")
+            writer[f"{out}/rounds.jsonl"] = writer[f"{out}/summary.json"] = name
+        if name.startswith("cells-"):
+            prefix, rep, seed = next((p, *name.removeprefix(f"cells-{p}-").split("-s", 1))
+                                     for p in ("dense-franka", "wide") if name.startswith(f"cells-{p}-"))  # fmt: skip
+            seed, late = seed.split("-", 1) if "-" in seed else (seed, "")
+            for rep_folder in (rep, f"{rep}-noconf"):
+                for objects in ("vgn-pile-test", "large-box", "vgn-packed-test-packed"):
+                    folder = f"{objects}-{late}" if late else objects
+                    base = f"bench/table/{hands[prefix]}/{rep_folder}/s{seed}/{folder}"
+                    writer[f"{base}/rounds.jsonl"] = name
+        if name.startswith("robustness-") and name != "robustness-retrained":
+            model = Path(words[words.index("--models") + 1])
+            prefix, rep, seed = model.parent.name.rsplit("-", 2)
+            objects = {"vgn-pile-test:pile": "vgn-pile-test",
+                       "vgn-packed-test:packed": "vgn-packed-test-packed"}[words[words.index("--sets") + 1]]  # fmt: skip
+            for condition in ("clean", "noise", "side-view"):
+                writer[f"bench/robustness/{hands[prefix]}/{rep}/{seed}/{objects}-first-seed-100/"
+                       f"{condition}/rounds.jsonl"] = name  # fmt: skip
+    for file in writer:
+        (tmp_path / file).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / file).write_text(file)
+    for data in ("wide", "franka-dense", "wide-calibrated"):
+        (tmp_path / f"data/{data}/scenes/scene_000000.npz").parent.mkdir(parents=True)
+        (tmp_path / f"data/{data}/scenes/scene_000000.npz").write_text("scene")
+    (tmp_path / "data/wide/card.json").write_text("card")
+    (tmp_path / "data/wide/card.png").write_text("card")
+    kept_by = {}
+    for step in steps:
+        if step.keep:
+            for file in campaign.kept_files(step, tmp_path):
+                assert file not in kept_by, f"{file}: kept by {kept_by[file]} and {step.name}"
+                kept_by[file] = step.name
+    for file, name in writer.items():
+        assert kept_by.get(file) == name, file
+    assert not any(f.startswith("data/") for f in kept_by if not f.startswith("data/wide/card"))
+    for name, step in shown.items():  # what a later step or the report reads is kept
+        if name.startswith(("select-", "judge-", "val-noise", "cells-", "robustness-wide",
+                            "robustness-dense")):  # fmt: skip
+            assert step["keep"], name
 
 
 def test_every_final_run_plays_both_round_seed_ranges_before_their_collations(tmp_path):
