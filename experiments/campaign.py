@@ -1,7 +1,7 @@
 """Run a plan of long commands (datasets, training runs, benchmarks) that outlives any session.
 
-    PYTHONPATH=src python experiments/campaign.py run PLAN.toml [PLAN.toml ...] [--root DIR] [--cores 2]
-    PYTHONPATH=src python experiments/campaign.py status PLAN.toml [PLAN.toml ...] [--root DIR]
+    PYTHONPATH=src python experiments/campaign.py run PLAN.toml [PLAN.toml ...] [--root DIR] [--cores 2] [--bank DIR]
+    PYTHONPATH=src python experiments/campaign.py status PLAN.toml [PLAN.toml ...] [--root DIR] [--bank DIR]
     PYTHONPATH=src python experiments/campaign.py show PLAN.toml [PLAN.toml ...] [--root DIR]
     PYTHONPATH=src python experiments/campaign.py run --quick [DIR]
 
