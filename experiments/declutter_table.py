@@ -523,6 +523,12 @@ def main() -> None:
         shutil.copyfile(parser.get_default("docs"), args.docs)
     if args.first_seed < 0:
         parser.error(f"--first-seed: expected a round seed ≥ 0, got {args.first_seed}")
+    table1 = [f"--{dest}" for dest in ("figure", "archive", "docs")
+              if getattr(args, dest) == parser.get_default(dest)]  # fmt: skip
+    other = Path(args.result).resolve() != Path(parser.get_default("result")).resolve()
+    if other and table1 and not args.play_only:
+        parser.error(f"--result {args.result} is not Table 1's, but {', '.join(table1)} "
+                     "would write over Table 1's committed files: name them too")  # fmt: skip
     for dest in OUTPUTS:  # another first seed's outputs beside Table 1's, never over them
         path, default = Path(getattr(args, dest)), Path(parser.get_default(dest))
         if path.name == default.name:

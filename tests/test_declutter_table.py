@@ -183,3 +183,19 @@ def test_the_readme_headline_quotes_the_stored_table():
                     and m["b"] == ["rotmat6d", True] and m["objects"] == "vgn-pile-test")  # fmt: skip
         change, low, high = (_quoted(v, True) for v in lead["change"]["success_ratio"])
         assert f"{change} [{low}, {high}]" in readme, gripper
+
+
+@pytest.mark.parametrize("named", [(), ("--figure",), ("--figure", "--archive")])
+def test_a_collation_of_other_cells_names_every_file_it_writes(tmp_path, named):
+    """--result away from Table 1's with --figure, --archive or --docs left at Table 1's
+    committed files is refused before anything is read or written, naming the ones left."""
+    options = [option for name in named for option in (name, str(tmp_path / name.lstrip("-")))]
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), "--collate-only", "--runs", str(tmp_path / "runs"),
+         "--out", str(tmp_path / "cells"), "--result", str(tmp_path / "table"), *options],
+        capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+    )  # fmt: skip
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    left = [o for o in ("--figure", "--archive", "--docs") if o not in named]
+    assert f"is not Table 1's, but {', '.join(left)} would write over" in done.stderr
+    assert not any(tmp_path.iterdir())

@@ -243,11 +243,10 @@ def first_free(
     batch: int = 8,
 ) -> tuple[Grasp | None, int]:
     """The first candidate whose open hand, swept from the pre-grasp, keeps ``surface_clearance``
-    [m] from ``points`` (by default −2 mm: points that deep inside its boxes pass, the fingers
-    touch what they grasp and the points are noisy; `symgrasp.config.SURFACE_CLEARANCE`) and
-    ``table_clearance`` above the table, as the labels' check keeps it
-    (`symgrasp.config.TABLE_CLEARANCE`); and how many before it were rejected. Checked in small
-    batches: the first one usually passes."""
+    [m] from ``points`` and ``table_clearance`` above the table (both by default the labels'
+    1 mm: `symgrasp.config.SURFACE_CLEARANCE` and `TABLE_CLEARANCE`; a negative value lets
+    points that deep inside the hand's boxes pass); and how many before it were rejected.
+    Checked in small batches: the first one usually passes."""
     for start in range(0, len(candidates), batch):
         chunk = candidates[start : start + batch]
         hits = hand_collides(
