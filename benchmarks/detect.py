@@ -1,7 +1,7 @@
 """Latency of grasp detection, depth image to ranked grasps → benchmarks/results/detect.json.
 
     PYTHONPATH=src python benchmarks/detect.py [--model bingham2d-robotiq-2f85] [--repeats 100]
-        [--block 10] [--device cpu] [--table-scale] [--quick [DIR]]
+        [--block 10] [--device cpu] [--table-scale] [--approach-check] [--quick [DIR]]
 
 Renders one 640×480 depth image of a 5-object household-test pile (seed 0) from the default
 camera, then times ``GraspDetector.detect`` on it, per stage (TSDF fusion, network, decoding)
@@ -13,7 +13,10 @@ the same grasps. Target: ≤ 15 ms per image (median) on the 2-core CPU, for the
 detector. ``--device cuda`` times both on a GPU instead (written to ``detect-cuda.json``; the
 target is the CPU's). ``--table-scale`` times detectors that divide the image by the depth
 scale read off the table first (``GraspDetector(table_scale=True)``, part of the TSDF stage;
-written to ``detect-table.json``, or ``detect-DEVICE-table.json``). The decoding stage depends
+written to ``detect-table.json``, or ``detect-DEVICE-table.json``). ``--approach-check`` times
+detectors that return only the grasps whose approach keeps the benchmark's clearances
+(``GraspDetector(approach_check=True)``: a stage of its own, ``approach``, after decoding;
+written with ``-approach`` in the name). The decoding stage depends
 on how many voxels pass the thresholds, so the shipped model is timed, not a random network. ``--quick`` times two calls of each.
 """
 
@@ -63,14 +66,24 @@ def main() -> None:
         default=DEFAULT_OUT,
         help=f"result file (default: {DEFAULT_OUT}, or detect-DEVICE.json beside it off the CPU)",
     )
+    parser.add_argument(
+        "--approach-check",
+        action="store_true",
+        help="detectors that keep only the grasps whose approach is free of the seen surface "
+        "and the table (GraspDetector(approach_check=True), timed as its own stage; default: "
+        "off)",
+    )
     args = parse_args(parser, outputs=("out",), quick={"repeats": 2, "block": 1})
     on_cpu = args.device == "cpu"
     out = Path(args.out)
     if str(out) == DEFAULT_OUT:
         suffix = ("" if on_cpu else f"-{args.device}") + ("-table" if args.table_scale else "")
+        suffix += "-approach" if args.approach_check else ""
         out = out.with_name(f"detect{suffix}.json")
 
-    options = {"device": args.device, "table_scale": args.table_scale}
+    options = {"device": args.device, "table_scale": args.table_scale,
+               "approach_check": args.approach_check}  # fmt: skip
+    stages = STAGES + ("approach",) * args.approach_check
     detectors = {
         "eager": GraspDetector.from_pretrained(args.model, **options),
         "optimized": GraspDetector.from_pretrained(args.model, optimize=True, **options),
@@ -84,7 +97,7 @@ def main() -> None:
 
     grasps = {path: detector.detect(depth, intrinsic, T) for path, detector in detectors.items()}
     same = _same_grasps(*grasps.values())
-    times = {path: {stage: [] for stage in STAGES} for path in detectors}
+    times = {path: {stage: [] for stage in stages} for path in detectors}
     for _ in range(0, args.repeats, args.block):
         for path, detector in detectors.items():
             for _ in range(args.block):
@@ -100,12 +113,15 @@ def main() -> None:
         "the network eager and optimized (TorchScript, made for inference)",
         "command": "PYTHONPATH=src python benchmarks/detect.py "
         f"--model {args.model} --repeats {args.repeats} --block {args.block} "
-        f"--device {args.device}" + (" --table-scale" if args.table_scale else ""),
+        f"--device {args.device}"
+        + (" --table-scale" if args.table_scale else "")
+        + (" --approach-check" if args.approach_check else ""),
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "machine": machine(),
         "device": str(detectors["eager"].device),
         "model": args.model,
         "table_scale": args.table_scale,
+        "approach_check": args.approach_check,
         "depth_renderer": renderer.name,
         "grasps_returned": len(grasps["eager"]),
         "same_grasps": same,

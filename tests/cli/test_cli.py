@@ -56,6 +56,15 @@ def test_depth_scale_is_parsed_for_the_detector_which_checks_its_range(inputs, c
     assert "--depth-scale" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("given", [True, False])
+def test_approach_check_reaches_the_detector_of_detect_and_serve(given, inputs):
+    from symgrasp.cli.detect import load_detector
+
+    for command in ([*DETECT[:1], *DETECT[3:]], ["serve"]):  # the shipped default model
+        args = build_parser().parse_args(command + ["--approach-check"] * given)
+        assert load_detector(args).approach_check is given
+
+
 def test_building_the_parser_loads_neither_torch_nor_mujoco():
     import subprocess
     import sys

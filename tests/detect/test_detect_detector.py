@@ -239,3 +239,28 @@ def test_from_pretrained_loads_a_checkpoint_and_warns_about_another_gripper(tmp_
         GraspDetector.from_pretrained(shipped, device="cpu", gripper=FRANKA)
     with pytest.raises(ValueError, match="shipped"):
         GraspDetector.from_pretrained("no-such-model")
+
+
+def test_the_approach_check_keeps_the_grasps_the_benchmark_would_execute(empty_table_depth):
+    """Two grasps straight down over the empty table, the better one's TCP inside the table:
+    unchecked, both in rank order; checked, the one above it alone, the grasp the declutter
+    benchmark's own check (`first_free` on the fused surface) executes after rejecting one."""
+    from symgrasp.benchmark.declutter import first_free
+
+    depth, intrinsic, T = empty_table_depth
+    down = _bingham2d(_rotation([0, 0, -1], [1, 0, 0]))
+    voxels = {(20, 20, 5): (0.9, 0.9, down), (20, 20, 30): (0.5, 0.9, down)}  # z 4.1, 22.9 cm
+    unchecked = _detector(voxels, nms_radius=0).detect(depth, intrinsic, T)
+    assert [round(g.position[2], 5) for g in unchecked] == [0.04125, 0.22875]
+    checker = _detector(voxels, nms_radius=0, approach_check=True)
+    checked = checker.detect(depth, intrinsic, T)
+    assert len(checked) == 1 and np.array_equal(checked[0].pose, unchecked[1].pose)
+    assert set(checker.timing) == {"tsdf", "network", "decode", "approach"}
+    surface = checker.fuse(depth, intrinsic, T).point_cloud().numpy()
+    assert abs(np.median(surface[:, 2]) - 0.05) < 0.002  # the table top is what it checks against
+    chosen, rejected = first_free(unchecked, ROBOTIQ_2F85, surface)
+    assert rejected == 1 and np.array_equal(chosen.pose, checked[0].pose)
+    with pytest.raises(ValueError, match="detect_tsdf: approach_check needs the fused"):
+        checker.detect_tsdf(np.ones((R, R, R)))
+    with pytest.raises(TypeError, match="approach_check must be True or False"):
+        _detector(voxels, approach_check="yes")

@@ -177,6 +177,13 @@ def add_detector_options(parser: argparse.ArgumentParser, planners: bool = False
         "per image; not with --table-scale (default: none; docs/detect.md)",
     )
     parser.add_argument(
+        "--approach-check",
+        action="store_true",
+        help="return only the grasps whose open hand, swept in from the pre-grasp, keeps 1 mm "
+        "from the seen surface and the table: the check the declutter benchmark makes before "
+        "it executes the first of them (loads MuJoCo for the hand's boxes; docs/detect.md)",
+    )
+    parser.add_argument(
         "--optimize",
         action="store_true",
         help="run the network as a TorchScript graph made for inference: ≈ 0.45× the forward "
@@ -200,6 +207,7 @@ def load_detector(args: argparse.Namespace):  # -> GraspDetector (imported here,
         fill_holes=args.fill_holes,
         table_scale=args.table_scale,
         depth_scale=args.depth_scale,
+        approach_check=args.approach_check,
         optimize=args.optimize,
     )
 
@@ -296,6 +304,7 @@ def _check_planner_options(args: argparse.Namespace) -> None:
         "--fill-holes": args.fill_holes != 0,
         "--table-scale": args.table_scale,
         "--depth-scale": args.depth_scale is not None,
+        "--approach-check": args.approach_check,
         "--optimize": args.optimize,
     }
     if kind == "plugin":

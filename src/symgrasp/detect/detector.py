@@ -27,7 +27,13 @@ from typing import Any
 import numpy as np
 import torch
 
-from symgrasp.config import DEFAULT_VALIDITY, SEED_MAX, check_range
+from symgrasp.config import (
+    DEFAULT_VALIDITY,
+    SEED_MAX,
+    SURFACE_CLEARANCE,
+    TABLE_CLEARANCE,
+    check_range,
+)
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.planner import Observation
 from symgrasp.detect.pretrained import resolve_model
@@ -110,6 +116,13 @@ class GraspDetector:
             the table in each. Within ``1 ± MAX_SCALE_ERROR`` (a factor of 1000 is a unit,
             not a scale error: `load_depth`'s ``png_scale`` reads millimetres); not with
             ``table_scale``. None (default): no division.
+        approach_check: return only the grasps whose open hand, swept from the pre-grasp,
+            keeps the declutter benchmark's clearances from the fused surface and from the
+            table (`symgrasp.benchmark.declutter.first_free`'s check, 1 mm each: the grasp the
+            benchmark executes is the first such grasp), in their ranked order. Off by default
+            (every grasp the network ranks); on, the first detection builds the hand's boxes
+            in MuJoCo (`symgrasp.sim.collision`), which it then loads. `detect_tsdf` has no
+            fused volume to check against and refuses to run with it.
         seed: seed of ``samples_per_voxel``'s draws.
         optimize: run the network as a frozen TorchScript graph made for inference
             (`symgrasp.model.torchscript.optimize`: oneDNN convolutions on channels-last
@@ -140,6 +153,7 @@ class GraspDetector:
         fill_holes: int = 0,
         table_scale: bool = False,
         depth_scale: float | None = None,
+        approach_check: bool = False,
         seed: int = 0,
         optimize: bool = False,
         device: str | torch.device = "auto",
@@ -188,6 +202,9 @@ class GraspDetector:
             raise TypeError(f"table_scale must be True or False, got {table_scale!r}")
         self.table_scale = table_scale
         self.depth_scale = _check_depth_scale(depth_scale, table_scale)
+        if not isinstance(approach_check, bool):
+            raise TypeError(f"approach_check must be True or False, got {approach_check!r}")
+        self.approach_check = approach_check
         self.optimize = optimize
         self._graph = torchscript.optimize(self.model) if optimize else None
         self.gripper = _check_gripper(gripper)
@@ -346,7 +363,23 @@ class GraspDetector:
         tsdf_ms = _ms_since(start, self.device)
         grasps, out = self._detect(volume.grid())
         self.timing = {"tsdf": tsdf_ms, **self.timing}
+        if self.approach_check and grasps:
+            start = time.perf_counter()
+            grasps = self._approach_free(grasps, volume.point_cloud().cpu().numpy())
+            self.timing["approach"] = _ms_since(start, self.device)
         return grasps, out
+
+    def _approach_free(self, grasps: list[Grasp], points: np.ndarray) -> list[Grasp]:
+        """The grasps of ``grasps`` whose approach keeps the benchmark's clearances from the
+        surface ``points`` (P, 3) [m] and the table, in order (``approach_check``)."""
+        from symgrasp.sim.collision import hand_collides  # builds the hand in MuJoCo
+
+        hits = hand_collides(
+            np.array([g.pose for g in grasps]), self.gripper, points,
+            tolerance=-SURFACE_CLEARANCE, table_height=self.origin[2] + TABLE_HEIGHT,
+            table_tolerance=-TABLE_CLEARANCE,
+        )  # fmt: skip
+        return [grasp for grasp, hit in zip(grasps, hits, strict=True) if not hit]
 
     @torch.no_grad()
     def predict(self, tsdf: np.ndarray | Tensor) -> dict[str, Tensor]:
@@ -365,7 +398,11 @@ class GraspDetector:
         """Ranked grasps from a workspace TSDF (40, 40, 40) in [-1, 1] (ValueError outside it
         or non-finite: a TSDF's range is its definition). An empty list whose cause is visible
         (no voxel below 0: nothing seen inside the workspace; a non-finite network output)
-        comes with a `NoGraspWarning`."""
+        comes with a `NoGraspWarning`. Not with ``approach_check``, which needs the fused
+        volume's observed surface (`detect`, `detect_points`)."""
+        if self.approach_check:
+            raise ValueError("detect_tsdf: approach_check needs the fused depth images' surface; "
+                             "use detect or detect_points, or a detector without approach_check")  # fmt: skip
         grasps, out = self._detect(tsdf)
         if not grasps:
             _warn_no_grasp(_output_cause(out), _tsdf_cause(tsdf))
