@@ -375,7 +375,7 @@ def run(steps: list[Step], root: Path, cores: int, bank: Path | None = None) -> 
             print(f"{now.isoformat()} {name}: {outcome[name]} after {minutes:.0f} min", flush=True)
         free = cores - sum(step.cores for step, _, _ in running.values())
         for step in steps:
-            ready = all(outcome.get(need) in ("done", "banked") for need in step.needs)
+            ready = all(outcome.get(need) == "done" for need in step.needs)
             if step.name in outcome or step.name in running or not ready or step.cores > free:
                 continue
             log = open(root / "logs" / f"{step.name}.log", "a")  # the child's output
