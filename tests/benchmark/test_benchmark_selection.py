@@ -8,6 +8,7 @@ import math
 import shutil
 
 import pytest
+import torch
 from torch.utils.data import Dataset
 
 from symgrasp.benchmark import selection as sel
@@ -90,6 +91,11 @@ def test_a_metric_column_chooses_its_best_epoch(run, by, column, sign):
     assert selection["by"] == column and selection["better"] == ("higher" if sign > 0 else "lower")
     best = load_checkpoint(run / "best.pt")
     assert best["epoch"] == expected and best["selection"]["by"] == column
+    chosen = load_checkpoint(run / selection["chosen"]["checkpoint"])
+    assert "optimizer" in chosen and "optimizer" not in best  # resuming reads last.pt alone
+    assert best.keys() == (chosen.keys() - {"optimizer"}) | {"selection"}
+    for name, weights in chosen["model"].items():
+        assert torch.equal(best["model"][name], weights)
     assert (run / "best_val_loss.pt").is_file()  # training's choice, kept once
     with open(run / "selection.csv") as file:
         table = list(csv.DictReader(file))

@@ -518,8 +518,10 @@ def choose(table: list[dict[str, Any]], measure: str, sign: int) -> dict[str, An
 
 
 def _install(run: Path, chosen: Path, selection: dict[str, Any]) -> None:
-    """Copy ``chosen`` to ``run/best.pt`` with the choice recorded in it (``"selection"``),
-    atomically. A best.pt that training chose by validation loss is kept once, as
+    """Copy ``chosen`` to ``run/best.pt`` with the choice recorded in it (``"selection"``) and
+    without the optimizer's state, which only resuming training reads (from ``last.pt``): a
+    third of the file, so that a campaign's bank keeps a selected run for 0.9 MB, not 2.7.
+    Atomically. A best.pt that training chose by validation loss is kept once, as
     ``best_val_loss.pt``."""
     best = run / "best.pt"
     if best.is_file() and not (run / "best_val_loss.pt").exists():
@@ -527,5 +529,6 @@ def _install(run: Path, chosen: Path, selection: dict[str, Any]) -> None:
         if "selection" not in previous:
             save_checkpoint(run / "best_val_loss.pt", previous)
     state = load_checkpoint(chosen)
+    state.pop("optimizer", None)
     state["selection"] = {key: value for key, value in selection.items() if key != "checkpoints"}
     save_checkpoint(best, state)
