@@ -79,6 +79,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from symgrasp.atomic import write_atomic
 from symgrasp.scripts import parse_args, run_main, write_result
 
 try:
@@ -189,9 +190,11 @@ def kept_files(step: Step, root: Path) -> list[str]:
     chosen: set[str] = set()
     for pattern in step.keep:
         if pattern.startswith("!"):
-            chosen -= {f for f in chosen if _pattern(pattern[1:]).fullmatch(f)}
+            left_out = _pattern(pattern[1:])
+            chosen -= {f for f in chosen if left_out.fullmatch(f)}
             continue
-        matched = {f for f in files if _pattern(pattern).fullmatch(f)}
+        kept = _pattern(pattern)
+        matched = {f for f in files if kept.fullmatch(f)}
         if not matched:
             raise SystemExit(f"step {step.name!r} keeps {pattern!r}, which matches no file "
                              f"under {root}")  # fmt: skip
@@ -208,11 +211,9 @@ def _sha256(path: Path) -> str:
 
 
 def _copy(source: Path, target: Path) -> None:
-    """Copy ``source`` to ``target`` atomically (a temporary file renamed over it)."""
-    target.parent.mkdir(parents=True, exist_ok=True)
-    temporary = target.with_name(f".{target.name}.tmp")
-    shutil.copyfile(source, temporary)
-    os.replace(temporary, target)
+    """Copy ``source`` to ``target`` atomically."""
+    with open(source, "rb") as original:
+        write_atomic(target, lambda file: shutil.copyfileobj(original, file))
 
 
 def deposit(step: Step, root: Path, bank: Path) -> None:
