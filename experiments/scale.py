@@ -31,6 +31,7 @@ from common import add_result_option
 
 from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
 from symgrasp.parallel import Job, open_executor
+from symgrasp.parallel.cluster import import_ray
 from symgrasp.scripts import parse_args, run_main, write_result
 
 RUNS = (("process", 1), ("process", 2), ("ray", 1), ("ray", 2))
@@ -59,8 +60,7 @@ def _run(backend: str, workers: int, cfg: SceneConfig, args: argparse.Namespace)
     parallel = ParallelConfig(backend, workers)
     cell: dict = {"backend": backend, "workers": workers}
     if backend == "ray":  # started here, so that generate joins it and the runs time work only
-        import ray
-
+        ray = import_ray()
         start = time.perf_counter()
         ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
         cell["ray_start_seconds"] = time.perf_counter() - start
@@ -108,6 +108,7 @@ def main() -> None:
         outputs=("out", "result"),
         quick={"scenes": 4, "pool": 2, "grasps": 10, "directions": 4, "noop": 40, "repeats": 1},
     )
+    import_ray()  # half of the runs are Ray's: without it, stop before building anything
     database = DatabaseConfig(grasps=args.grasps, directions=args.directions)
     cfg = SceneConfig(pool_size=args.pool, database=database)
     from symgrasp.data.generate import generate

@@ -28,6 +28,10 @@ from symgrasp.parallel import TasksFailed
 QUICK_DIR = Path("out/bench-quick")
 """Where ``--quick`` writes when given no folder."""
 
+EX_UNAVAILABLE = 69
+"""The exit status of a script that needs an optional extra not installed (sysexits.h: "a
+support program does not exist"), so that a caller (the tests) tells it from a failure."""
+
 LOAD_AT_START = os.getloadavg()
 """The 1/5/15-minute load averages when the script started (it imports this module first)."""
 
@@ -35,14 +39,20 @@ LOAD_AT_START = os.getloadavg()
 def run_main(main: Callable[[], None]) -> None:
     """Run a script's ``main``. Data it needs that is not there (`MissingData`: an object set,
     the reference hands) stops it with one line on stderr naming what is missing and how to get
-    it, and exit status `EX_NOINPUT`; tasks that failed (`TasksFailed`: e.g. rounds of a
-    benchmark) stop it with one line naming the first cause and exit status 1. Never a
-    traceback for either."""
+    it, and exit status `EX_NOINPUT`; an optional extra not installed (the ModuleNotFoundError
+    that names it, e.g. `symgrasp.parallel.cluster.import_ray`) with its one line and
+    `EX_UNAVAILABLE`; tasks that failed (`TasksFailed`: e.g. rounds of a benchmark) with one line
+    naming the first cause and exit status 1. Never a traceback for these."""
     try:
         main()
     except (MissingData, TasksFailed) as error:
         print(f"error: {error}", file=sys.stderr)
         sys.exit(EX_NOINPUT if isinstance(error, MissingData) else 1)
+    except ModuleNotFoundError as error:
+        if error.name is not None:  # raised by an import itself, not by a check naming an extra
+            raise
+        print(f"error: {error}", file=sys.stderr)
+        sys.exit(EX_UNAVAILABLE)
 
 
 def parse_args(

@@ -8,7 +8,11 @@ float rounding along, and on another processor a near-tied candidate or one at t
 threshold can go the other way. Measured on an AVX2 AMD EPYC (2026-11-27): the first
 attempts of all eight models as recorded (scores within 2e-7); later in the round, rotmat6d
 (Robotiq) chose another grasp of the same object at its fourth attempt (score 0.834 for
-0.839) and bingham3d (Robotiq) found three candidates for two at its last and tried one. A
+0.839) and bingham3d (Robotiq) found three candidates for two at its last and tried one. On a
+lent H100 machine's Intel Xeon with torch 2.11 (2026-11-27) the first attempts' scenes,
+targets, candidates and outcomes were as recorded and four Robotiq scores moved by 3e-5 to
+1.4e-4, hence the tolerance: below what another training seed of the same model moves (the
+archive's first scores of one representation's seeds differ by 2.9e-3 or more). A
 benchmark is reproducible on one machine (same seed, same result), not bit for bit across
 processors (docs/results.md says so of the H100 machine's rounds)."""
 
@@ -43,4 +47,4 @@ def test_a_shipped_model_replays_the_first_round_of_its_table_cell(name, monkeyp
     first, recorded = played["attempts"][0], stored["attempts"][0]
     for key in ("outcome", "mode", "target", "candidates", "rejected"):
         assert first[key] == recorded[key], key
-    assert first["score"] == pytest.approx(recorded["score"], abs=1e-5)
+    assert first["score"] == pytest.approx(recorded["score"], abs=5e-4)

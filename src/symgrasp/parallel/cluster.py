@@ -30,7 +30,8 @@ _setup_done: str | None = None
 """In a worker process: the job whose setup has run there."""
 
 
-def _import_ray() -> Any:
+def import_ray() -> Any:
+    """The ``ray`` module; a ModuleNotFoundError naming the extra to install when it is missing."""
     try:
         import ray
     except ModuleNotFoundError:
@@ -96,7 +97,7 @@ class RayCluster(Executor):
     """
 
     def __init__(self, workers: int | None = None, address: str | None = None) -> None:
-        ray = _import_ray()
+        ray = import_ray()
         address = address or os.environ.get("RAY_ADDRESS") or None
         self._started = False
         if not ray.is_initialized():
