@@ -326,11 +326,9 @@ class _Handler(BaseHTTPRequestHandler):
             data = json.dumps(
                 {"error": f"internal error: the answer is not JSON ({error})"}
             ).encode()
-        self.send_response(status)
-        self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(data)))
-        self.end_headers()
-        self.wfile.write(data)
+        # counted and logged before the answer leaves: a client holding its answer finds its
+        # request in the count and the log (after, a client's next request, answered by
+        # another thread, could be logged first)
         self.server.count()
         if self.server.log is not None:
             took = "" if start is None else f" {1e3 * (time.perf_counter() - start):.1f} ms"
@@ -338,6 +336,11 @@ class _Handler(BaseHTTPRequestHandler):
             request = f"{self.command} {getattr(self, 'path', '')}"  # unset: a bad request line
             print(f"{request} {status.value}{took} {detail}".rstrip(),
                   file=self.server.log, flush=True)  # fmt: skip
+        self.send_response(status)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(data)))
+        self.end_headers()
+        self.wfile.write(data)
 
     def send_error(self, code: int, message: str | None = None, explain: str | None = None) -> None:
         """http.server's own errors (a malformed request line, an unsupported method) as JSON,
