@@ -244,7 +244,8 @@ def test_from_pretrained_loads_a_checkpoint_and_warns_about_another_gripper(tmp_
 def test_the_approach_check_keeps_the_grasps_the_benchmark_would_execute(empty_table_depth):
     """Two grasps straight down over the empty table, the better one's TCP inside the table:
     unchecked, both in rank order; checked, the one above it alone, the grasp the declutter
-    benchmark's own check (`first_free` on the fused surface) executes after rejecting one."""
+    benchmark's own check (`first_free` on the fused surface) executes after rejecting one;
+    `detect_tsdf` on the fused grid alone the same one."""
     from symgrasp.benchmark.declutter import first_free
 
     depth, intrinsic, T = empty_table_depth
@@ -260,7 +261,9 @@ def test_the_approach_check_keeps_the_grasps_the_benchmark_would_execute(empty_t
     assert abs(np.median(surface[:, 2]) - 0.05) < 0.002  # the table top is what it checks against
     chosen, rejected = first_free(unchecked, ROBOTIQ_2F85, surface)
     assert rejected == 1 and np.array_equal(chosen.pose, checked[0].pose)
-    with pytest.raises(ValueError, match="detect_tsdf: approach_check needs the fused"):
-        checker.detect_tsdf(np.ones((R, R, R)))
+    grid = checker.fuse(depth, intrinsic, T).grid()  # the same check on the fused grid alone
+    from_grid = checker.detect_tsdf(grid)
+    assert len(from_grid) == 1 and np.array_equal(from_grid[0].pose, checked[0].pose)
+    assert set(checker.timing) == {"network", "decode", "approach"}
     with pytest.raises(TypeError, match="approach_check must be True or False"):
         _detector(voxels, approach_check="yes")

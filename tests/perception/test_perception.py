@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import torch
+from scipy.spatial import cKDTree
 
 from symgrasp.perception import (
     CameraIntrinsic,
@@ -11,6 +12,7 @@ from symgrasp.perception import (
     default_extrinsic,
     depth_to_points,
     look_at,
+    surface_points,
 )
 from symgrasp.sim import FRANKA, World
 from symgrasp.sim.objects import ObjectSpec, Part
@@ -207,6 +209,29 @@ def test_tsdf_from_rendered_views_has_the_box_inside_and_free_space_outside():
     points = volume.point_cloud().numpy()
     on_top = np.abs(points[:, :2] - 0.15).max(axis=1) < 0.02
     assert np.abs(points[on_top, 2] - (TABLE_HEIGHT + 0.1)).max() < 0.004
+    assert (volume.weight == 0).any()  # occluded voxels, which the grid alone cannot tell apart
+    reference = _observed_crossings(volume)
+    assert len(points) == len(reference)
+    assert cKDTree(points).query(reference)[0].max() < 1e-6
+    corner = np.array([1.0, -2.0, 0.5])
+    shifted = surface_points(grid, volume.size, tuple(corner)).numpy()
+    np.testing.assert_allclose(shifted, points + corner, atol=1e-6)
+
+
+def _observed_crossings(volume: TSDFVolume) -> np.ndarray:
+    """The zero crossings between neighbouring voxels that both have weight, interpolated: the
+    surface a fused volume's weights define, against which the grid alone is checked."""
+    tsdf, weight, voxel = volume.tsdf.numpy(), volume.weight.numpy(), volume.voxel_size
+    points = []
+    for axis in range(3):
+        a, b = np.moveaxis(tsdf, axis, 0)[:-1], np.moveaxis(tsdf, axis, 0)[1:]
+        wa, wb = np.moveaxis(weight, axis, 0)[:-1], np.moveaxis(weight, axis, 0)[1:]
+        crossing = (a * b < 0) & (wa > 0) & (wb > 0) & (np.abs(a) < 1) & (np.abs(b) < 1)
+        index = np.argwhere(crossing).astype(np.float32)
+        index[:, 0] += (a / (a - b))[crossing]
+        order = [axis, *(i for i in range(3) if i != axis)]  # moveaxis's order of the dimensions
+        points.append(index[:, np.argsort(order)])
+    return (np.concatenate(points) + 0.5) * voxel
 
 
 def test_tsdf_rejects_mismatched_inputs():

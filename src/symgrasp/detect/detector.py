@@ -42,7 +42,7 @@ from symgrasp.model import torchscript
 from symgrasp.model.checkpoint import file_sha256, load_model, trained_gripper
 from symgrasp.model.network import GraspNet
 from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, rank_voxels
-from symgrasp.perception import CameraIntrinsic, TSDFVolume, depth_to_points
+from symgrasp.perception import CameraIntrinsic, TSDFVolume, depth_to_points, surface_points
 from symgrasp.perception.camera import is_rigid
 from symgrasp.perception.points import DEFAULT_PIXEL_SIZE, fill_holes, points_view
 from symgrasp.perception.table import MAX_SCALE_ERROR, table_scaled
@@ -121,8 +121,8 @@ class GraspDetector:
             table (`symgrasp.benchmark.declutter.first_free`'s check, 1 mm each: the grasp the
             benchmark executes is the first such grasp), in their ranked order. Off by default
             (every grasp the network ranks); on, the first detection builds the hand's boxes
-            in MuJoCo (`symgrasp.sim.collision`), which it then loads. `detect_tsdf` has no
-            fused volume to check against and refuses to run with it.
+            in MuJoCo (`symgrasp.sim.collision`), which it then loads. `detect_tsdf` checks
+            against the given grid's surface.
         seed: seed of ``samples_per_voxel``'s draws.
         optimize: run the network as a frozen TorchScript graph made for inference
             (`symgrasp.model.torchscript.optimize`: oneDNN convolutions on channels-last
@@ -396,14 +396,19 @@ class GraspDetector:
 
     def detect_tsdf(self, tsdf: np.ndarray | Tensor) -> list[Grasp]:
         """Ranked grasps from a workspace TSDF (40, 40, 40) in [-1, 1] (ValueError outside it
-        or non-finite: a TSDF's range is its definition). An empty list whose cause is visible
-        (no voxel below 0: nothing seen inside the workspace; a non-finite network output)
-        comes with a `NoGraspWarning`. Not with ``approach_check``, which needs the fused
-        volume's observed surface (`detect`, `detect_points`)."""
-        if self.approach_check:
-            raise ValueError("detect_tsdf: approach_check needs the fused depth images' surface; "
-                             "use detect or detect_points, or a detector without approach_check")  # fmt: skip
+        or non-finite: a TSDF's range is its definition; unobserved voxels read 1, as
+        `TSDFVolume.grid` writes them). An empty list whose cause is visible (no voxel below 0:
+        nothing seen inside the workspace; a non-finite network output) comes with a
+        `NoGraspWarning`. With ``approach_check`` the surface checked against is the grid's own
+        (`symgrasp.perception.surface_points`): the grasps of `detect` on the images it
+        was fused from."""
         grasps, out = self._detect(tsdf)
+        if self.approach_check and grasps:
+            start = time.perf_counter()
+            grid = _check_tsdf(tsdf, self.device)
+            points = surface_points(grid, WORKSPACE_SIZE, tuple(self.origin))
+            grasps = self._approach_free(grasps, points.cpu().numpy())
+            self.timing["approach"] = _ms_since(start, self.device)
         if not grasps:
             _warn_no_grasp(_output_cause(out), _tsdf_cause(tsdf))
         return grasps

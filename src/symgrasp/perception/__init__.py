@@ -15,7 +15,7 @@ from symgrasp.perception.camera import (
 from symgrasp.perception.noise import add_depth_noise, noisy_depth
 from symgrasp.perception.points import fill_holes, points_view
 from symgrasp.perception.table import TableFit, fit_table, table_depth_scale
-from symgrasp.perception.tsdf import TSDFVolume
+from symgrasp.perception.tsdf import TSDFVolume, surface_points
 
 __all__ = [
     "CameraIntrinsic",
@@ -30,5 +30,6 @@ __all__ = [
     "noisy_depth",
     "orbit_extrinsic",
     "points_view",
+    "surface_points",
     "table_depth_scale",
 ]

@@ -61,7 +61,8 @@ class TSDFVolume:
         shape = (self.resolution,) * 3
         self.tsdf = torch.ones(shape, device=self.device)
         self.weight = torch.zeros(shape, device=self.device)
-        self._centres = _voxel_centres(self.size, self.resolution, tuple(origin), self.device)
+        self._corner = tuple(float(x) for x in origin)
+        self._centres = _voxel_centres(self.size, self.resolution, self._corner, self.device)
 
     def integrate(
         self,
@@ -119,21 +120,29 @@ class TSDFVolume:
         return self.tsdf.clone()
 
     def point_cloud(self) -> torch.Tensor:
-        """Surface points (M, 3) [m]: zero crossings of the TSDF between neighbouring observed
-        voxels inside the truncation band, linearly interpolated."""
-        points = []
-        centres = self._centres.reshape(*self.tsdf.shape, 3)
-        for axis in range(3):
-            a = self.tsdf.narrow(axis, 0, self.resolution - 1)
-            b = self.tsdf.narrow(axis, 1, self.resolution - 1)
-            wa = self.weight.narrow(axis, 0, self.resolution - 1)
-            wb = self.weight.narrow(axis, 1, self.resolution - 1)
-            crossing = (a * b < 0) & (wa > 0) & (wb > 0) & (a.abs() < 1) & (b.abs() < 1)
-            t = (a / (a - b))[crossing][:, None]
-            pa = centres.narrow(axis, 0, self.resolution - 1)[crossing]
-            pb = centres.narrow(axis, 1, self.resolution - 1)[crossing]
-            points.append(pa + t * (pb - pa))
-        return torch.cat(points)
+        """Surface points (M, 3) [m] of the fused volume (`surface_points` of its grid)."""
+        return surface_points(self.tsdf, self.size, self._corner)
+
+
+def surface_points(
+    tsdf: torch.Tensor, size: float = WORKSPACE_SIZE, origin: tuple[float, ...] = (0.0, 0.0, 0.0)
+) -> torch.Tensor:
+    """Surface points (M, 3) [m] of a TSDF grid (R, R, R) in [-1, 1] over the cube of side
+    ``size`` [m] whose corner is ``origin`` (3,) [m]: the zero crossings between neighbouring
+    voxels that are both inside the truncation band (|d| < 1), linearly interpolated. A grid
+    alone suffices: unobserved voxels read exactly 1, so a crossing never involves one."""
+    resolution = tsdf.shape[0]
+    centres = _voxel_centres(float(size), resolution, tuple(origin), tsdf.device)
+    centres = centres.reshape(*tsdf.shape, 3)
+    points = []
+    for axis in range(3):
+        a, b = tsdf.narrow(axis, 0, resolution - 1), tsdf.narrow(axis, 1, resolution - 1)
+        crossing = (a * b < 0) & (a.abs() < 1) & (b.abs() < 1)
+        t = (a / (a - b))[crossing][:, None]
+        pa = centres.narrow(axis, 0, resolution - 1)[crossing]
+        pb = centres.narrow(axis, 1, resolution - 1)[crossing]
+        points.append(pa + t * (pb - pa))
+    return torch.cat(points)
 
 
 @functools.lru_cache(maxsize=8)
