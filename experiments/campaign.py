@@ -66,7 +66,6 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import hashlib
 import json
 import os
 import re
@@ -80,6 +79,7 @@ from pathlib import Path
 from typing import Any
 
 from symgrasp.atomic import write_atomic
+from symgrasp.digest import file_sha256
 from symgrasp.scripts import parse_args, run_main, write_result
 
 try:
@@ -202,14 +202,6 @@ def kept_files(step: Step, root: Path) -> list[str]:
     return sorted(chosen)
 
 
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as file:
-        for block in iter(lambda: file.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def _copy(source: Path, target: Path) -> None:
     """Copy ``source`` to ``target`` atomically."""
     with open(source, "rb") as original:
@@ -225,7 +217,7 @@ def deposit(step: Step, root: Path, bank: Path) -> None:
     for name in files:
         _copy(root / name, staging / "files" / name)
     record = {"run": _rooted(step, root), "banked": _now().isoformat(),
-              "files": {name: _sha256(staging / "files" / name) for name in files}}  # fmt: skip
+              "files": {name: file_sha256(staging / "files" / name) for name in files}}  # fmt: skip
     staging.mkdir(parents=True, exist_ok=True)
     (staging / "record.json").write_text(json.dumps(record, indent=1) + "\n")
     if (bank / step.name).exists():
@@ -252,7 +244,7 @@ def banked(step: Step, root: Path, bank: Path | None) -> dict[str, str] | None:
     files = record["files"]
     for name, digest in files.items():
         copy = bank / step.name / "files" / name
-        if not copy.is_file() or _sha256(copy) != digest:
+        if not copy.is_file() or file_sha256(copy) != digest:
             print(f"bank: {copy} is missing or not the file its record names; "
                   f"{step.name} is not restored", flush=True)  # fmt: skip
             return None
@@ -263,7 +255,7 @@ def withdraw(step: Step, files: dict[str, str], root: Path, bank: Path) -> None:
     """Put ``step``'s banked files back under ``root`` and mark it done."""
     for name, digest in files.items():
         target = root / name
-        if not (target.is_file() and _sha256(target) == digest):
+        if not (target.is_file() and file_sha256(target) == digest):
             _copy(bank / step.name / "files" / name, target)
     _mark(root / "done", step.name, step.run)
 

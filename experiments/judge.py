@@ -46,7 +46,7 @@ from symgrasp.atomic import read_json
 from symgrasp.benchmark.compare import paired_change, paired_rounds, percent_change
 from symgrasp.benchmark.runner import MODEL_SHA, read_rounds, recorded_config, summarise
 from symgrasp.config import JUDGE_SEED, BenchmarkConfig
-from symgrasp.model.checkpoint import file_sha256
+from symgrasp.digest import file_sha256
 from symgrasp.scripts import parse_args, run_main, write_result
 
 RUNS = tuple(f"{model}-{rep}-s{seed}" for model in ("wide", "dense-franka")

@@ -90,7 +90,7 @@ from symgrasp.benchmark.runner import MODEL_SHA, read_rounds, recorded_config, s
 from symgrasp.benchmark.seeds import common_rounds, seed_contrast, seed_lead, seed_ratios
 from symgrasp.benchmark.selection import ALIASES, checkpoint_id
 from symgrasp.config import VALIDATION_SEED, BenchmarkConfig
-from symgrasp.model.checkpoint import file_sha256
+from symgrasp.digest import file_sha256
 from symgrasp.scripts import parse_args, run_main, write_result
 
 ARMS = {"today": (False, False, False, False), "dense": (True, False, False, False),

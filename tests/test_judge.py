@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from symgrasp.model.checkpoint import file_sha256
+from symgrasp.digest import file_sha256
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}

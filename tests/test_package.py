@@ -80,6 +80,7 @@ ROOT_MODULES = {
     "atomic",
     "config",
     "device",
+    "digest",
     "fields",
     "folders",
     "gl_backend",

@@ -11,7 +11,7 @@ import pytest
 from symgrasp.benchmark.declutter import run_round
 from symgrasp.cli import main
 from symgrasp.detect import GraspDetector, GraspPlanner, Observation
-from symgrasp.model.checkpoint import file_sha256
+from symgrasp.digest import file_sha256
 from symgrasp.names import is_plugin_name, planner_kind
 from symgrasp.objects.sets import resolve
 from symgrasp.peers.planners import load_planner, planner_version

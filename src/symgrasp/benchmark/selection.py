@@ -50,9 +50,9 @@ from symgrasp.config import (
 )
 from symgrasp.data.dataset import GraspDataset, collate_scenes
 from symgrasp.device import resolve_device
+from symgrasp.digest import file_sha256
 from symgrasp.folders import writes_folder
 from symgrasp.model.checkpoint import (
-    file_sha256,
     load_checkpoint,
     load_model,
     save_checkpoint,

@@ -38,8 +38,9 @@ from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.planner import Observation
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.device import resolve_device
+from symgrasp.digest import file_sha256
 from symgrasp.model import torchscript
-from symgrasp.model.checkpoint import file_sha256, load_model, trained_gripper
+from symgrasp.model.checkpoint import load_model, trained_gripper
 from symgrasp.model.network import GraspNet
 from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, rank_voxels
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, depth_to_points, surface_points

@@ -14,8 +14,8 @@ from pathlib import Path
 
 from symgrasp import __version__
 from symgrasp.config import DEFAULT_VALIDITY
+from symgrasp.digest import file_sha256
 from symgrasp.model.checkpoint import (
-    file_sha256,
     load_checkpoint,
     load_model,
     save_checkpoint,

@@ -15,7 +15,6 @@ its weights must be finite.
 
 from __future__ import annotations
 
-import hashlib
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -140,12 +139,3 @@ def trained_gripper(state: Mapping[str, Any]) -> GripperSpec:
     """The gripper the checkpoint ``state`` was trained for: its stored spec (a built-in's name
     in older checkpoints), resolved once, where the checkpoint is read."""
     return get_gripper(state["gripper"])
-
-
-def file_sha256(path: str | Path) -> str:
-    """The SHA-256 of a checkpoint file's bytes (hex): what tells two files of one name apart."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as file:
-        for block in iter(lambda: file.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()

@@ -9,14 +9,13 @@ user's planner, `symgrasp.peers.plugin`).
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 from typing import Any
 
 from symgrasp.detect.detector import GraspDetector
 from symgrasp.detect.planner import GraspPlanner
 from symgrasp.detect.pretrained import resolve_model
-from symgrasp.model.checkpoint import file_sha256
+from symgrasp.digest import file_sha256
 from symgrasp.names import ORACLE_GRIPPER, planner_kind
 from symgrasp.peers.oracle import OraclePlanner
 from symgrasp.peers.plugin import load_plugin
@@ -69,7 +68,7 @@ def planner_version(
     if kind == "oracle":
         return load_planner(name, gripper, **options).version
     if kind == "vgn":
-        return hashlib.sha256(check_weights().read_bytes()).hexdigest()
+        return file_sha256(check_weights())
     if kind == "plugin":
         return load_planner(name, gripper).version
     return file_sha256(resolve_model(name))

@@ -10,14 +10,13 @@ benchmark's record changes when the code does. The module is imported as Python 
 
 from __future__ import annotations
 
-import hashlib
 import importlib
 import inspect
 from collections.abc import Callable, Sequence
-from pathlib import Path
 
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.planner import GraspPlanner, Observation
+from symgrasp.digest import file_sha256
 from symgrasp.names import PLUGIN_SEPARATOR, is_plugin_name
 from symgrasp.sim.grippers import GripperSpec
 
@@ -91,4 +90,4 @@ def source_sha256(function: Callable) -> str:
         path = inspect.getsourcefile(function)
     except TypeError:
         path = None
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest() if path else ""
+    return file_sha256(path) if path else ""

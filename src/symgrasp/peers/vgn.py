@@ -32,7 +32,6 @@ the field's table quotes; docs/peers.md gives the evidence for each.
 
 from __future__ import annotations
 
-import hashlib
 import time
 import zlib
 from dataclasses import dataclass
@@ -46,6 +45,7 @@ from torch.nn import functional as F
 
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.planner import Observation
+from symgrasp.digest import file_sha256
 from symgrasp.objects.folder import DATA_ENV, MissingData, data_folder
 from symgrasp.perception import CameraIntrinsic, TSDFVolume
 from symgrasp.rotation.geometry import quaternion_to_matrix
@@ -313,7 +313,7 @@ class VGN:
             )
         self.gripper = gripper if isinstance(gripper, GripperSpec) else get_gripper(gripper)
         path = check_weights(weights)
-        self.version = hashlib.sha256(path.read_bytes()).hexdigest()
+        self.version = file_sha256(path)
         self.device = torch.device(device)
         self.network = load_network(path).to(self.device)
         self.quality_threshold = float(quality_threshold)
