@@ -160,13 +160,6 @@ def add_approach_check(parser: argparse.ArgumentParser) -> None:
     add(parser, "the rounds played and read")
 
 
-def approach_check(args: argparse.Namespace) -> dict[str, float]:
-    """The approach check's fields given on the command line (`add_approach_check`)."""
-    from symgrasp.cli.options import approach_check as given
-
-    return given(args)
-
-
 def campaign_root(
     parser: argparse.ArgumentParser,
     args: argparse.Namespace,

@@ -69,7 +69,6 @@ from common import (
     add_approach_check,
     add_mode_options,
     add_result_option,
-    approach_check,
     update_page,
     write_rounds_archive,
 )
@@ -80,6 +79,7 @@ from symgrasp.benchmark.failures import MODES
 from symgrasp.benchmark.runner import recorded_config, run_or_reuse, saved_rounds, summarise
 from symgrasp.benchmark.seeds import seed_lead, seed_ratios
 from symgrasp.benchmark.selection import selected_checkpoint
+from symgrasp.cli.options import approach_check
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 from symgrasp.rotation import get as get_representation

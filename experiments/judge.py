@@ -39,12 +39,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from common import SHIPPED, add_result_option, add_round_options, approach_check, campaign_root
+from common import SHIPPED, add_result_option, add_round_options, campaign_root
 from retrain_ablation import CONDITIONS, clean_folder, ended_none_found
 
 from symgrasp.atomic import read_json
 from symgrasp.benchmark.compare import paired_change, paired_rounds, percent_change
 from symgrasp.benchmark.runner import MODEL_SHA, read_rounds, recorded_config, summarise
+from symgrasp.cli.options import approach_check
 from symgrasp.config import JUDGE_SEED, BenchmarkConfig
 from symgrasp.digest import file_sha256
 from symgrasp.scripts import parse_args, run_main, write_result

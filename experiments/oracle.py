@@ -39,13 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import (
-    add_approach_check,
-    add_mode_options,
-    add_result_option,
-    add_table1_options,
-    approach_check,
-)
+from common import add_approach_check, add_mode_options, add_result_option, add_table1_options
 from peers_table import baseline_rounds, cell_name
 
 from symgrasp.benchmark.cells import objects_folder
@@ -59,6 +53,7 @@ from symgrasp.benchmark.runner import (
     summarise,
 )
 from symgrasp.benchmark.seeds import common_rounds
+from symgrasp.cli.options import approach_check
 from symgrasp.config import TRAINING_DATABASE, BenchmarkConfig
 from symgrasp.names import ORACLE
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args

@@ -43,7 +43,6 @@ from common import (
     add_mode_options,
     add_result_option,
     add_table1_options,
-    approach_check,
     table1_rounds,
     update_page,
 )
@@ -53,6 +52,7 @@ from symgrasp.benchmark.cells import objects_folder
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import percent_with_interval, run_or_reuse, saved_rounds, summarise
 from symgrasp.benchmark.seeds import common_rounds
+from symgrasp.cli.options import approach_check
 from symgrasp.config import BenchmarkConfig
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 from symgrasp.scripts import cpu_model, parse_args, run_main, write_result

@@ -30,11 +30,12 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from common import SHIPPED, add_approach_check, add_result_option, approach_check
+from common import SHIPPED, add_approach_check, add_result_option
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark import selection as sel
 from symgrasp.benchmark.compare import paired_change, paired_rounds, percent_change
+from symgrasp.cli.options import approach_check
 from symgrasp.config import JUDGE_SEED
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args

@@ -76,7 +76,6 @@ from common import (
     SHIPPED,
     add_result_option,
     add_round_options,
-    approach_check,
     campaign_root,
     percent_mean,
     sensing_gap,
@@ -89,6 +88,7 @@ from symgrasp.benchmark.declutter import NONE_FOUND
 from symgrasp.benchmark.runner import MODEL_SHA, read_rounds, recorded_config, summarise
 from symgrasp.benchmark.seeds import common_rounds, seed_contrast, seed_lead, seed_ratios
 from symgrasp.benchmark.selection import ALIASES, checkpoint_id
+from symgrasp.cli.options import approach_check
 from symgrasp.config import VALIDATION_SEED, BenchmarkConfig
 from symgrasp.digest import file_sha256
 from symgrasp.scripts import parse_args, run_main, write_result

@@ -82,7 +82,6 @@ from common import (
     add_mode_options,
     add_result_option,
     add_table1_options,
-    approach_check,
     cell_rounds,
     percent_mean,
     sensing_gap,
@@ -96,6 +95,7 @@ from symgrasp.benchmark.cells import Cell, objects_folder
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import percent_with_interval, run_or_reuse, saved_rounds, summarise
 from symgrasp.benchmark.seeds import common_rounds, seed_ratios
+from symgrasp.cli.options import approach_check
 from symgrasp.config import BenchmarkConfig
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.model.checkpoint import load_checkpoint, trained_gripper

@@ -33,12 +33,13 @@ import argparse
 import itertools
 from typing import Any
 
-from common import SHIPPED, add_approach_check, add_result_option, approach_check
+from common import SHIPPED, add_approach_check, add_result_option
 
 from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.runner import run_or_reuse, summarise
 from symgrasp.benchmark.seeds import common_rounds, seed_lead, seed_ratios, spread_null
 from symgrasp.benchmark.selection import selected_checkpoint
+from symgrasp.cli.options import approach_check
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 from symgrasp.scripts import parse_args, run_main, write_result

@@ -37,11 +37,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import SHIPPED, add_approach_check, add_result_option, approach_check
+from common import SHIPPED, add_approach_check, add_result_option
 from scipy.stats import spearmanr
 
 from symgrasp.benchmark import selection as sel
 from symgrasp.benchmark.runner import BOOTSTRAP, BenchmarkConfig, run_or_reuse, summarise
+from symgrasp.cli.options import approach_check
 from symgrasp.config import VALIDATION_OBJECTS, VALIDATION_SEED
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 from symgrasp.scripts import parse_args, run_main, write_result

@@ -30,7 +30,7 @@ import argparse
 import math
 from pathlib import Path
 
-from common import add_approach_check, add_result_option, approach_check
+from common import add_approach_check, add_result_option
 
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import (
@@ -40,6 +40,7 @@ from symgrasp.benchmark.runner import (
     summarise,
 )
 from symgrasp.benchmark.seeds import common_rounds
+from symgrasp.cli.options import approach_check
 from symgrasp.config import DEFAULT_VALIDITY, JUDGE_SEED
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 from symgrasp.scripts import parse_args, run_main, write_result

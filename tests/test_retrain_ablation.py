@@ -22,7 +22,7 @@ from conftest import campaign_steps
 from symgrasp.benchmark import selection
 from symgrasp.benchmark.runner import MODEL_SHA, summarise
 from symgrasp.config import BenchmarkConfig
-from symgrasp.model.checkpoint import file_sha256
+from symgrasp.digest import file_sha256
 
 ROOT = Path(__file__).resolve().parents[1]
 ROUNDS, FIRST = 20, 1_000_000
