@@ -1,5 +1,6 @@
 """A declutter round with the shipped model: its bookkeeping, and same seed → same round."""
 
+import json
 from collections import Counter
 
 import numpy as np
@@ -8,6 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from symgrasp.benchmark.declutter import NONE_FOUND, first_free, picture_observer, run_round
 from symgrasp.benchmark.failures import MODES, STRUCK
+from symgrasp.benchmark.runner import round_record
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.objects.sets import resolve
 from symgrasp.sim import ROBOTIQ_2F85
@@ -62,6 +64,10 @@ def test_a_round_is_reproducible_undisturbed_by_diagnosis_and_its_counts_add_up(
     lifted = Counter(a.target for a in first.attempts if a.success)
     assert Counter(first.left) == Counter(first.presented) - lifted
     assert (first.presented, first.left) == (again.presented, again.left)
+    recorded = json.loads(json.dumps(round_record(first)))["attempts"]  # the executed poses
+    for a, r in zip(first.attempts, recorded, strict=True):
+        assert (r["pose"] is None) == (a.grasp is None)
+        assert a.grasp is None or np.array_equal(np.array(r["pose"]), a.grasp.pose)
 
 
 def test_pictures_are_drawn_per_attempt(detector, tmp_path):

@@ -86,7 +86,8 @@ def pooled_ratio(successes: np.ndarray, denominator: np.ndarray) -> np.ndarray:
 
 
 def round_record(record: Round) -> dict[str, Any]:
-    """A round as plain JSON data."""
+    """A round as plain JSON data; each attempt's ``pose`` is the executed grasp's
+    ``T_world_tcp`` (4×4 nested lists, metres; None when none was found)."""
     return {
         "seed": record.seed,
         "objects": record.objects,
@@ -101,6 +102,7 @@ def round_record(record: Round) -> dict[str, Any]:
                 "struck": list(a.struck),
                 "score": None if a.grasp is None else a.grasp.score,
                 "confidence": None if a.grasp is None else a.grasp.confidence,
+                "pose": None if a.grasp is None else a.grasp.pose.tolist(),
                 "candidates": a.candidates,
                 "rejected": a.rejected,
                 "planning_s": a.planning_s,
