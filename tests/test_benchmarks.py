@@ -61,6 +61,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "experiments/retrain_ablation": ("retrain_ablation.json", "gaps"),
     "experiments/judge": ("judge_retrained.json", "picks"),
     "experiments/thin_objects": ("thin_objects.json", "cells"),
+    "experiments/table_strikes": ("table_strikes.json", "cells"),
 }
 SHARED_MODULES = {"experiments/common"}
 """Modules of the folders that are not scripts."""
