@@ -112,7 +112,8 @@ def main() -> None:
         for attempt in (a for r in rounds for a in r["attempts"] if a["pose"] is not None):
             groups[kind(attempt)].append(measure(np.array(attempt["pose"]), corners, gripper))
         executed = sum(len(g) for g in groups.values())
-        cells.append({"model": str(model), "gripper": gripper.name, "rounds": len(rounds),
+        name = f"{path.parent.name}/{path.stem}" if Path(model).is_file() else str(model)
+        cells.append({"model": name, "gripper": gripper.name, "rounds": len(rounds),
                       "executed": executed,
                       "outcomes": {k: summarise(groups[k]) for k in sorted(groups)}})  # fmt: skip
 
