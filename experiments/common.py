@@ -2,7 +2,8 @@
 model that stands in for every training run in ``--quick`` mode, the order their tables list
 the hands in, which validation scenes a checkpoint is looked at on, the Wilson interval of a rate,
 a grasp database's prefix, the Table 1 rounds a shipped model replays, an archive of rounds,
-a page's text between two markers, and issue 39's robustness gap with its verdict."""
+a page's text between two markers, issue 39's robustness gap with its verdict, and a planner
+that keeps each state it plans in, to replay executed grasps instrumented."""
 
 from __future__ import annotations
 
@@ -19,6 +20,8 @@ from symgrasp.names import GRIPPERS as BUILT_IN
 
 if TYPE_CHECKING:
     from symgrasp.data.grasp_db import GraspDatabase
+    from symgrasp.sim.grippers import GripperSpec
+    from symgrasp.sim.world import World
 
 RESULTS = Path("experiments/results")
 """Where an experiment's result goes by default (`add_result_option`)."""
@@ -311,3 +314,46 @@ def percent_mean(ratios: list[float]) -> str:
     ``64.1 [60.3, 67.8]``."""
     mean, low, high = (100 * v for v in ratios)
     return f"{mean:.1f} [{low:.1f}, {high:.1f}]"
+
+
+# -- replaying rounds instrumented --------------------------------------------------------
+
+
+def pad_extent(gripper: GripperSpec, axis: int = 0) -> tuple[float, float]:
+    """The open pads' extent along TCP axis ``axis`` (0: ``e_x``, 1: ``e_y``) [m], from the
+    hand's own boxes."""
+    from symgrasp.sim.world import World
+
+    world = World([], gripper=gripper)
+    centre, rotation, half = world.hand_boxes()
+    i = world.hand_box_names().index("hand_pad_left")
+    reach = float(np.abs(rotation[i][axis]) @ half[i])
+    return float(centre[i][axis] - reach), float(centre[i][axis] + reach)
+
+
+class Watched:
+    """A planner that keeps the world's state (objects, simulation state, walls) when it is
+    asked for grasps, the state the executed grasp starts from, and the poses of the
+    ``oracle``'s labels of that state (when given one)."""
+
+    def __init__(self, planner: Any, oracle: Any = None) -> None:
+        self.planner, self.gripper, self.oracle = planner, planner.gripper, oracle
+        self.state: tuple[list, np.ndarray, bool] | None = None
+        self.labels: np.ndarray | None = None
+
+    def plan(self, observation: Any) -> list:
+        world = observation.world
+        self.state = (list(world.objects), world.snapshot().state.copy(), world.walls)
+        if self.oracle is not None:
+            grasps = self.oracle.plan(observation)
+            self.labels = np.array([g.pose for g in grasps]).reshape(-1, 4, 4)
+        return self.planner.plan(observation)
+
+    def world(self) -> World:
+        """A copy of the world in the kept state."""
+        from symgrasp.sim.world import Snapshot, World
+
+        objects, state, walls = self.state
+        world = World(objects, gripper=self.gripper, walls=walls)
+        world.restore(Snapshot(world.model, state))
+        return world

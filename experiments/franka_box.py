@@ -52,7 +52,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import GRIPPERS, add_result_option, wilson
+from common import GRIPPERS, Watched, add_result_option, pad_extent, wilson
 from tqdm import tqdm
 
 from symgrasp.benchmark.declutter import run_round
@@ -65,7 +65,7 @@ from symgrasp.sim.execute import BLOCKED_ERROR, BLOCKED_FORCE, execute_grasp
 from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.sim.objects import LARGE_BOX_SIZE, large_box
 from symgrasp.sim.protocol import PREGRASP_DISTANCE
-from symgrasp.sim.world import Snapshot, World
+from symgrasp.sim.world import World
 from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 
 ARCHIVE = Path("experiments/results/declutter_rounds.tar.gz")
@@ -190,14 +190,6 @@ def squared(T_world_box: np.ndarray, T_world_tcp: np.ndarray) -> np.ndarray:
     return T
 
 
-def pad_extent(gripper: GripperSpec) -> tuple[float, float]:
-    """The open pads' extent along ``e_x`` in the TCP frame [m] (from the hand's own boxes)."""
-    world = World([], gripper=gripper)
-    centre, _, half = world.hand_boxes()
-    i = world.hand_box_names().index("hand_pad_left")
-    return float(centre[i][0] - half[i][0]), float(centre[i][0] + half[i][0])
-
-
 # -- the instrumented trial ---------------------------------------------------------------
 
 
@@ -232,32 +224,6 @@ def closing(world: World, T: np.ndarray, aimed: int) -> dict[str, Any]:
 
 
 # -- replays of the recorded rounds -------------------------------------------------------
-
-
-class Watched:
-    """A planner that keeps the world's state (objects, simulation state, walls) when it is
-    asked for grasps, the state the executed grasp starts from, and the poses of the
-    ``oracle``'s labels of that state (when given one)."""
-
-    def __init__(self, planner: Any, oracle: Any = None) -> None:
-        self.planner, self.gripper, self.oracle = planner, planner.gripper, oracle
-        self.state: tuple[list, np.ndarray, bool] | None = None
-        self.labels: np.ndarray | None = None
-
-    def plan(self, observation: Any) -> list:
-        world = observation.world
-        self.state = (list(world.objects), world.snapshot().state.copy(), world.walls)
-        if self.oracle is not None:
-            grasps = self.oracle.plan(observation)
-            self.labels = np.array([g.pose for g in grasps]).reshape(-1, 4, 4)
-        return self.planner.plan(observation)
-
-    def world(self) -> World:
-        """A copy of the world in the kept state."""
-        objects, state, walls = self.state
-        world = World(objects, gripper=self.gripper, walls=walls)
-        world.restore(Snapshot(world.model, state))
-        return world
 
 
 def label_angle(poses: np.ndarray, T: np.ndarray) -> float | None:

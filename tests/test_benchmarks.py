@@ -62,6 +62,7 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "experiments/judge": ("judge_retrained.json", "picks"),
     "experiments/thin_objects": ("thin_objects.json", "cells"),
     "experiments/table_strikes": ("table_strikes.json", "cells"),
+    "experiments/slips": ("slips.json", "cells"),
 }
 SHARED_MODULES = {"experiments/common"}
 """Modules of the folders that are not scripts."""
