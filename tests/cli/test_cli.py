@@ -65,22 +65,6 @@ def test_approach_check_reaches_the_detector_of_detect_and_serve(given, inputs):
         assert load_detector(args).approach_check is given
 
 
-def test_deepen_reaches_the_detector_of_detect_and_serve_and_the_benchmarks_options(inputs, capsys):
-    from symgrasp.cli.bench import _run_declutter
-    from symgrasp.cli.detect import load_detector
-
-    for command in ([*DETECT[:1], *DETECT[3:]], ["serve"]):
-        assert load_detector(build_parser().parse_args([*command, "--deepen", "2"])).deepen == 2
-        assert load_detector(build_parser().parse_args(command)).deepen == 0
-    with pytest.raises(SystemExit):
-        build_parser().parse_args([*DECLUTTER, "--deepen", "-1"])
-    assert "--deepen" in capsys.readouterr().err
-    args = build_parser().parse_args(["bench", "declutter", "--model", "vgn", "--deepen", "1",
-                                      "--out", "o"])  # fmt: skip
-    with pytest.raises(SystemExit, match="--deepen"):
-        _run_declutter(args)
-
-
 def test_building_the_parser_loads_neither_torch_nor_mujoco():
     import subprocess
     import sys

@@ -132,52 +132,6 @@ def test_bounds_keep_only_grasps_inside_the_box():
     assert [g.voxel for g in detector.detect_tsdf(np.ones((R,) * 3))] == [(5, 5, 5)]
 
 
-def _deepened(voxels: dict, top: tuple, deepen: int) -> Grasp:
-    """The grasp decoded at ``top`` (the best-scoring voxel) with ``deepen``."""
-    grasps = _detector(voxels, deepen=deepen).detect_tsdf(np.ones((R,) * 3))
-    (grasp,) = [g for g in grasps if g.voxel == top]
-    return grasp
-
-
-def test_deepen_moves_the_tcp_along_the_approach_while_the_voxels_entered_are_valid():
-    """A vertical approach (e_x = −z) from voxel (10, 10, 20) over valid voxels at z = 19, 18
-    and an invalid one at 17: the TCP goes down one voxel per step, at most two, and the grasp
-    keeps its voxel, score and rotation; a valid voxel above (z = 21) changes nothing."""
-    channels = _bingham2d(ROT_A)
-    voxels = {(10, 10, 20): (0.9, 0.9, channels), (10, 10, 21): (0.1, 0.9, channels),
-              (10, 10, 19): (0.2, 0.9, channels), (10, 10, 18): (0.2, 0.9, channels)}  # fmt: skip
-    centre = (np.array([10, 10, 20]) + 0.5) * VOXEL
-    plain = _deepened(voxels, (10, 10, 20), 0)
-    assert np.array_equal(plain.position, centre)
-    for deepen, steps in ((1, 1), (2, 2), (5, 2)):
-        grasp = _deepened(voxels, (10, 10, 20), deepen)
-        assert np.allclose(grasp.position, centre - steps * VOXEL * np.array([0, 0, 1]))
-        assert np.array_equal(grasp.pose[:3, :3], plain.pose[:3, :3])
-        assert (grasp.score, grasp.validity) == (plain.score, plain.validity)
-    del voxels[(10, 10, 19)]
-    assert np.array_equal(_deepened(voxels, (10, 10, 20), 3).position, centre)
-
-
-def test_deepen_reads_the_nearest_voxel_on_an_oblique_approach_and_stops_at_the_grid_edge():
-    """e_x = (1, 0, −1)/√2 from voxel (20, 20, 20): steps 1 and 2 end nearest to voxel
-    (21, 20, 19) (offsets 0.71 and 1.41 voxels per axis), step 3 nearest to (22, 20, 18).
-    With only (21, 20, 19) valid the TCP moves two voxel lengths along e_x; with (22, 20, 18)
-    valid as well, three. At the grid's floor (z = 0) a vertical approach does not move."""
-    channels = _bingham2d(ROT_B)
-    voxels = {(20, 20, 20): (0.9, 0.9, channels), (21, 20, 19): (0.1, 0.9, channels)}
-    e_x = ROT_B[:, 0]
-    centre = (np.array([20, 20, 20]) + 0.5) * VOXEL
-    assert np.allclose(_deepened(voxels, (20, 20, 20), 4).position, centre + 2 * VOXEL * e_x)
-    voxels[(22, 20, 18)] = (0.1, 0.9, channels)
-    assert np.allclose(_deepened(voxels, (20, 20, 20), 4).position, centre + 3 * VOXEL * e_x)
-    floor = {(5, 5, 0): (0.9, 0.9, _bingham2d(ROT_A))}
-    assert np.array_equal(
-        _deepened(floor, (5, 5, 0), 3).position, (np.array([5, 5, 0]) + 0.5) * VOXEL
-    )
-    with pytest.raises(ValueError, match="deepen"):
-        _detector(voxels, deepen=-1)
-
-
 def test_samples_per_voxel_draw_closing_axes_around_the_mode_and_keep_the_approach():
     voxels = {(5, 5, 5): (0.5, 0.9, _bingham2d(ROT_A, gaps=(60.0, 2.0)))}
     grasps = _detector(voxels, samples_per_voxel=200, seed=1).detect_tsdf(np.ones((R,) * 3))

@@ -14,7 +14,6 @@ from symgrasp.cli.options import (
     PLANNER_METAVAR,
     PROBABILITY,
     add_confidence_options,
-    add_deepen_option,
     add_shared,
     confidence_threshold,
     input_folder,
@@ -86,7 +85,6 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         default=None,
         help=f"validity threshold (default: {DEFAULT_VALIDITY}; a sweep per model: docs/results.md)",
     )
-    add_deepen_option(declutter)
     add_shared(
         declutter,
         "representation",
@@ -146,8 +144,6 @@ def _run_declutter(args: argparse.Namespace) -> None:
     options = () if threshold is None else (("confidence_threshold", threshold),)
     if args.validity is not None:
         options += (("validity_threshold", args.validity),)
-    if args.deepen:
-        options += (("deepen", args.deepen),)
     oracle = {"grasps": args.oracle_grasps, "directions": args.oracle_directions,
               "offset": None if args.oracle_offset is None else tuple(args.oracle_offset)}  # fmt: skip
     oracle = tuple((k, v) for k, v in oracle.items() if v is not None)
@@ -156,7 +152,7 @@ def _run_declutter(args: argparse.Namespace) -> None:
     if kind != "model":
         if options or args.representation is not None:
             raise SystemExit(
-                "error: --validity, --confidence, --no-confidence, --deepen and --rep are a trained "
+                "error: --validity, --confidence, --no-confidence and --rep are a trained "
                 f"model's; --model {args.model} takes none of them"
             )
         options = (() if args.gripper is None else (("gripper", args.gripper),)) + oracle

@@ -14,7 +14,6 @@ from symgrasp.cli.options import (
     PLANNER_METAVAR,
     PROBABILITY,
     add_confidence_options,
-    add_deepen_option,
     add_shared,
     confidence_threshold,
     input_file,
@@ -151,7 +150,6 @@ def add_detector_options(parser: argparse.ArgumentParser, planners: bool = False
         default=0,
         help="draw N closing axes per voxel from the Bingham output (default: 0, the mode)",
     )
-    add_deepen_option(parser)
     parser.add_argument(
         "--fill-holes",
         type=integer(0, 64),
@@ -205,7 +203,6 @@ def load_detector(args: argparse.Namespace):  # -> GraspDetector (imported here,
         confidence_threshold=confidence_threshold(args),
         top_k=args.top_k,
         samples_per_voxel=args.samples_per_voxel,
-        deepen=args.deepen,
         workspace_origin=tuple(args.workspace_origin),
         fill_holes=args.fill_holes,
         table_scale=args.table_scale,
@@ -304,7 +301,6 @@ def _check_planner_options(args: argparse.Namespace) -> None:
         "--confidence": args.confidence is not None,
         "--no-confidence": args.no_confidence,
         "--samples-per-voxel": args.samples_per_voxel != 0,
-        "--deepen": args.deepen != 0,
         "--fill-holes": args.fill_holes != 0,
         "--table-scale": args.table_scale,
         "--depth-scale": args.depth_scale is not None,

@@ -228,19 +228,6 @@ def add_confidence_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def add_deepen_option(parser: argparse.ArgumentParser) -> None:
-    """``--deepen VOXELS``, `GraspDetector`'s ``deepen``."""
-    parser.add_argument(
-        "--deepen",
-        type=integer(0, 40),
-        default=0,
-        metavar="VOXELS",
-        help="move each grasp's TCP up to VOXELS voxels further along its approach while the "
-        "voxels it enters are predicted valid: a TCP at the shallow edge of a valid region "
-        "pinches with the fingertips and slips (default: 0; docs/detect.md)",
-    )
-
-
 def confidence_threshold(args: argparse.Namespace) -> float | None:
     """``GraspDetector``'s ``confidence_threshold`` from ``--confidence``/``--no-confidence``."""
     return 0.0 if args.no_confidence else args.confidence

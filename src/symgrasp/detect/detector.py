@@ -98,13 +98,6 @@ class GraspDetector:
             ±inf leaves an axis open); it must hold a voxel centre of the workspace.
         samples_per_voxel: 0 decodes the mode; n ≥ 1 draws n closing axes per voxel from the
             predicted distribution (Bingham representations only).
-        deepen: move each grasp's TCP up to this many voxels further along its approach
-            ``e_x``, one voxel at a time while the voxel it enters passes
-            ``validity_threshold`` (nearest voxel centre on the approach line; the grid's edge
-            stops it): a TCP decoded at the shallow edge of a valid region pinches the object
-            with the fingertips and slips (``experiments/slips.py``). The grasp keeps the
-            decoded voxel's ``voxel``, score, validity and confidence; ``bounds`` hold the
-            decoded voxel. 0 (default): the TCP at the decoded voxel's centre.
         workspace_origin: world position [m] of the workspace cube's corner; the table top is
             expected 5 cm above it, as in training (docs/sim.md).
         fill_holes: fill the holes of every depth image up to this many pixels from their edge
@@ -157,7 +150,6 @@ class GraspDetector:
         top_k: int | None = None,
         bounds: tuple[np.ndarray, np.ndarray] | None = None,
         samples_per_voxel: int = 0,
-        deepen: int = 0,
         workspace_origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
         fill_holes: int = 0,
         table_scale: bool = False,
@@ -192,7 +184,6 @@ class GraspDetector:
             check_range("top_k", top_k, 1, RESOLUTION**3 * MAX_SAMPLES_PER_VOXEL)
         check_range("samples_per_voxel", samples_per_voxel, 0, MAX_SAMPLES_PER_VOXEL)
         check_range("seed", seed, 0, SEED_MAX)
-        check_range("deepen", deepen, 0, RESOLUTION)
         check_range("fill_holes", fill_holes, 0, MAX_FILL_HOLES)
         origin = np.asarray(workspace_origin, dtype=float)
         if origin.shape != (3,) or not np.isfinite(origin).all():
@@ -224,7 +215,6 @@ class GraspDetector:
         self.top_k = top_k
         self.bounds = None if bounds is None else _check_bounds(bounds)
         self.samples_per_voxel = int(samples_per_voxel)
-        self.deepen = int(deepen)
         self.fill_holes = int(fill_holes)
         self.origin = origin
         self.voxel_size = VOXEL_SIZE
@@ -479,25 +469,7 @@ class GraspDetector:
             rotations = self.representation.sample(ranked.pred, self.samples_per_voxel, generator)
         else:
             rotations = ranked.rotation[:, None]
-        steps = self._deeper_steps(ranked.index, rotations, out["validity"])
-        return self._grasps(
-            ranked.index, rotations, steps, ranked.score, validity, ranked.confidence
-        )
-
-    def _deeper_steps(self, index: Tensor, rotations: Tensor, validity: Tensor) -> Tensor:
-        """(M, S) How many voxels (≤ ``deepen``) each grasp's TCP moves along its approach
-        (the class's ``deepen``) from voxel ``index`` (M, 3), for ``rotations`` (M, S, 3, 3)
-        and the predicted ``validity`` (40, 40, 40)."""
-        steps = torch.zeros(rotations.shape[:2], dtype=torch.long, device=rotations.device)
-        if not self.deepen or not len(index):
-            return steps
-        k = torch.arange(1, self.deepen + 1, device=rotations.device, dtype=rotations.dtype)
-        line = index[:, None, None].to(rotations.dtype) + k[:, None] * rotations[:, :, None, :, 0]
-        voxel = torch.round(line).long()  # (M, S, K, 3)
-        inside = ((voxel >= 0) & (voxel < RESOLUTION)).all(-1)
-        voxel = voxel.clamp(0, RESOLUTION - 1)
-        valid = validity[voxel[..., 0], voxel[..., 1], voxel[..., 2]] >= self.validity_threshold
-        return (inside & valid).long().cumprod(-1).sum(-1)
+        return self._grasps(ranked.index, rotations, ranked.score, validity, ranked.confidence)
 
     def _inside_bounds(self) -> Tensor:
         lo, hi = (torch.as_tensor(b, device=self.device) for b in self.bounds)
@@ -510,24 +482,21 @@ class GraspDetector:
         self,
         index: Tensor,
         rotations: Tensor,
-        steps: Tensor,
         score: Tensor,
         validity: Tensor,
         confidence: Tensor | None,
     ) -> list[Grasp]:
-        """One `Grasp` per voxel and rotation: ``rotations`` [M, S, 3, 3], its TCP at the
-        voxel's centre moved ``steps`` [M, S] voxels along its approach."""
+        """One `Grasp` per voxel and rotation: ``rotations`` [M, S, 3, 3]."""
         centres = self.origin + (index.cpu().numpy() + 0.5) * self.voxel_size
         rotations = rotations.cpu().numpy()
-        steps = steps.cpu().numpy()
         score, validity = score.cpu().tolist(), validity.cpu().tolist()
         conf = [None] * len(score) if confidence is None else confidence.cpu().tolist()
         voxels = [tuple(int(v) for v in row) for row in index.cpu().tolist()]
         grasps = []
         for m in range(len(voxels)):
-            for R, step in zip(rotations[m], steps[m], strict=True):
+            for R in rotations[m]:
                 pose = np.eye(4)
-                pose[:3, :3], pose[:3, 3] = R, centres[m] + step * self.voxel_size * R[:, 0]
+                pose[:3, :3], pose[:3, 3] = R, centres[m]
                 grasps.append(Grasp(pose, score[m], validity[m], conf[m], voxels[m]))
         return grasps
 
