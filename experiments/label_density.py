@@ -3,7 +3,7 @@ spread labels and whether they hold, and how often a voxel trained as invalid ho
 → experiments/results/label_density.{json,md}.
 
     SYMGRASP_DATA=../shared PYTHONPATH=src python experiments/label_density.py
-        [--objects vgn-pile-train household-train] [--spreads 1,1,1,1 1,2,1,1 ...]
+        [--objects vgn-pile-train household-train] [--spreads 1,1,1,1 1,2,1,1 ...] [--offset LO HI]
         [--quick [DIR]]
 
 Training objects only (the spread is chosen on these). For each object set: a pool of
@@ -308,10 +308,16 @@ def measure(objects: str, hand: GripperSpec, args: argparse.Namespace) -> dict[s
         object_set=objects,
         gripper=hand.name,
         pool_size=args.pool,
-        database=DatabaseConfig(grasps=args.grasps, directions=args.directions),
+        database=DatabaseConfig(
+            grasps=args.grasps, directions=args.directions, offset=tuple(args.offset)
+        ),
     )
     pool = scene_pool(cfg)
-    largest = DatabaseConfig(grasps=max(args.grasps, args.more_grasps), directions=args.directions)
+    largest = DatabaseConfig(
+        grasps=max(args.grasps, args.more_grasps),
+        directions=args.directions,
+        offset=tuple(args.offset),
+    )
     built = [
         cached_database(obj, hand, args.cache, largest, seed=k)
         for k, obj in enumerate(tqdm(pool.objects, desc=f"{objects} databases", unit="object"))
@@ -406,6 +412,11 @@ def main() -> None:
     parser.add_argument("--directions", type=int, default=4,
                         help="score directions per database; no score is measured here "
                         "(default: %(default)s)")  # fmt: skip
+    parser.add_argument("--offset", type=float, nargs=2, metavar=("LO", "HI"),
+                        default=DatabaseConfig.offset,
+                        help="range [m] of the databases' TCP offset along the approach from the "
+                        "contacts' midpoint (DatabaseConfig.offset; default: %(default)s; the "
+                        "final campaign's wide Robotiq data: -0.03 0.03)")  # fmt: skip
     parser.add_argument("--cache", default="out/label_density/db", type=Path,
                         help="folder of the cached grasp databases (default: %(default)s)")  # fmt: skip
     parser.add_argument("--tolerance-scenes", type=int, default=30,
@@ -447,6 +458,7 @@ def main() -> None:
         cells,
         text,
         gripper=args.gripper,
+        offset_m=list(args.offset),
         spreads_voxels=args.spreads,
         sizes={k: getattr(args, k) for k in ("pool", "grasps", "more_grasps", "directions",
                "tolerance_scenes", "tolerance_grasps", "max_shift", "scenes", "trials",

@@ -3,13 +3,14 @@ modes say why) → experiments/results/slips.{json,md}.
 
     SYMGRASP_DATA=DIR PYTHONPATH=src python experiments/slips.py \\
         --models RUN/best.pt … [--recorded ROUNDS.jsonl …] [--rounds 60] [--work out/slips] \\
-        [--quick [DIR]]
+        [--objects SET] [--seed S] [--clearance M] [--result PATH] [--quick [DIR]]
 
 The final campaign's detectors (trained on the ``wide`` spread labels) lose 7–12 % of their
 executed grasps on the judging rounds to slips (closed on an object that is not held after the
 lift, at every yaw the diagnosis tries); Table 1's detectors lost ≈ 1 %. Each checkpoint plays
 the judging rounds' first ``--rounds`` again (``vgn-pile-train`` from round seed 2 000 000,
-clean, under the approach rule they were judged with: −2 mm, `OLD_RULE`); with
+clean, under the approach rule they were judged with: −2 mm, `OLD_RULE`), or the rounds
+``--objects``, ``--seed`` and ``--clearance`` name (a test cell: looked at, as here); with
 ``--recorded`` (a ``rounds.jsonl`` per model, in order) the replays are checked against the
 recorded rounds attempt for attempt and the matches counted. Every executed grasp is measured
 from the state it started in:
@@ -51,12 +52,13 @@ from symgrasp.sim.execute import execute_grasp
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 OLD_RULE = -0.002
-"""The approach rule's clearances [m] the final campaign judged with."""
+"""The approach rule's clearances [m] the final campaign judged with (the default)."""
 
 SEED = 2_000_000
-"""The judging rounds' first seed (final.toml's ``judge``)."""
+"""The judging rounds' first seed (final.toml's ``judge``; the default)."""
 
 OBJECTS = "vgn-pile-train"
+"""The judging rounds' objects (the default)."""
 
 SURFACE_SAMPLES = 4096
 """Surface points of the aimed object: ≈ 1 mm apart on a 6 cm object."""
@@ -121,8 +123,11 @@ def deeper(T: np.ndarray, steps: int) -> np.ndarray:
     return moved
 
 
-def replay_round(watched: WatchedOutputs, objects: Any, seed: int, hand: dict) -> dict[str, Any]:
-    """Round ``seed`` played again with every executed grasp measured (module docstring)."""
+def replay_round(
+    watched: WatchedOutputs, objects: Any, seed: int, hand: dict, clearance: float
+) -> dict[str, Any]:
+    """Round ``seed`` played again under the approach rule ``clearance`` [m] (table and
+    observed surface) with every executed grasp measured (module docstring)."""
     rows = []
 
     def observe(world: Any, points: np.ndarray, candidates: list, attempt: Any) -> None:
@@ -143,34 +148,35 @@ def replay_round(watched: WatchedOutputs, objects: Any, seed: int, hand: dict) -
         rows.append(row)
 
     record = run_round(watched, objects, seed=seed, observer=observe,
-                       table_clearance=OLD_RULE, surface_clearance=OLD_RULE)  # fmt: skip
+                       table_clearance=clearance, surface_clearance=clearance)  # fmt: skip
     return {"seed": seed, "attempts": [a.outcome for a in record.attempts], "rows": rows}
 
 
-def replays(model: str, rounds: int, path: Path) -> list[dict[str, Any]]:
-    """Rounds ``SEED … SEED + rounds − 1`` of ``model``, from ``path`` where already played,
-    the rest played and appended."""
+def replays(model: str, args: argparse.Namespace, path: Path) -> list[dict[str, Any]]:
+    """Rounds ``--seed`` … ``--seed + --rounds − 1`` of ``model`` on ``--objects`` under
+    ``--clearance``, from ``path`` where already played, the rest played and appended."""
+    seeds = [args.seed + i for i in range(args.rounds)]
     done = {}
     if path.exists():
         for line in path.read_text().splitlines():
             if line.strip():
                 record = json.loads(line)
                 done[record["seed"]] = record
-    todo = [SEED + i for i in range(rounds) if SEED + i not in done]
+    todo = [seed for seed in seeds if seed not in done]
     if todo:
         planner = load_planner(str(resolve_model(model)), device="cpu")
         watched = WatchedOutputs(planner)
         hand = {"pad_x": pad_extent(planner.gripper), "pad_y": pad_extent(planner.gripper, 1),
                 "width": planner.gripper.max_width}  # fmt: skip
-        objects = resolve(OBJECTS)
+        objects = resolve(args.objects)
         path.parent.mkdir(parents=True, exist_ok=True)
         with path.open("a") as out:
             for seed in tqdm(todo, desc=Path(model).parent.name or model, unit="round"):
-                record = replay_round(watched, objects, seed, hand)
+                record = replay_round(watched, objects, seed, hand, args.clearance)
                 out.write(json.dumps(record) + "\n")
                 out.flush()
                 done[seed] = record
-    return [done[SEED + i] for i in range(rounds)]
+    return [done[seed] for seed in seeds]
 
 
 def matches(records: list[dict[str, Any]], recorded: Path) -> int:
@@ -212,9 +218,14 @@ def main() -> None:
     parser.add_argument("--recorded", nargs="*", default=[],
                         help="each model's recorded judging rounds.jsonl, in --models' order "
                              "('-' for none), to check the replays against")  # fmt: skip
-    parser.add_argument(
-        "--rounds", type=int, default=60, help="judging rounds per model (default: 60)"
-    )
+    parser.add_argument("--rounds", type=int, default=60, help="rounds per model (default: 60)")
+    parser.add_argument("--objects", default=OBJECTS,
+                        help="object set of the rounds (default: %(default)s, the judging rounds')")  # fmt: skip
+    parser.add_argument("--seed", type=int, default=SEED,
+                        help="first round seed (default: %(default)s, the judging rounds')")  # fmt: skip
+    parser.add_argument("--clearance", type=float, default=OLD_RULE,
+                        help="the approach rule's table and surface clearance [m] (default: "
+                        "%(default)s, the judging rounds'; today's benchmark: 0.001)")  # fmt: skip
     parser.add_argument("--work", default="out/slips",
                         help="folder of each model's replayed rounds, kept to resume (default: %(default)s)")  # fmt: skip
     add_result_option(parser, "slips")
@@ -227,7 +238,10 @@ def main() -> None:
     for index, model in enumerate(args.models):
         path = resolve_model(model)
         name = f"{path.parent.name}/{path.stem}" if Path(model).is_file() else str(model)
-        records = replays(model, args.rounds, Path(args.work) / f"{index:02d}.jsonl")
+        folder = Path(args.work) / f"{args.objects}-{args.seed}-{args.clearance:g}"
+        records = replays(
+            model, args, folder / f"{index:02d}-{Path(model).parent.name or model}.jsonl"
+        )
         threshold = load_planner(str(path), device="cpu").validity_threshold
         rows = [row for r in records for row in r["rows"]]
         slips = [r for r in rows if r["mode"] == "slip"]
@@ -282,9 +296,9 @@ def main() -> None:
         cells,
         table,
         rounds=args.rounds,
-        seed=SEED,
-        objects=OBJECTS,
-        approach_rule_played=OLD_RULE,
+        seed=args.seed,
+        objects=args.objects,
+        approach_rule_played=args.clearance,
     )
 
 
