@@ -1,5 +1,5 @@
-"""`symgrasp data relabel`: a spread-label dataset relabelled without a spread is the dataset
-generated without one, to the byte (the independent oracle: generation itself)."""
+"""`symgrasp data relabel`: a dataset relabelled with another spread (or none) is the dataset
+generated with it, to the byte (the independent oracle: generation itself)."""
 
 import json
 import shutil
@@ -15,6 +15,7 @@ from symgrasp.workspace import VOXEL_SIZE as V
 TINY = ["--objects", "blocks", "--gripper", "franka", "--pool-size", "2", "--grasps", "40"]
 TINY += ["--directions", "8", "--scenes", "4"]
 SPREAD = ["--label-spread", str(V), str(2 * V), str(V), str(V)]
+NO_BACK = (0.0, 2 * V, V, V)
 
 
 @pytest.fixture(scope="module")
@@ -25,6 +26,15 @@ def datasets(tmp_path_factory):
     shutil.copytree(root / "spread" / "db", root / "plain" / "db")  # the same databases
     main(["data", "generate", *TINY, "--out", str(root / "plain")])
     return root / "spread", root / "plain"
+
+
+@pytest.fixture(scope="module")
+def no_back(datasets, tmp_path_factory):
+    """The same four scenes generated with the spread without its back move."""
+    root = tmp_path_factory.mktemp("relabel") / "no-back"
+    shutil.copytree(datasets[0] / "db", root / "db")
+    main(["data", "generate", *TINY, "--label-spread", *map(str, NO_BACK), "--out", str(root)])
+    return root
 
 
 def _manifest(root):
@@ -51,6 +61,30 @@ def test_relabelled_scenes_are_the_scenes_generated_without_a_spread(datasets, t
     assert len(GraspDataset(out, split="all")) == 4
 
 
+@pytest.mark.parametrize("source", ["spread", "plain"])
+def test_relabelled_with_another_spread_are_the_scenes_generated_with_it(
+    source, datasets, no_back, tmp_path
+):
+    """From a spread (a smaller box) and from no spread (the surface samples of the collision
+    checks drawn again from each scene's stream): the bytes generation writes."""
+    src = dict(zip(("spread", "plain"), datasets, strict=True))[source]
+    out = tmp_path / "out"
+    main(["data", "relabel", str(src), "--label-spread", *map(str, NO_BACK), "--out", str(out)])
+    made, want = _manifest(out), _manifest(no_back)
+    assert made["config"] == want["config"]
+    assert made["dataset_hash"] == want["dataset_hash"]
+    assert made["derived_from"]["label_spread"] == _manifest(src)["config"]["label_spread"]
+    counts = [len(load_scene(scene_path(root, 0))["voxel_index"]) for root in (*datasets, out)]
+    assert counts[0] > counts[2] > counts[1]  # fewer voxels than 1,2,1,1, more than none
+
+
+def test_relabelling_to_the_spread_it_has_is_refused(datasets, tmp_path):
+    with pytest.raises(ValueError, match="already has a label spread of"):
+        relabel(datasets[0], tmp_path / "a", label_spread=(V, 2 * V, V, V))
+    with pytest.raises(ValueError, match="label_spread"):
+        relabel(datasets[0], tmp_path / "b", label_spread=(-V, 0.0, 0.0, 0.0))
+
+
 def test_resume_rewrites_a_lost_or_broken_scene_and_keeps_the_bytes(datasets, tmp_path):
     spread, plain = datasets
     out = tmp_path / "out"
@@ -69,7 +103,7 @@ def test_resume_rewrites_a_lost_or_broken_scene_and_keeps_the_bytes(datasets, tm
 
 def test_bad_sources_and_outputs_are_refused_naming_them(datasets, tmp_path):
     spread, plain = datasets
-    with pytest.raises(ValueError, match="has no label spread"):
+    with pytest.raises(ValueError, match="already has no label spread"):
         relabel(plain, tmp_path / "a")
     with pytest.raises(ValueError, match="another folder than src"):
         relabel(spread, spread)

@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import argparse
 
-from symgrasp.arguments import integer
+from symgrasp.arguments import integer, number, sentence
 from symgrasp.cli.fields import add_config_options, config_from_args
 from symgrasp.cli.options import SEED, input_folder, output_folder_path, output_path
 from symgrasp.config import SceneConfig
+from symgrasp.fields import field_docs
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 
@@ -47,15 +48,23 @@ def add(subparsers: argparse._SubParsersAction) -> None:
 
     relabel = actions.add_parser(
         "relabel",
-        help="a spread-label dataset's scenes, each grasp labelling its TCP's voxel alone",
-        description="Write the scenes of a finished dataset generated with --label-spread "
-        "with the labels generation gives without one (each surviving grasp at its TCP's voxel "
+        help="a dataset's scenes with the labels of another --label-spread",
+        description="Write the scenes of a finished dataset with the labels generation gives "
+        "with another --label-spread (by default none: each surviving grasp at its TCP's voxel "
         "alone): the same objects, grasps, camera, depth image and TSDF, without simulating the "
         "scenes again, for an ablation of the labels on the same scenes (docs/data.md, "
         '"Relabelled datasets").',
     )
-    relabel.add_argument("src", type=input_folder, help="finished dataset with a label spread")
+    relabel.add_argument("src", type=input_folder, help="finished dataset")
     relabel.add_argument("--out", type=output_folder_path, required=True, help="dataset folder")
+    relabel.add_argument(
+        "--label-spread",
+        type=number(0.0, 0.05),
+        nargs=4,
+        default=(0.0, 0.0, 0.0, 0.0),
+        metavar=("BACK", "FORWARD", "E_Y", "E_Z"),
+        help=sentence(field_docs(SceneConfig)["label_spread"]) + " (default: 0 0 0 0)",
+    )
     relabel.add_argument(
         "--resume", action="store_true", help="continue a run in --out, skipping written scenes"
     )
@@ -103,7 +112,7 @@ def _run_data_generate(args: argparse.Namespace) -> None:
 def _run_data_relabel(args: argparse.Namespace) -> None:
     from symgrasp.data.relabel import relabel
 
-    manifest = relabel(args.src, args.out, args.resume)
+    manifest = relabel(args.src, args.out, args.resume, tuple(args.label_spread))
     print(f"{manifest['num_scenes']} scenes in {args.out} (hash {manifest['dataset_hash']})")
 
 

@@ -105,17 +105,13 @@ def scene_grasps(
     The scores are read after the collision check, naming the grasps it keeps: an
     `OnDemandDatabase` measures only those (the others' scores may then be NaN)."""
     T, width, owner = [], [], []
-    points = []
-    for i, (obj, T_wo, db) in enumerate(zip(objects, poses, databases, strict=True)):
+    for i, (T_wo, db) in enumerate(zip(poses, databases, strict=True)):
         held = db.held
         T.append(T_wo @ db.T_object_tcp[held])
         width.append(db.width[held])
         owner.append(np.full(int(held.sum()), i))
-        area = float(obj.mesh().area)
-        p, _ = surface_samples(obj, max(64, int(area / cfg.surface_spacing**2)), rng)
-        points.append(p @ T_wo[:3, :3].T + T_wo[:3, 3])
     T_all = np.concatenate(T).reshape(-1, 4, 4) if T else np.zeros((0, 4, 4))
-    cloud = np.concatenate(points) if points else np.zeros((0, 3))
+    cloud = scene_points(objects, poses, cfg, rng)
     owner_all = np.concatenate(owner) if owner else np.zeros(0, dtype=int)
     collides = hand_collides(T_all, hand, cloud, tolerance=-cfg.clearance)
     score = [
@@ -133,6 +129,20 @@ def scene_grasps(
         "collides": collides,
         "points": cloud,
     }
+
+
+def scene_points(
+    objects: list[ObjectSpec], poses: np.ndarray, cfg: SceneConfig, rng: np.random.Generator
+) -> np.ndarray:
+    """The scene's surface samples (P, 3) in the world frame, which the labels' collision
+    check tests the open hand against: ``cfg.surface_spacing`` apart on each object (at least
+    64), drawn from ``rng`` object by object."""
+    points = []
+    for obj, T_wo in zip(objects, poses, strict=True):
+        area = float(obj.mesh().area)
+        p, _ = surface_samples(obj, max(64, int(area / cfg.surface_spacing**2)), rng)
+        points.append(p @ T_wo[:3, :3].T + T_wo[:3, 3])
+    return np.concatenate(points) if points else np.zeros((0, 3))
 
 
 def spread_box(cfg: SceneConfig) -> tuple[np.ndarray, np.ndarray]:
@@ -194,6 +204,19 @@ class LabelledScene:
         return ~self.grasps["collides"]
 
 
+def scene_draws(
+    scene_id: int, cfg: SceneConfig, seed: int = 0
+) -> tuple[np.random.Generator, str, list[int], int]:
+    """Step 1's draws of scene ``scene_id``: its random stream (`scene_rng`) after them, the
+    kind, the pool indices of the objects dropped and the seed the scene is built and settled
+    with. The stream goes on to `scene_points`, then the observation."""
+    rng = scene_rng(seed, scene_id)
+    kind = str(rng.choice(cfg.kinds))
+    n = min(int(rng.poisson(cfg.mean_objects)) + 1, cfg.max_objects)
+    chosen = [int(k) for k in rng.integers(cfg.pool_size, size=n)]
+    return rng, kind, chosen, int(rng.integers(2**31))
+
+
 def labelled_scene(
     scene_id: int,
     cfg: SceneConfig,
@@ -204,12 +227,9 @@ def labelled_scene(
 ) -> tuple[LabelledScene, np.random.Generator]:
     """Steps 1–4 of scene ``scene_id`` (see `make_scene_record` for the arguments), and the
     scene's random stream, from which the observation goes on drawing."""
-    rng = scene_rng(seed, scene_id)
-    kind = str(rng.choice(cfg.kinds))
-    n = min(int(rng.poisson(cfg.mean_objects)) + 1, cfg.max_objects)
-    chosen = [int(k) for k in rng.integers(cfg.pool_size, size=n)]
+    rng, kind, chosen, world_seed = scene_draws(scene_id, cfg, seed)
     specs = [pool.objects[k] for k in chosen]
-    world = pool.source.scene(kind, specs, seed=int(rng.integers(2**31)))
+    world = pool.source.scene(kind, specs, seed=world_seed)
     kept = [next(j for j, s in enumerate(specs) if s is o) for o in world.objects]
     pool_index = np.array([chosen[j] for j in kept], dtype=np.int64)
     poses = world.object_poses()
