@@ -369,6 +369,31 @@ def test_every_final_run_is_judged_on_the_rounds_no_checkpoint_was_chosen_by():
         assert "--seed" not in select  # the selections' own rounds, from 1 000 000
 
 
+def test_the_noback_arm_is_the_wide_arm_without_the_back_spread():
+    """noback.toml: its data is final.toml's wide data relabelled with the same spread less its
+    back move, and its runs are trained, selected and judged by the wide runs' very commands
+    (recipe, rounds, the old approach rule) on that data: an ablation of the back spread alone."""
+    steps = campaign_steps("experiments/campaigns/final.toml", "experiments/campaigns/noback.toml")
+    relabel = shlex.split(steps["data-wide-noback"]["run"])
+    generate = shlex.split(steps["data-wide"]["run"])
+
+    def spread(flags: list[str]) -> list[float]:
+        i = flags.index("--label-spread")
+        return [float(v) for v in flags[i + 1 : i + 5]]
+
+    assert relabel[:4] == ["symgrasp", "data", "relabel", "/root/data/wide"]
+    assert steps["data-wide-noback"]["needs"] == ["data-wide"]
+    assert spread(generate)[0] > 0 and spread(relabel) == [0.0, *spread(generate)[1:]]
+    for seed in (0, 1):
+        for prefix in ("", "select-", "judge-"):
+            wide = steps[f"{prefix}wide-{REP}-s{seed}"]["run"]
+            noback = steps[f"{prefix}noback-{REP}-s{seed}"]["run"]
+            wide = wide.replace("wide-", "noback-").replace(
+                "/root/data/wide ", "/root/data/wide-noback "
+            )
+            assert shlex.split(noback) == shlex.split(wide)
+
+
 def test_the_franka_data_takes_the_offset_range_its_recorded_decision_chose():
     """final.toml: the Franka's data keeps today's offset range (no --offset), as the committed
     decision on the oracle's two readings says, where the Robotiq's takes the wide one."""
