@@ -319,6 +319,17 @@ def percent_mean(ratios: list[float]) -> str:
 # -- replaying rounds instrumented --------------------------------------------------------
 
 
+def records_by_seed(path: Path) -> dict[int, dict[str, Any]]:
+    """The JSON records of the lines file ``path`` by their ``"seed"`` (empty when there is no
+    file): the rounds a resumable replay has kept."""
+    import json
+
+    if not path.exists():
+        return {}
+    records = (json.loads(line) for line in path.read_text().splitlines() if line.strip())
+    return {record["seed"]: record for record in records}
+
+
 def pad_extent(gripper: GripperSpec, axis: int = 0) -> tuple[float, float]:
     """The open pads' extent along TCP axis ``axis`` (0: ``e_x``, 1: ``e_y``) [m], from the
     hand's own boxes."""

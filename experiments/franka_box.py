@@ -52,7 +52,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import GRIPPERS, Watched, add_result_option, pad_extent, wilson
+from common import GRIPPERS, Watched, add_result_option, pad_extent, records_by_seed, wilson
 from tqdm import tqdm
 
 from symgrasp.benchmark.declutter import run_round
@@ -292,12 +292,7 @@ def replays(name: str, rounds: int, labels: bool, work: Path) -> list[dict[str, 
     from symgrasp.peers.oracle import OraclePlanner
 
     path = work / f"replay-{name}.jsonl"
-    done = {}
-    if path.exists():
-        for line in path.read_text().splitlines():
-            if line.strip():
-                record = json.loads(line)
-                done[record["seed"]] = record
+    done = records_by_seed(path)
     todo = [s for s in range(rounds) if s not in done]
     if todo:
         model = GraspDetector.from_pretrained(name, device="cpu")

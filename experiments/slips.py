@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from common import SHIPPED, Watched, add_result_option, pad_extent, wilson
+from common import SHIPPED, Watched, add_result_option, pad_extent, records_by_seed, wilson
 from tqdm import tqdm
 
 from symgrasp.benchmark.declutter import run_round
@@ -156,12 +156,7 @@ def replays(model: str, args: argparse.Namespace, path: Path) -> list[dict[str, 
     """Rounds ``--seed`` … ``--seed + --rounds − 1`` of ``model`` on ``--objects`` under
     ``--clearance``, from ``path`` where already played, the rest played and appended."""
     seeds = [args.seed + i for i in range(args.rounds)]
-    done = {}
-    if path.exists():
-        for line in path.read_text().splitlines():
-            if line.strip():
-                record = json.loads(line)
-                done[record["seed"]] = record
+    done = records_by_seed(path)
     todo = [seed for seed in seeds if seed not in done]
     if todo:
         planner = load_planner(str(resolve_model(model)), device="cpu")
@@ -181,11 +176,8 @@ def replays(model: str, args: argparse.Namespace, path: Path) -> list[dict[str, 
 
 def matches(records: list[dict[str, Any]], recorded: Path) -> int:
     """How many replayed rounds repeat ``recorded``'s outcomes attempt for attempt."""
-    kept = {}
-    for line in recorded.read_text().splitlines():
-        if line.strip():
-            r = json.loads(line)
-            kept[r["seed"]] = [a["outcome"] for a in r["attempts"]]
+    kept = {seed: [a["outcome"] for a in r["attempts"]]
+            for seed, r in records_by_seed(recorded).items()}  # fmt: skip
     return sum(kept.get(r["seed"]) == r["attempts"] for r in records)
 
 
