@@ -1,6 +1,6 @@
 """Run a plan of long commands (datasets, training runs, benchmarks) that outlives any session.
 
-    PYTHONPATH=src python experiments/campaign.py run PLAN.toml [PLAN.toml ...] [--root DIR] [--cores 2] [--bank DIR]
+    PYTHONPATH=src python experiments/campaign.py run PLAN.toml [PLAN.toml ...] [--root DIR] [--cores 2] [--bank DIR] [--first NAME ...]
     PYTHONPATH=src python experiments/campaign.py status PLAN.toml [PLAN.toml ...] [--root DIR] [--bank DIR]
     PYTHONPATH=src python experiments/campaign.py show PLAN.toml [PLAN.toml ...] [--root DIR]
     PYTHONPATH=src python experiments/campaign.py run --quick [DIR]
@@ -25,7 +25,9 @@ needs (``experiments/campaigns/*.toml``)::
 Several plan files make one plan, in order: a later file uses the vars of the earlier ones and
 its steps may need theirs (a campaign built on another's runs). ``run`` starts every step
 whose needs are done, in the plan's order, as long as their cores fit
-in ``--cores``, and returns when nothing more can start. A step is done when it exited 0 with
+in ``--cores`` (the steps ``--first`` names, shell-style patterns, before the others, each
+group in the plan's order: a decision waiting on them is reached sooner), and returns when
+nothing more can start. A step is done when it exited 0 with
 the same command: ``ROOT/done/NAME`` holds the command it finished, so an edited command runs
 again. Every command must resume its own work (symgrasp's ``--resume``), because a session's
 end kills whatever runs: the next ``run`` starts those steps again and they continue where they
@@ -66,6 +68,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import fnmatch
 import json
 import os
 import re
@@ -326,6 +329,13 @@ def _to_run_again(steps: list[Step], outcome: dict[str, str], resting: set[str])
     return wanted
 
 
+def first(steps: list[Step], patterns: list[str]) -> list[Step]:
+    """``steps`` with those whose name matches one of ``patterns`` (`fnmatch`) moved to the
+    front, each group in its own order."""
+    named = [s for s in steps if any(fnmatch.fnmatchcase(s.name, p) for p in patterns)]
+    return named + [s for s in steps if s not in named]
+
+
 def run(steps: list[Step], root: Path, cores: int, bank: Path | None = None) -> dict[str, str]:
     """Run the plan's missing steps (see the module docstring); each step's outcome."""
     for name, (pid, identity, started) in _running(root).items():
@@ -465,6 +475,10 @@ def main() -> None:
                         help="folder (in the repository, committed) that keeps each finished "
                         "step's record and the files its 'keep' patterns match; a root without "
                         "them takes them back from it (default: no bank)")  # fmt: skip
+    parser.add_argument("--first", nargs="+", default=[], metavar="NAME",
+                        help="steps (shell-style patterns: 'noback-*') that run tries before the "
+                        "others when cores free up, in the plan's order; their needs still hold "
+                        "(default: the plan's order alone)")  # fmt: skip
     args = parse_args(
         parser,
         outputs=("root",),
@@ -478,6 +492,10 @@ def main() -> None:
         parser.error("the plan's TOML file is needed")
     root = args.root.resolve()
     steps = read_plan(args.plan, root)
+    for pattern in args.first:
+        if not any(fnmatch.fnmatchcase(step.name, pattern) for step in steps):
+            parser.error(f"--first: {pattern!r} names no step of the plan")
+    steps = first(steps, args.first)
     bank = None if args.bank is None else args.bank.resolve()
     if args.action == "status":
         for name, state in status(steps, root, bank).items():

@@ -285,3 +285,20 @@ def test_a_keep_pattern_that_matches_nothing_fails_its_step(tmp_path):
     assert "made: failed (step 'made' keeps 'b/*.txt', which matches no file under" in done.stdout
     assert not (tmp_path / "root" / "after.txt").exists()
     assert not (tmp_path / "bank" / "made").exists()
+
+
+def test_first_runs_the_named_steps_before_the_others_and_their_needs_still_hold(tmp_path):
+    append = 'open("{{root}}/order.txt", "a").write("{}")'
+    text = "".join([
+        _step("a", append.format("a")),
+        _step("b-one", append.format("1")),
+        _step("c", append.format("c")),
+        _step("b-two", append.format("2"), needs=["c"]),
+    ])  # fmt: skip
+    plan = _plan(tmp_path, text)
+    done = _campaign("run", [plan], tmp_path, "--cores", "1", "--first", "b-*")
+    assert done.returncode == 0, done.stderr
+    # one core: b-one before a; b-two, named too, still waits for the c it needs
+    assert (tmp_path / "order.txt").read_text() == "1ac2"
+    unknown = _campaign("run", [plan], tmp_path, "--first", "d*")
+    assert unknown.returncode == 2 and "--first: 'd*' names no step of the plan" in unknown.stderr

@@ -109,3 +109,49 @@ def test_a_judging_folder_from_before_the_model_record_is_taken_as_it_is(tmp_pat
     assert done.returncode == 0, done.stderr
     (cell,) = json.loads((tmp_path / "judge.json").read_text())["cells"]
     assert "missing" not in cell and cell["success_ratio"] > 0
+
+
+def _judge(root, *options):
+    return subprocess.run(
+        [sys.executable, "experiments/judge.py", "--root", str(root), "--rounds", "3",
+         "--result", str(root / "judge"), *OLD_RULE, *options],
+        cwd=ROOT, env=ENV, capture_output=True, text=True,
+    )  # fmt: skip
+
+
+def test_a_shipped_model_is_a_one_run_model_that_runs_are_contrasted_with(tmp_path):
+    _campaign(tmp_path)
+    from symgrasp.detect.pretrained import shipped_path
+
+    folder = tmp_path / "bench" / "judge" / "shipped-bingham2d-franka"
+    folder.mkdir(parents=True)
+    config = {"model": "bingham2d-franka", "objects": "vgn-pile-train", "scene": "pile",
+              "num_objects": 5, "rounds": 3, "seed": 2_000_000}  # fmt: skip
+    (folder / "config.json").write_text(json.dumps(config))
+    (folder / "model.sha256").write_text(file_sha256(shipped_path("bingham2d-franka")) + "\n")
+    # one success fewer than m-bingham2d-s1's in every round, the same grasps executed
+    rounds = [(3, 5), (2, 3), (4, 5)]
+    (folder / "rounds.jsonl").write_text(
+        "".join(json.dumps(_round(2_000_000 + i, *c)) + "\n" for i, c in enumerate(rounds))
+    )
+    done = _judge(tmp_path, "--runs", "m-bingham2d-s1", "other-bingham2d-s0",
+                  "--shipped", "bingham2d-franka",
+                  "--contrast", "m-bingham2d", "shipped-bingham2d-franka",
+                  "--contrast", "other-bingham2d", "shipped-bingham2d-franka")  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    result = json.loads((tmp_path / "judge.json").read_text())
+    shipped = next(r for r in result["cells"] if r["run"] == "shipped-bingham2d-franka")
+    assert shipped["success_ratio"] == pytest.approx(9 / 13)
+    assert "shipped-bingham2d-franka" not in {p["model"] for p in result["picks"]}
+    lead, waiting = result["contrasts"]
+    # three more successes of 13 grasps and of 15 objects; ahead in every resample of the rounds
+    point, low, _ = lead["change"]["sr_plus_cr"]
+    assert point == pytest.approx(3 / 13 + 3 / 15) and low > 0
+    assert lead["verdict"] == "beats" and lead["ahead"] == 1
+    assert waiting["waiting"] == ["other-bingham2d-s0"]  # judged another best.pt
+    assert "| m-bingham2d − shipped-bingham2d-franka | 3 |" in done.stdout
+
+
+def test_a_contrast_of_a_model_not_judged_is_refused_by_name(tmp_path):
+    done = _judge(tmp_path, "--runs", "m-bingham2d-s0", "--contrast", "m-bingham2d", "wide")
+    assert done.returncode == 2 and "--contrast: 'wide' is none of the models" in done.stderr

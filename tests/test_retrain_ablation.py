@@ -394,6 +394,40 @@ def test_the_noback_arm_is_the_wide_arm_without_the_back_spread():
             assert shlex.split(noback) == shlex.split(wide)
 
 
+
+def test_the_franka_noback_arm_is_the_dense_franka_arm_without_the_back_spread():
+    """noback.toml: the Franka's arm relabels final.toml's Franka data with the Robotiq arm's
+    spread, and trains, selects and judges by the dense Franka runs' very commands on it."""
+    steps = campaign_steps("experiments/campaigns/final.toml", "experiments/campaigns/noback.toml")
+    relabel = shlex.split(steps["data-franka-noback"]["run"])
+    robotiq = shlex.split(steps["data-wide-noback"]["run"])
+    assert relabel[:4] == ["symgrasp", "data", "relabel", "/root/data/franka-dense"]
+    assert relabel[4:] == [*robotiq[4:-3], "--out", "/root/data/franka-noback", "--resume"]
+    assert steps["data-franka-noback"]["needs"] == ["data-franka"]
+    for seed in (0, 1):
+        for prefix in ("", "select-", "judge-"):
+            dense = steps[f"{prefix}dense-franka-{REP}-s{seed}"]["run"]
+            noback = steps[f"{prefix}noback-franka-{REP}-s{seed}"]["run"]
+            dense = dense.replace("dense-franka-", "noback-franka-").replace(
+                "/root/data/franka-dense ", "/root/data/franka-noback "
+            )
+            assert shlex.split(noback) == shlex.split(dense)
+
+
+def test_the_shipped_models_are_judged_on_the_retrained_runs_rounds():
+    """noback.toml: each hand's shipped bingham2d plays the judging rounds by the runs' judging
+    command, the model named instead of a run's best.pt, into the folder judge.py --shipped reads."""
+    steps = campaign_steps("experiments/campaigns/final.toml", "experiments/campaigns/noback.toml")
+    run = "wide-bingham2d-s0"
+    judge = steps[f"judge-{run}"]["run"]
+    for name in ("bingham2d-robotiq-2f85", "bingham2d-franka"):
+        shipped = judge.replace(f"/root/runs/{run}/best.pt", name).replace(
+            f"judge/{run}", f"judge/shipped-{name}"
+        )
+        assert shlex.split(steps[f"judge-shipped-{name}"]["run"]) == shlex.split(shipped)
+        assert steps[f"judge-shipped-{name}"]["keep"] == [f"bench/judge/shipped-{name}/**"]
+
+
 def test_the_franka_data_takes_the_offset_range_its_recorded_decision_chose():
     """final.toml: the Franka's data keeps today's offset range (no --offset), as the committed
     decision on the oracle's two readings says, where the Robotiq's takes the wide one."""

@@ -4,6 +4,7 @@ import dataclasses
 import json
 import math
 
+import numpy as np
 import pytest
 
 from symgrasp.benchmark.compare import compare_table, paired_change, paired_rounds, percent_change
@@ -33,6 +34,23 @@ def test_a_constant_lead_in_every_round_has_no_spread(tmp_path):
     change = paired_change(*paired_rounds(a, b))
     assert change["clear_ratio"] == pytest.approx([0.2, 0.2, 0.2])
     assert change["success_ratio"] == pytest.approx([0.25, 0.25, 0.25])
+    assert change["sr_plus_cr"] == pytest.approx([0.45, 0.45, 0.45])
+    assert "| SR + CR | 135.0 | 90.0 | +45.0 [+45.0, +45.0] |" in compare_table(a, b)
+
+
+def test_the_sum_resamples_sr_and_cr_together(tmp_path):
+    """SR and CR of a round move together (a round that clears more has more successes):
+    drawn apart, their sum's interval would be wider than drawn together, and an interval of
+    the sum equal to the sum of intervals would say it was."""
+    rng = np.random.default_rng(3)
+    counts = {s: (int(k), 4, 5) for s, k in enumerate(rng.integers(0, 5, size=60))}
+    a = _bench(tmp_path / "a", counts)
+    b = _bench(tmp_path / "b", {s: (2, 4, 5) for s in range(60)})
+    change = paired_change(*paired_rounds(a, b))
+    point, low, high = change["sr_plus_cr"]
+    assert point == pytest.approx(change["success_ratio"][0] + change["clear_ratio"][0])
+    # every round executes 4 of 5: SR + CR = successes (1/4 + 1/5), exactly 1.8 × CR's change
+    assert [low, high] == pytest.approx([1.8 * v / 0.8 for v in change["clear_ratio"][1:]])
 
 
 def test_only_the_shared_rounds_are_paired(tmp_path):

@@ -82,6 +82,24 @@ def test_a_constant_lead_per_round_survives_shared_round_draws():
     change = seed_paired_change([_run(lead), _run(lead)], [_run(base), _run(base)])
     assert change["success_ratio"] == pytest.approx([0.25, 0.25, 0.25])
     assert change["clear_ratio"] == pytest.approx([0.2, 0.2, 0.2])
+    assert change["sr_plus_cr"] == pytest.approx([0.45, 0.45, 0.45])
+
+
+def test_the_sum_of_a_change_is_the_sum_of_its_sr_and_cr_and_leaves_them_as_they_were():
+    rng = np.random.default_rng(11)
+    a = [_random_run(rng, p=0.8), _random_run(rng, p=0.6)]
+    b = [_random_run(rng, p=0.5), _random_run(rng, p=0.7)]
+    change = seed_paired_change(a, b)
+    assert change["sr_plus_cr"][0] == pytest.approx(
+        change["success_ratio"][0] + change["clear_ratio"][0]
+    )
+    low, high = change["sr_plus_cr"][1:]
+    assert low < change["sr_plus_cr"][0] < high
+    # SR's and CR's draws come first, as before the sum existed
+    first = seed_contrast([a, b], [1.0, -1.0])
+    assert {k: first[k] for k in ("success_ratio", "clear_ratio")} == {
+        k: change[k] for k in ("success_ratio", "clear_ratio")
+    }
 
 
 def test_paired_change_includes_the_seed_spread_of_each_detector():

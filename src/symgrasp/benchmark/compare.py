@@ -18,6 +18,7 @@ from symgrasp.benchmark.runner import (
     BOOTSTRAP,
     COUNTS,
     RATIOS,
+    SR_PLUS_CR,
     pooled_ratio,
     read_rounds,
     recorded_config,
@@ -34,25 +35,30 @@ def paired_change(
 ) -> dict[str, list[float]]:
     """CR and SR (`symgrasp.benchmark.runner.pooled_ratio`) of ``rounds`` minus those of
     ``baseline`` (the same seeds, in order, none crashed: `paired_rounds`,
-    `symgrasp.benchmark.seeds.common_rounds`): the change and its 95 % interval, ``[change,
-    low, high]``, from one bootstrap over rounds resampled in pairs; NaN where a ratio is
-    undefined (no rounds, no grasp executed)."""
+    `symgrasp.benchmark.seeds.common_rounds`), and their sum (`SR_PLUS_CR`): the change and its
+    95 % interval, ``[change, low, high]``, from one bootstrap over rounds resampled in pairs,
+    the same draws for all three; NaN where a ratio is undefined (no rounds, no grasp
+    executed)."""
     if [r["seed"] for r in rounds] != [r["seed"] for r in baseline]:
         raise ValueError("rounds and baseline must be the same seeds in the same order")
     if any("error" in r for r in (*rounds, *baseline)):
         raise ValueError("rounds and baseline: leave out the rounds that crashed in either first")
     a, b = round_counts(rounds), round_counts(baseline)
     picks = np.random.default_rng(seed).integers(len(rounds), size=(BOOTSTRAP, len(rounds)))
-    change = {}
+    points, draws = {}, {}
     for name in ("clear_ratio", "success_ratio"):
         row = COUNTS.index(RATIOS[name])
-        point = pooled_ratio(a[0], a[row]) - pooled_ratio(b[0], b[row])
-        resampled = pooled_ratio(a[0][picks], a[row][picks]) - pooled_ratio(
+        points[name] = pooled_ratio(a[0], a[row]) - pooled_ratio(b[0], b[row])
+        draws[name] = pooled_ratio(a[0][picks], a[row][picks]) - pooled_ratio(
             b[0][picks], b[row][picks]
         )
+    points[SR_PLUS_CR] = points["success_ratio"] + points["clear_ratio"]
+    draws[SR_PLUS_CR] = draws["success_ratio"] + draws["clear_ratio"]
+    change = {}
+    for name, resampled in draws.items():
         resampled = resampled[np.isfinite(resampled)]
         interval = np.percentile(resampled, [2.5, 97.5]) if len(resampled) else [np.nan] * 2
-        change[name] = [float(point), *map(float, interval)]
+        change[name] = [float(points[name]), *map(float, interval)]
     return change
 
 
@@ -91,8 +97,8 @@ def paired_rounds(a: str | Path, b: str | Path) -> tuple[list[dict], list[dict]]
 
 
 def compare_table(a: str | Path, b: str | Path) -> str:
-    """Markdown: SR and CR of ``a`` and ``b`` on their shared rounds, and ``a`` − ``b`` with a
-    paired 95 % interval."""
+    """Markdown: SR, CR and SR + CR of ``a`` and ``b`` on their shared rounds, and ``a`` − ``b``
+    with a paired 95 % interval."""
     rounds_a, rounds_b = paired_rounds(a, b)
     change = paired_change(rounds_a, rounds_b)
     counts = (round_counts(rounds_a), round_counts(rounds_b))
@@ -102,9 +108,15 @@ def compare_table(a: str | Path, b: str | Path) -> str:
         "| | A | B | A − B [paired 95 % CI] |",
         "|---|---|---|---|",
     ]
-    for label, name in (("SR %", "success_ratio"), ("CR %", "clear_ratio")):
-        row = COUNTS.index(RATIOS[name])
-        ratio_a, ratio_b = (100 * pooled_ratio(c[0], c[row]) for c in counts)
+    ratios = {name: [100 * pooled_ratio(c[0], c[COUNTS.index(by)]) for c in counts]
+              for name, by in RATIOS.items()}  # fmt: skip
+    ratios[SR_PLUS_CR] = [sr + cr for sr, cr in zip(*ratios.values(), strict=True)]
+    for label, name in (
+        ("SR %", "success_ratio"),
+        ("CR %", "clear_ratio"),
+        ("SR + CR", SR_PLUS_CR),
+    ):
+        ratio_a, ratio_b = ratios[name]
         lines.append(
             f"| {label} | {ratio_a:.1f} | {ratio_b:.1f} | {percent_change(change[name])} |"
         )

@@ -69,6 +69,10 @@ RATIOS = {"success_ratio": "executed", "clear_ratio": "objects"}
 """Each pooled ratio and the count of `COUNTS` it divides the successes by: SR = successes /
 executed grasps, CR = successes / objects presented (the paper's and VGN's)."""
 
+SR_PLUS_CR = "sr_plus_cr"
+"""SR + CR, the one number the campaigns' judging rules rank detectors by (docs/models.md):
+the key of its change beside `RATIOS`' in a paired comparison."""
+
 
 def round_counts(rounds: list[dict[str, Any]]) -> np.ndarray:
     """``(3, n)`` float array of `COUNTS` of the ``n`` rounds that did not crash, in order."""

@@ -42,7 +42,14 @@ from typing import Any
 import numpy as np
 
 from symgrasp.benchmark.compare import paired_change
-from symgrasp.benchmark.runner import BOOTSTRAP, COUNTS, RATIOS, pooled_ratio, round_counts
+from symgrasp.benchmark.runner import (
+    BOOTSTRAP,
+    COUNTS,
+    RATIOS,
+    SR_PLUS_CR,
+    pooled_ratio,
+    round_counts,
+)
 
 ROWS = {name: COUNTS.index(by) for name, by in RATIOS.items()}
 """Each pooled ratio and the row of `round_counts` it divides the successes (row 0) by."""
@@ -118,8 +125,8 @@ def seed_contrast(
 ) -> dict[str, list[float]]:
     """The weighted sum of detectors' SR and CR, each the mean over its training seeds, for
     detectors (each given as runs, one per training seed) that played the same rounds (the same
-    round seeds in the same order, none crashed: `common_rounds`): ``{name: [sum, low, high]}``
-    by the hierarchical bootstrap with one draw of rounds shared by every run (module
+    round seeds in the same order, none crashed: `common_rounds`), and of their SR + CR
+    (`SR_PLUS_CR`): ``{name: [sum, low, high]}`` by the hierarchical bootstrap with one draw of rounds shared by every run (module
     docstring). Weights (1, −1) give a paired change (`seed_paired_change`); (−½, ½, −½, ½) of
     a 2 × 2 design's cells (a1b1, a2b1, a1b2, a2b2) the main effect of the first factor,
     averaged over the second's two levels.
@@ -155,15 +162,17 @@ def seed_contrast(
     rng = np.random.default_rng(seed)
     result = {}
 
-    def contrast(drawn: list[np.ndarray], row: int) -> float:
-        """The weighted sum of the detectors' means over seeds of the ratio of ``row``."""
+    def contrast(drawn: list[np.ndarray], rows: tuple[int, ...]) -> float:
+        """The weighted sum of the detectors' means over seeds of the ratios of ``rows``."""
         return sum(
             w * np.nanmean(pooled_ratio(c[:, 0], c[:, row]))
             for w, c in zip(weights, drawn, strict=True)
+            for row in rows
         )
 
-    for name, row in ROWS.items():
-        point = contrast(counts, row)
+    # SR + CR draws its own resamples after SR's and CR's, which stay what they were without it
+    for name, rows in [*((n, (r,)) for n, r in ROWS.items()), (SR_PLUS_CR, tuple(ROWS.values()))]:
+        point = contrast(counts, rows)
         values = np.empty(BOOTSTRAP)
         for i in range(BOOTSTRAP):
             picks = rng.integers(n_rounds, size=n_rounds)  # the rounds, shared
@@ -174,7 +183,7 @@ def seed_contrast(
             drawn = [
                 c[runs_drawn[label]][:, :, picks] for label, c in zip(trained, counts, strict=True)
             ]
-            values[i] = contrast(drawn, row)
+            values[i] = contrast(drawn, rows)
         values = values[np.isfinite(values)]
         interval = np.percentile(values, [2.5, 97.5]) if len(values) else [np.nan] * 2
         result[name] = [float(point), *map(float, interval)]
