@@ -46,7 +46,7 @@ from symgrasp.data import grasp_db
 from symgrasp.data.grasp_db import GraspDatabase, build_database
 from symgrasp.names import GRIPPERS
 from symgrasp.objects.sets import resolve
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import stepwise_pull_out_forces
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.sim.objects import ObjectSpec, Part
@@ -224,8 +224,7 @@ def main() -> None:
     write_result(
         str(args.out).removesuffix(".json"),
         "grasp database cost per held grasp, before and after the fast force ramps",
-        f"python benchmarks/grasp_db.py --objects {args.objects} --grasps {args.grasps} "
-        f"--directions {args.directions} --repeats {args.repeats}",
+        command_line(""),
         cells,
         table(summaries),
         objects=OBJECTS,

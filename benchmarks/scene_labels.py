@@ -42,7 +42,7 @@ from symgrasp.data.grasp_db import OnDemandDatabase, build_database
 from symgrasp.data.scenes import scene_grasps
 from symgrasp.names import GRIPPERS
 from symgrasp.objects.sets import make_scene, resolve
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import stepwise_pull_out_forces
 from symgrasp.sim.grippers import get_gripper
 
@@ -187,8 +187,7 @@ def main() -> None:
     write_result(
         str(args.out).removesuffix(".json"),
         "a scene's labels in grasp databases: every score measured, or only those read",
-        f"python benchmarks/scene_labels.py --scenes {args.scenes} --grasps {args.grasps} "
-        f"--directions {args.directions}",
+        command_line(""),
         cells,
         table(summaries),
         summary=summaries,

@@ -31,7 +31,7 @@ import torch
 from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.detect import GraspDetector
 from symgrasp.perception import CameraIntrinsic, default_extrinsic, depth_to_points
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.serve.client import GraspClient
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
@@ -157,9 +157,7 @@ def main() -> None:
     write_result(
         args.result,
         "the grasp server's added latency: round trip minus the same detection in process",
-        f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', '')} PYTHONPATH=src python "
-        f"benchmarks/serve.py --model {args.model} --requests {args.requests} "
-        f"--threads {args.threads}",
+        command_line(f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', '')} PYTHONPATH=src"),
         cells,
         table,
         model=args.model,

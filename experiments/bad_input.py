@@ -27,7 +27,7 @@ from pathlib import Path
 from common import add_result_option
 
 from symgrasp.bad_input import API, ARGUMENTS, FILES, MODEL, WARNED_API, WARNED_CLI, make_files
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 WIDE_JAW = Path(__file__).resolve().parents[1] / "tests" / "wide-jaw.toml"
 """The tests' made-up 110 mm jaw, a spec file whose lines the bad gripper specs replace: read
@@ -145,7 +145,7 @@ def main() -> None:
         )
     )
     print(table.split("\n\n")[0])
-    write_result(args.result, "bad input", "PYTHONPATH=src python experiments/bad_input.py",
+    write_result(args.result, "bad input", command_line("PYTHONPATH=src"),
                  cells, table, counts=counts, slowest_seconds=slowest, timeout_s=args.timeout)  # fmt: skip
 
 

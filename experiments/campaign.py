@@ -83,7 +83,7 @@ from typing import Any
 
 from symgrasp.atomic import write_atomic
 from symgrasp.digest import file_sha256
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 try:
     import tomllib
@@ -509,8 +509,7 @@ def main() -> None:
     outcome = run(steps, root, args.cores, bank)
     if args.quick:  # again: only what failed runs
         again = run(steps, root, args.cores)
-        command = " ".join(["python", *sys.argv])
-        write_result(args.quick / "campaign", "campaign driver, quick plan", command, [],
+        write_result(args.quick / "campaign", "campaign driver, quick plan", command_line(""), [],
                      steps={"first run": outcome, "second run": again})  # fmt: skip
         return
     failed = [name for name, state in outcome.items() if state not in ("done", "banked")]

@@ -83,7 +83,7 @@ from symgrasp.cli.options import approach_check
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 from symgrasp.rotation import get as get_representation
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 PREFIXES = {"robotiq-2f85": "final", "franka": "final-franka"}
 """The run folders' prefix per gripper (experiments/campaigns/*.toml)."""
@@ -564,9 +564,7 @@ def main() -> None:
         "Table 1 over training seeds: SR / CR per gripper, object set and representation (mean "
         "over seeds, hierarchical intervals), bingham2d's paired leads, failure modes, and the "
         "field's pile/packed table with bingham2d's paired leads on its packed scenes",
-        f"PYTHONPATH=src python experiments/declutter_table.py --runs {args.runs} --out "
-        f"{args.out} --seeds {' '.join(map(str, args.seeds))}"
-        + (f" --first-seed {args.first_seed}" if args.first_seed else ""),
+        command_line("PYTHONPATH=src"),
         rows,
         table,
         leads=leads,

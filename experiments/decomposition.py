@@ -34,7 +34,7 @@ from scipy.spatial import ConvexHull
 
 from symgrasp.objects.folder import set_folder
 from symgrasp.objects.urdf import read_obj_groups
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 VGN_MESHES = (
     "mug",
@@ -247,7 +247,7 @@ def main() -> None:
     write_result(
         str(args.out).removesuffix(".json"),
         "convex decomposition of concave meshes",
-        f"python experiments/decomposition.py --points {args.points}",
+        command_line(""),
         cells,
         table,
         summary=summary,

@@ -51,7 +51,7 @@ from symgrasp.data.scenes import (
     scene_pool,
 )
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, add_depth_noise, noisy_depth
-from symgrasp.scripts import best_seconds, parse_args, run_main, write_result
+from symgrasp.scripts import best_seconds, command_line, parse_args, run_main, write_result
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, VOXEL_SIZE, WORKSPACE_SIZE
 
@@ -350,8 +350,7 @@ def main() -> None:
     write_result(
         args.result,
         "depth noise in the training data: cost, TSDF change, load-time equivalence, views",
-        f"OMP_NUM_THREADS=1 PYTHONPATH=src python experiments/depth_noise.py --scenes "
-        f"{args.scenes} --pool-size {args.pool_size}",
+        command_line("OMP_NUM_THREADS=1 PYTHONPATH=src"),
         cells,
         table,
         summary=summary,

@@ -28,7 +28,7 @@ import torch
 from common import add_checkpoint_options, add_result_option, per_checkpoint
 
 from symgrasp.model.checkpoint import load_model
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 
 def gaps(checkpoint: str | Path, items: list[dict[str, torch.Tensor]], threshold: float) -> dict:
@@ -85,8 +85,7 @@ def main() -> None:
     write_result(
         args.result,
         "eigenvalue gaps of the Bingham heads' A at the voxels the detector considers",
-        "PYTHONPATH=src python experiments/eigen_gap.py --scenes "
-        f"{args.scenes} --threshold {args.threshold} --checkpoints " + " ".join(args.checkpoints),
+        command_line("PYTHONPATH=src"),
         cells,
         table,
         threshold=args.threshold,

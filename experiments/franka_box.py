@@ -60,7 +60,7 @@ from symgrasp.benchmark.failures import aimed_object, turned_about_approach
 from symgrasp.data.labels import rotation_angle_up_to_flip, voxel_of
 from symgrasp.detect import PRETRAINED, GraspDetector
 from symgrasp.objects.sets import resolve
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import BLOCKED_ERROR, BLOCKED_FORCE, execute_grasp
 from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.sim.objects import LARGE_BOX_SIZE, large_box
@@ -656,8 +656,7 @@ def main() -> None:
     write_result(
         args.result,
         "why the Franka hand fails the large box by approach: replays and a lone box",
-        "SYMGRASP_DATA=DIR OMP_NUM_THREADS=1 PYTHONPATH=src nice -n 10 python "
-        "experiments/franka_box.py",
+        command_line("SYMGRASP_DATA=DIR OMP_NUM_THREADS=1 PYTHONPATH=src nice -n 10"),
         models,
         text,
         rounds=args.rounds,

@@ -39,7 +39,7 @@ from symgrasp.data.directions import fibonacci_directions, interpolate
 from symgrasp.data.grasp_db import GraspDatabase, build_database
 from symgrasp.data.scenes import make_scene_record, scene_pool
 from symgrasp.names import GRIPPERS
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.grippers import get_gripper
 
 OBJECTS = "vgn-pile-train,vgn-packed-train"
@@ -211,8 +211,7 @@ def main() -> None:
     write_result(
         str(args.out).removesuffix(".json"),
         "grasp databases on VGN meshes",
-        f"python experiments/grasp_db.py --objects {args.objects} --grasps {args.grasps} "
-        f"--direction-grasps {args.direction_grasps} --scenes {args.scenes}",
+        command_line(""),
         cells,
         objects=OBJECTS,
     )

@@ -45,7 +45,7 @@ import numpy as np
 from common import add_result_option
 
 from symgrasp.objects.folder import DATA_ENV, MissingData, data_folder
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.grippers import FRANKA, PREFIX, ROBOTIQ_2F85, GripperSpec
 from symgrasp.sim.world import world_xml
 
@@ -709,7 +709,7 @@ def main() -> None:
         write_result(
             args.result,
             "hands against Menagerie",
-            "PYTHONPATH=src python experiments/hands.py --quick",
+            command_line("PYTHONPATH=src"),
             cells,
         )
         return
@@ -720,7 +720,7 @@ def main() -> None:
     markdown = table(cells)
     print(markdown)
     figure(cells, masks, args.figure)
-    write_result(args.result, "hands against Menagerie", "PYTHONPATH=src python experiments/hands.py",
+    write_result(args.result, "hands against Menagerie", command_line("PYTHONPATH=src"),
                  cells, markdown, tolerance_mm=LENGTH_TOLERANCE_MM)  # fmt: skip
 
 

@@ -41,9 +41,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import re
-import shlex
 import shutil
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -64,7 +62,7 @@ from symgrasp.cli.options import approach_check
 from symgrasp.config import JUDGE_SEED, BenchmarkConfig
 from symgrasp.detect.pretrained import PRETRAINED, shipped_path
 from symgrasp.digest import file_sha256
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 RUNS = tuple(f"{model}-{rep}-s{seed}" for model in ("wide", "dense-franka")
              for rep in ("bingham2d", "rotmat6d") for seed in (0, 1))  # fmt: skip
@@ -342,7 +340,7 @@ def main() -> None:
         args.result,
         "The final campaign's runs on the judging rounds (training objects, no choice made on "
         "them): SR / CR per run and the training seed each model ships (highest SR + CR)",
-        shlex.join(["PYTHONPATH=src", "python", "experiments/judge.py", *sys.argv[1:]]),
+        command_line("PYTHONPATH=src"),
         runs,
         table,
         picks=picked,

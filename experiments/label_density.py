@@ -59,7 +59,7 @@ from symgrasp.config import DatabaseConfig, SceneConfig
 from symgrasp.data.grasp_db import cached_database
 from symgrasp.data.labels import VoxelLabels, added_voxels, voxel_centre, voxel_grasp, voxel_of
 from symgrasp.data.scenes import LabelledScene, labelled_scene, scene_pool, spread_labels
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim import World, execute_grasp
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.grippers import GripperSpec, get_gripper
@@ -454,7 +454,7 @@ def main() -> None:
     write_result(
         args.result,
         "label density, label physics and false negatives of the validity labels",
-        "SYMGRASP_DATA=../shared PYTHONPATH=src python experiments/label_density.py",
+        command_line("SYMGRASP_DATA=../shared PYTHONPATH=src"),
         cells,
         text,
         gripper=args.gripper,

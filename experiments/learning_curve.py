@@ -32,7 +32,7 @@ from common import add_result_option
 from symgrasp.benchmark import selection as sel
 from symgrasp.benchmark.compare import paired_change, paired_rounds, percent_change
 from symgrasp.model.checkpoint import load_checkpoint
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 
 def train_scenes(checkpoint: Path) -> int:
@@ -168,8 +168,7 @@ def main() -> None:
         args.result,
         "declutter test SR against training scenes, each run's checkpoint chosen by a "
         "validation measure",
-        f"PYTHONPATH=src python experiments/learning_curve.py --study {args.study} --by {args.by}"
-        f" --bench {bench}",
+        command_line("PYTHONPATH=src"),
         cells,
         table,
         study=str(study_path),

@@ -57,7 +57,7 @@ from symgrasp.cli.options import approach_check
 from symgrasp.config import TRAINING_DATABASE, BenchmarkConfig
 from symgrasp.names import ORACLE
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import cpu_model, parse_args, run_main, write_result
+from symgrasp.scripts import command_line, cpu_model, parse_args, run_main, write_result
 
 HANDS = ("robotiq-2f85", "franka")
 """The hands, the paper's first."""
@@ -254,8 +254,7 @@ def main() -> None:
         args.result,
         "The oracle planner (the scene's training labels) in the declutter benchmark, paired "
         "with the shipped detector",
-        "SYMGRASP_DATA=../shared PYTHONPATH=src python experiments/oracle.py "
-        f"--grasps {args.grasps} --directions {args.directions} --rounds {args.rounds}",
+        command_line("SYMGRASP_DATA=../shared PYTHONPATH=src"),
         collated,
         f"{cpu_model()}, load {os.getloadavg()[0]:.1f}\n\n" + text,
         rounds=args.rounds,

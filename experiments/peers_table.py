@@ -55,7 +55,7 @@ from symgrasp.benchmark.seeds import common_rounds
 from symgrasp.cli.options import approach_check
 from symgrasp.config import BenchmarkConfig
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import cpu_model, parse_args, run_main, write_result
+from symgrasp.scripts import command_line, cpu_model, parse_args, run_main, write_result
 
 CELLS = (
     ("franka", "vgn-pile-test", "pile"),
@@ -220,7 +220,7 @@ def main() -> None:
     write_result(
         args.result,
         "VGN's network in symgrasp's declutter benchmark, paired with symgrasp's detectors",
-        "SYMGRASP_DATA=../shared PYTHONPATH=src python experiments/peers_table.py",
+        command_line("SYMGRASP_DATA=../shared PYTHONPATH=src"),
         collated,
         text,
         rounds=args.rounds,

@@ -39,7 +39,7 @@ from symgrasp.cli.options import approach_check
 from symgrasp.config import JUDGE_SEED
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 FACTORS = {
     "baseline": ("lc-7200-s0", "base-s1"),
@@ -159,7 +159,7 @@ def main() -> None:
         args.result,
         "each training factor against the baseline recipe per training seed, on judging "
         "declutter rounds of training objects (paired by round)",
-        "PYTHONPATH=src python experiments/recipe.py --runs " + str(args.runs),
+        command_line("PYTHONPATH=src"),
         cells,
         table,
         judging=asdict(validation),

@@ -64,9 +64,7 @@ the side, then collated.
 from __future__ import annotations
 
 import argparse
-import shlex
 import shutil
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -91,7 +89,7 @@ from symgrasp.benchmark.selection import ALIASES, checkpoint_id
 from symgrasp.cli.options import approach_check
 from symgrasp.config import VALIDATION_SEED, BenchmarkConfig
 from symgrasp.digest import file_sha256
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 ARMS = {"today": (False, False, False, False), "dense": (True, False, False, False),
         "sensing": (False, True, False, False), "both": (True, True, False, False),
@@ -446,7 +444,7 @@ def main() -> None:
         "wider-view training images, each run's selected checkpoint on clean training-object "
         "rounds and under noise from the side view: SR / CR over training seeds, the paired "
         "effects, the robustness gaps and the rounds no grasp was found in",
-        shlex.join(["PYTHONPATH=src", "python", "experiments/retrain_ablation.py", *sys.argv[1:]]),
+        command_line("PYTHONPATH=src"),
         cells,
         table,
         effects=effects_,

@@ -70,9 +70,7 @@ import argparse
 import dataclasses
 import json
 import os
-import shlex
 import shutil
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -101,7 +99,7 @@ from symgrasp.detect.pretrained import resolve_model
 from symgrasp.model.checkpoint import load_checkpoint, trained_gripper
 from symgrasp.names import PRETRAINED
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import cpu_model, parse_args, run_main, write_result
+from symgrasp.scripts import command_line, cpu_model, parse_args, run_main, write_result
 
 MODELS = ("bingham2d-franka", "rotmat6d-franka", "bingham2d-robotiq-2f85", "rotmat6d-robotiq-2f85")
 """The shipped models measured by default: the paper's detector and its strongest baseline,
@@ -482,8 +480,7 @@ def main() -> None:
                            "rounds; within 3 points is issue 39's target):\n\n" + seeds_table(rows)
                            if rows else "")  # fmt: skip
     print(text, end="")
-    command = shlex.join(["SYMGRASP_DATA=../shared", "PYTHONPATH=src", "python",
-                          "experiments/robustness.py", *sys.argv[1:]])  # fmt: skip
+    command = command_line("SYMGRASP_DATA=../shared PYTHONPATH=src")
     load = os.getloadavg()[0]
     first, last = args.first_seed, args.first_seed + args.rounds - 1
     update_page(args.docs, BEGIN, END, f"{args.rounds} rounds a cell (round seeds {first}–{last}), "

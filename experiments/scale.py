@@ -32,7 +32,7 @@ from common import add_result_option
 from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
 from symgrasp.parallel import Job, open_executor
 from symgrasp.parallel.cluster import import_ray
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 RUNS = (("process", 1), ("process", 2), ("ray", 1), ("ray", 2))
 MILLION = 1_000_000
@@ -146,15 +146,10 @@ def main() -> None:
         "|---|---|---|---|---|---|\n" + rows
     )
     print(table)
-    command = (
-        f"PYTHONPATH=src python experiments/scale.py --scenes {args.scenes} --pool {args.pool} "
-        f"--grasps {args.grasps} --directions {args.directions} --noop {args.noop} "
-        f"--repeats {args.repeats}"
-    )
     write_result(
         args.result,
         "data generation: Ray backend vs process pool, 1 and 2 workers",
-        command,
+        command_line("PYTHONPATH=src"),
         cells,
         table,
         same_bytes=len({r["dataset_hash"] for r in runs}) == 1,

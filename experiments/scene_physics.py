@@ -22,7 +22,7 @@ from common import wilson
 from tqdm import tqdm
 
 from symgrasp.objects.sets import resolve
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.world import World
 
 PENETRATION = 0.002
@@ -83,7 +83,7 @@ def main() -> None:
     write_result(
         str(args.out).removesuffix(".json"),
         "scene physics on VGN meshes",
-        f"python experiments/scene_physics.py --scenes {args.scenes}",
+        command_line(""),
         cells,
         penetration_m=PENETRATION,
     )

@@ -42,7 +42,7 @@ from symgrasp.benchmark.selection import selected_checkpoint
 from symgrasp.cli.options import approach_check
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 SPREAD_TARGET = 0.06
 """Issue 17's target for the SR spread between training seeds of one representation."""
@@ -174,8 +174,7 @@ def main() -> None:
         args.result,
         "training-seed spread of the declutter SR/CR per representation, and the first "
         "representation's paired lead over each other in every pairing of training seeds",
-        f"PYTHONPATH=src python experiments/seed_spread.py --runs {args.runs} --prefix "
-        f"{args.prefix} --reps {' '.join(args.reps)} --seeds {' '.join(map(str, args.seeds))}",
+        command_line("PYTHONPATH=src"),
         cells,
         table,
         spreads=spreads,

@@ -45,7 +45,7 @@ from symgrasp.benchmark.runner import BOOTSTRAP, BenchmarkConfig, run_or_reuse, 
 from symgrasp.cli.options import approach_check
 from symgrasp.config import VALIDATION_OBJECTS, VALIDATION_SEED
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 
 def spearman(x: np.ndarray, y: np.ndarray) -> float:
@@ -326,8 +326,7 @@ def main() -> None:
         args.result,
         "how well each candidate selection measure ranks checkpoints as the declutter test SR, "
         "CR and SR + CR do (signed Spearman ρ, bootstrap over checkpoints)",
-        f"PYTHONPATH=src python experiments/selection.py --val-rounds {args.val_rounds} "
-        f"--out {args.out} --runs " + " ".join(settings["runs"]),
+        command_line("PYTHONPATH=src"),
         rows,
         table,
         settings=settings,

@@ -37,7 +37,7 @@ from symgrasp.detect import GraspDetector
 from symgrasp.detect.files import load_depth, save_png_depth
 from symgrasp.perception import CameraIntrinsic
 from symgrasp.perception.points import edge_holes
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
@@ -147,8 +147,7 @@ def main() -> None:
     write_result(
         args.result,
         "grasps on depth as real sensors give it, against the rendered image",
-        f"PYTHONPATH=src python experiments/sensor_depth.py --scenes {args.scenes} "
-        f"--model {args.model}",
+        command_line("PYTHONPATH=src"),
         cells,
         table,
         match=f"within {MATCH_VOXELS} voxel (Chebyshev) and {MATCH_DEGREES:g}° of approach",

@@ -47,7 +47,7 @@ from symgrasp.benchmark.failures import aimed_object
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.objects.sets import resolve
 from symgrasp.peers.planners import load_planner
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
@@ -284,7 +284,7 @@ def main() -> None:
     write_result(
         args.result,
         "executed grasps of the judging rounds: grip, the network around them, slips deeper",
-        "SYMGRASP_DATA=DIR PYTHONPATH=src python experiments/slips.py",
+        command_line("SYMGRASP_DATA=DIR PYTHONPATH=src"),
         cells,
         table,
         rounds=args.rounds,

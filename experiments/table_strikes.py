@@ -32,7 +32,7 @@ from symgrasp.benchmark.runner import run_or_reuse
 from symgrasp.config import TABLE_CLEARANCE, VALIDATION_OBJECTS, BenchmarkConfig
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.model.checkpoint import load_checkpoint, trained_gripper
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.collision import SIGNS, hand_boxes, hand_collides
 from symgrasp.sim.grippers import GripperSpec
 from symgrasp.workspace import TABLE_HEIGHT
@@ -131,7 +131,7 @@ def main() -> None:
     write_result(
         args.result,
         "executed grasps of the selection's rounds under the old approach rule, by outcome",
-        "SYMGRASP_DATA=DIR PYTHONPATH=src python experiments/table_strikes.py",
+        command_line("SYMGRASP_DATA=DIR PYTHONPATH=src"),
         cells,
         table,
         rounds=args.rounds,

@@ -40,7 +40,7 @@ from tqdm import tqdm
 from symgrasp.config import TRAINING_DATABASE, SceneConfig
 from symgrasp.data.grasp_db import build_database
 from symgrasp.data.scenes import scene_grasps, scene_pool
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.grippers import get_gripper
@@ -202,7 +202,7 @@ def main() -> None:
     write_result(
         args.result,
         "thin objects lying flat: top-down grasps by height, and the labels of two offset ranges",
-        "SYMGRASP_DATA=DIR PYTHONPATH=src nice -n 10 python experiments/thin_objects.py",
+        command_line("SYMGRASP_DATA=DIR PYTHONPATH=src nice -n 10"),
         cells,
         text,
         object_set=args.object_set,

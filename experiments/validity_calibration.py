@@ -28,7 +28,7 @@ import torch
 from common import add_checkpoint_options, add_result_option, per_checkpoint
 
 from symgrasp.model.checkpoint import load_model
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 BINS = (0.0, 0.01, 0.02, 0.04, 0.08, 0.15, 0.3, 0.5, 1.0)
 """Edges of the reliability table's probability bins (fine near the threshold)."""
@@ -108,8 +108,7 @@ def main() -> None:
     write_result(
         args.result,
         "the validity head's probabilities against the detector's threshold",
-        "PYTHONPATH=src python experiments/validity_calibration.py --scenes "
-        f"{args.scenes} --threshold {args.threshold} --checkpoints " + " ".join(args.checkpoints),
+        command_line("PYTHONPATH=src"),
         cells,
         table,
         threshold=args.threshold,

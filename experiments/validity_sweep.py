@@ -43,7 +43,7 @@ from symgrasp.benchmark.seeds import common_rounds
 from symgrasp.cli.options import approach_check
 from symgrasp.config import DEFAULT_VALIDITY, JUDGE_SEED
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 MODELS = {  # hand: (the paper's detector, the baseline it is compared with)
     "robotiq-2f85": ("bingham2d-robotiq-2f85", "rotmat6d-robotiq-2f85"),
@@ -166,7 +166,7 @@ def main() -> None:
         "declutter SR / CR of the shipped bingham2d and rotmat6d models per validity threshold, "
         "each model's own threshold chosen on training objects, and bingham2d − rotmat6d at the "
         "default and at the own thresholds",
-        "PYTHONPATH=src python experiments/validity_sweep.py",
+        command_line("PYTHONPATH=src"),
         rows,
         table,
         operating_points=points,

@@ -33,7 +33,7 @@ from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.objects.sets import make_scene, resolve
 from symgrasp.peers.vgn import FINGER_REACH, VGN
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.sim.render import make_renderer
@@ -148,7 +148,7 @@ def main() -> None:
     write_result(
         args.result,
         "VGN's best grasp on one training object, executed by each hand at several placements",
-        "SYMGRASP_DATA=../shared PYTHONPATH=src python experiments/vgn_frame.py",
+        command_line("SYMGRASP_DATA=../shared PYTHONPATH=src"),
         cells,
         table,
         objects=OBJECTS,

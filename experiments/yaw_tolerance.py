@@ -27,7 +27,7 @@ from symgrasp.benchmark.failures import YAW_OFFSETS, aimed_object, turned_about_
 from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.detect import GraspDetector
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
-from symgrasp.scripts import parse_args, run_main, write_result
+from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
@@ -122,7 +122,7 @@ def main() -> None:
     write_result(
         args.result,
         "yaw tolerance of the first grasp of each declutter round",
-        "PYTHONPATH=src python experiments/yaw_tolerance.py",
+        command_line("PYTHONPATH=src"),
         cells,
         table,
         rounds=args.rounds,

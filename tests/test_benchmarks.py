@@ -19,7 +19,7 @@ from conftest import missing_data
 
 from symgrasp.objects.folder import DATA_ENV, MissingData
 from symgrasp.parallel import TasksFailed
-from symgrasp.scripts import EX_NOINPUT, EX_UNAVAILABLE, parse_args, run_main
+from symgrasp.scripts import EX_NOINPUT, EX_UNAVAILABLE, command_line, parse_args, run_main
 
 ROOT = Path(__file__).resolve().parents[1]
 FOLDERS = ("benchmarks", "experiments")
@@ -122,6 +122,18 @@ def test_an_option_without_help_is_refused(monkeypatch):
     monkeypatch.setattr(sys, "argv", ["script"])
     with pytest.raises(ValueError, match="--silent"):
         parse_args(parser, outputs=(), quick={})
+
+
+def test_the_recorded_command_is_the_one_run(monkeypatch):
+    # a script inside the checkout is named from its root, the arguments as given, quoted
+    argv = ["--gripper", "franka", "--out", "out/a b"]
+    monkeypatch.setattr(sys, "argv", [str(ROOT / "experiments" / "label_density.py"), *argv])
+    assert command_line("SYMGRASP_DATA=../shared PYTHONPATH=src") == (
+        "SYMGRASP_DATA=../shared PYTHONPATH=src python experiments/label_density.py "
+        "--gripper franka --out 'out/a b'"
+    )
+    monkeypatch.setattr(sys, "argv", ["/elsewhere/my script.py", "--quick"])
+    assert command_line("") == "python '/elsewhere/my script.py' --quick"
 
 
 @pytest.mark.parametrize(

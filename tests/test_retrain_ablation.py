@@ -394,7 +394,6 @@ def test_the_noback_arm_is_the_wide_arm_without_the_back_spread():
             assert shlex.split(noback) == shlex.split(wide)
 
 
-
 def test_the_franka_noback_arm_is_the_dense_franka_arm_without_the_back_spread():
     """noback.toml: the Franka's arm relabels final.toml's Franka data with the Robotiq arm's
     spread, and trains, selects and judges by the dense Franka runs' very commands on it."""

@@ -13,6 +13,7 @@ import argparse
 import json
 import os
 import platform
+import shlex
 import sys
 import time
 from collections.abc import Callable
@@ -147,6 +148,18 @@ def best_seconds(run: Callable[[], object], repeats: int) -> float:
         run()
         times.append(time.perf_counter() - start)
     return min(times)
+
+
+def command_line(env: str = "PYTHONPATH=src") -> str:
+    """The command that ran this script, for its result: a result's command must be the one that
+    made it, options included. The environment words ``env`` as they are, ``python``, the
+    script's path from the checkout's root (where the command runs; as given when it lies
+    elsewhere) and its arguments, quoted for a shell."""
+    script = Path(sys.argv[0])
+    root = Path(__file__).resolve().parents[2]  # this file is src/symgrasp/scripts.py
+    if script.resolve().is_relative_to(root):
+        script = script.resolve().relative_to(root)
+    return " ".join(filter(None, [env, shlex.join(["python", str(script), *sys.argv[1:]])]))
 
 
 def write_result(
