@@ -8,6 +8,7 @@ of training seeds for both conditions, the runs missing or unusable named with t
 that the campaign plan writes the runs and folders the script reads."""
 
 import importlib.util
+import itertools
 import json
 import os
 import shlex
@@ -25,6 +26,8 @@ from symgrasp.config import BenchmarkConfig
 from symgrasp.digest import file_sha256
 
 ROOT = Path(__file__).resolve().parents[1]
+FINAL_PLANS = tuple(f"experiments/campaigns/{plan}.toml"
+                    for plan in ("final", "noback", "retrain_cells", "franka_noback"))  # fmt: skip
 ROUNDS, FIRST = 20, 1_000_000
 REP = "bingham2d"
 
@@ -396,17 +399,18 @@ def test_the_noback_arm_is_the_wide_arm_without_the_back_spread():
 
 def test_the_franka_noback_arm_is_the_dense_franka_arm_without_the_back_spread():
     """noback.toml: the Franka's arm relabels final.toml's Franka data with the Robotiq arm's
-    spread, and trains, selects and judges by the dense Franka runs' very commands on it."""
-    steps = campaign_steps("experiments/campaigns/final.toml", "experiments/campaigns/noback.toml")
+    spread, and trains, selects and judges bingham2d (and, in franka_noback.toml, rotmat6d) by
+    the dense Franka runs' very commands on it."""
+    steps = campaign_steps(*FINAL_PLANS)
     relabel = shlex.split(steps["data-franka-noback"]["run"])
     robotiq = shlex.split(steps["data-wide-noback"]["run"])
     assert relabel[:4] == ["symgrasp", "data", "relabel", "/root/data/franka-dense"]
     assert relabel[4:] == [*robotiq[4:-3], "--out", "/root/data/franka-noback", "--resume"]
     assert steps["data-franka-noback"]["needs"] == ["data-franka"]
-    for seed in (0, 1):
+    for rep, seed in itertools.product(("bingham2d", "rotmat6d"), (0, 1)):
         for prefix in ("", "select-", "judge-"):
-            dense = steps[f"{prefix}dense-franka-{REP}-s{seed}"]["run"]
-            noback = steps[f"{prefix}noback-franka-{REP}-s{seed}"]["run"]
+            dense = steps[f"{prefix}dense-franka-{rep}-s{seed}"]["run"]
+            noback = steps[f"{prefix}noback-franka-{rep}-s{seed}"]["run"]
             dense = dense.replace("dense-franka-", "noback-franka-").replace(
                 "/root/data/franka-dense ", "/root/data/franka-noback "
             )
@@ -449,18 +453,17 @@ def _campaign_module():
 
 
 def test_the_bank_keeps_what_the_collations_read_each_file_by_one_step(tmp_path):
-    """final.toml + retrain_cells.toml under --bank: a root holding what every step writes (a
+    """The final plans under --bank: a root holding what every step writes (a
     run's checkpoints, its selection records, each benchmark's rounds, each Table 1 cell on
     both round-seed ranges, each robustness condition) has each file the reports read kept by
     exactly one step, the one that wrote it, and no checkpoint but best.pt kept."""
     campaign = _campaign_module()
-    shown = campaign_steps(
-        "experiments/campaigns/final.toml", "experiments/campaigns/retrain_cells.toml"
-    )
+    shown = campaign_steps(*FINAL_PLANS)
     steps = [campaign.Step(s["name"], s["run"], Path("plan"), s["cores"], tuple(s["needs"]),
                            tuple(s["keep"])) for s in shown.values()]  # fmt: skip
     writer = {}  # file under the root → the step that writes it
-    hands = {"wide": "robotiq-2f85", "wide-calibrated": "robotiq-2f85", "dense-franka": "franka"}
+    hands = {"wide": "robotiq-2f85", "wide-calibrated": "robotiq-2f85", "noback": "robotiq-2f85",
+             "dense-franka": "franka", "noback-franka": "franka"}  # fmt: skip
     for name in shown:
         if not name.startswith("select-"):
             continue
@@ -475,27 +478,28 @@ def test_the_bank_keeps_what_the_collations_read_each_file_by_one_step(tmp_path)
         if words[:3] == ["symgrasp", "bench", "declutter"]:
             out = Path(words[words.index("--out") + 1]).relative_to("/root")
             writer[f"{out}/rounds.jsonl"] = writer[f"{out}/summary.json"] = name
+        out = words[words.index("--out") + 1] if "--out" in words else None
         if name.startswith("cells-"):
             prefix, rep, seed = next((p, *name.removeprefix(f"cells-{p}-").split("-s", 1))
-                                     for p in ("dense-franka", "wide") if name.startswith(f"cells-{p}-"))  # fmt: skip
+                                     for p in ("dense-franka", "noback-franka", "wide") if name.startswith(f"cells-{p}-"))  # fmt: skip
             seed, late = seed.split("-", 1) if "-" in seed else (seed, "")
             for rep_folder in (rep, f"{rep}-noconf"):
                 for objects in ("vgn-pile-test", "large-box", "vgn-packed-test-packed"):
                     folder = f"{objects}-{late}" if late else objects
-                    base = f"bench/table/{hands[prefix]}/{rep_folder}/s{seed}/{folder}"
+                    base = f"{Path(out).relative_to('/root')}/{hands[prefix]}/{rep_folder}/s{seed}/{folder}"
                     writer[f"{base}/rounds.jsonl"] = name
-        if name.startswith("robustness-") and name != "robustness-retrained":
+        if name.startswith("robustness-") and "--play-only" in words:
             model = Path(words[words.index("--models") + 1])
             prefix, rep, seed = model.parent.name.rsplit("-", 2)
             objects = {"vgn-pile-test:pile": "vgn-pile-test",
                        "vgn-packed-test:packed": "vgn-packed-test-packed"}[words[words.index("--sets") + 1]]  # fmt: skip
             for condition in ("clean", "noise", "side-view"):
-                writer[f"bench/robustness/{hands[prefix]}/{rep}/{seed}/{objects}-first-seed-100/"
-                       f"{condition}/rounds.jsonl"] = name  # fmt: skip
+                writer[f"{Path(out).relative_to('/root')}/{hands[prefix]}/{rep}/{seed}/"
+                       f"{objects}-first-seed-100/{condition}/rounds.jsonl"] = name  # fmt: skip
     for file in writer:
         (tmp_path / file).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / file).write_text(file)
-    for data in ("wide", "franka-dense", "wide-calibrated"):
+    for data in ("wide", "franka-dense", "wide-calibrated", "wide-noback", "franka-noback"):
         (tmp_path / f"data/{data}/scenes/scene_000000.npz").parent.mkdir(parents=True)
         (tmp_path / f"data/{data}/scenes/scene_000000.npz").write_text("scene")
     (tmp_path / "data/wide/card.json").write_text("card")
@@ -510,19 +514,26 @@ def test_the_bank_keeps_what_the_collations_read_each_file_by_one_step(tmp_path)
         assert kept_by.get(file) == name, file
     assert not any(f.startswith("data/") for f in kept_by if not f.startswith("data/wide/card"))
     for name, step in shown.items():  # what a later step or the report reads is kept
-        if name.startswith(("select-", "judge-", "val-noise", "cells-", "robustness-wide",
-                            "robustness-dense")):  # fmt: skip
+        if name.startswith(("select-", "judge-", "val-noise", "cells-")) or (
+            name.startswith("robustness-") and "--play-only" in step["run"]
+        ):
             assert step["keep"], name
 
 
-def test_every_final_run_plays_both_round_seed_ranges_before_their_collations(tmp_path):
-    """experiments/campaigns/retrain_cells.toml: the runs the collation waits for (the script's
-    own answer on no runs, with the plan's options) are final.toml's runs, each selected, then
-    played on round seeds 0-99 and 100-199 before the two collations."""
-    steps = campaign_steps(
-        "experiments/campaigns/final.toml", "experiments/campaigns/retrain_cells.toml"
-    )
-    words = shlex.split(steps["retrained"]["run"])
+# each collation of Table 1 cells: its step, and each training run's data (prefix → dataset)
+COLLATIONS = {
+    "retrained": {"wide": "wide", "dense-franka": "franka-dense"},  # retrain_cells.toml's
+    "retrained-final": {"wide": "wide", "noback-franka": "franka-noback"},  # franka_noback.toml's
+}
+
+
+@pytest.mark.parametrize("collation", COLLATIONS)
+def test_every_final_run_plays_both_round_seed_ranges_before_their_collations(collation, tmp_path):
+    """The final plans: the runs a collation waits for (the script's own answer on no runs,
+    with the plan's options) are trained on their data, each selected, then played on round
+    seeds 0-99 and 100-199 before the collations of both ranges."""
+    steps = campaign_steps(*FINAL_PLANS)
+    words = shlex.split(steps[collation]["run"])
     words = words[words.index("experiments/declutter_table.py") :]
     for flag, path in (("--runs", "runs"), ("--out", "cells"), ("--result", "table"),
                        ("--figure", "figure.png"), ("--archive", "rounds.tar.gz"),
@@ -540,62 +551,74 @@ def test_every_final_run_plays_both_round_seed_ranges_before_their_collations(tm
     }
     assert len(waiting) == 8  # 2 hands, bingham2d and rotmat6d, training seeds 0 and 1
     for run in waiting:
+        prefix, rep, seed = next((p, *run.removeprefix(f"{p}-").rsplit("-s", 1))
+                                 for p in COLLATIONS[collation] if run.startswith(f"{p}-"))  # fmt: skip
         assert steps[f"select-{run}"]["needs"] == [run]
         assert f"--out /root/runs/{run}" in steps[run]["run"]
-        assert (
-            "--data /root/data/" + ("franka-dense" if "franka" in run else "wide")
-            in steps[run]["run"]
-        )
-        rep, seed = (
-            run.removeprefix("wide-").removeprefix("dense-").removeprefix("franka-").rsplit("-s", 1)
-        )
+        assert f"--data /root/data/{COLLATIONS[collation][prefix]} " in steps[run]["run"]
         for suffix, first in (("", None), ("-first-seed-100", "100")):
             cells = steps[f"cells-{run}{suffix}"]
             assert cells["needs"] == [f"select-{run}"]
-            assert f"cells-{run}{suffix}" in steps[f"retrained{suffix}"]["needs"]
+            assert f"cells-{run}{suffix}" in steps[f"{collation}{suffix}"]["needs"]
             flags = shlex.split(cells["run"])
             assert flags[flags.index("--reps") + 1] == rep
             assert flags[flags.index("--seeds") + 1] == seed
             assert ("--first-seed" in flags) == (first is not None)
             if first:
                 assert flags[flags.index("--first-seed") + 1] == first
-    assert "--first-seed 100" in steps["retrained-first-seed-100"]["run"]
-    assert "--first-seed" not in steps["retrained"]["run"]
+    assert "--first-seed 100" in steps[f"{collation}-first-seed-100"]["run"]
+    assert "--first-seed" not in steps[collation]["run"]
+
+
+def _links(run: str) -> dict[str, str]:
+    """The links ``ln -sfn TARGET LINK`` in a step's command: link → the path it points to."""
+    words = shlex.split(run)
+    return {words[i + 3]: os.path.normpath(Path(words[i + 3]).parent / words[i + 2])
+            for i, w in enumerate(words) if w == "ln"}  # fmt: skip
+
+
+def test_the_final_collations_read_each_hand_where_its_final_runs_played():
+    """franka_noback.toml: each final collation reads both hands through links in the folder
+    it collates (--out, and --baselines for the robustness), the Robotiq's to where
+    retrain_cells.toml's wide runs played and the Franka's to where franka_noback.toml's
+    noback-franka runs played (the --out and --baselines of the steps it waits for)."""
+    steps = campaign_steps(*FINAL_PLANS)
+    for name in ("retrained-final", "retrained-final-first-seed-100", "robustness-retrained-final"):
+        words, links = shlex.split(steps[name]["run"]), _links(steps[name]["run"])
+        for flag in ("--out", "--baselines") if name.startswith("robustness") else ("--out",):
+            read = words[words.index(flag) + 1]
+            for hand, prefix in (("robotiq-2f85", "wide-"), ("franka", "noback-franka-")):
+                played = {shlex.split(steps[n]["run"])[shlex.split(steps[n]["run"]).index(flag) + 1]
+                          for n in steps[name]["needs"] if prefix in n}  # fmt: skip
+                assert len(played) == 1, (name, hand, played)
+                assert links[f"{read}/{hand}"] == f"{played.pop()}/{hand}", (name, flag, hand)
 
 
 def test_every_final_run_plays_the_robustness_conditions_after_its_unseen_cells():
-    """retrain_cells.toml's robustness steps: each final run plays VGN's pile and packed test
-    scenes once, on round seeds 100-199 after its Table 1 cells there (whose clean rounds they
-    pair with: --baselines is the cells' --out), and the collation waits for all of them and
-    collates those eight runs."""
-    steps = campaign_steps(
-        "experiments/campaigns/final.toml", "experiments/campaigns/retrain_cells.toml"
-    )
-    cells_out = shlex.split(steps["retrained-first-seed-100"]["run"])
-    cells_out = cells_out[cells_out.index("--out") + 1]
-    collation = shlex.split(steps["robustness-retrained"]["run"])
+    """The final plans' robustness steps: each final run (the runs of the final cells'
+    collation) plays VGN's pile and packed test scenes once, on round seeds 100-199 after its
+    Table 1 cells there (whose clean rounds they pair with: --baselines is its cells' --out),
+    and the final collation waits for all of them and collates those eight runs."""
+    steps = campaign_steps(*FINAL_PLANS)
+    collation = shlex.split(steps["robustness-retrained-final"]["run"])
     models = collation[collation.index("--models") + 1 : collation.index("--docs")]
     runs = {Path(m).parent.name for m in models}
     assert len(models) == len(runs) == 8
-    finals = {n for n in steps if n.startswith("cells-") and not n.endswith("first-seed-100")}
-    assert runs == {n.removeprefix("cells-") for n in finals}
+    finals = steps["retrained-final-first-seed-100"]["needs"]
+    assert runs == {n.removeprefix("cells-").removesuffix("-first-seed-100") for n in finals}
+    assert collation[collation.index("--first-seed") + 1] == "100"
     played = []
-    for name, step in steps.items():
-        if not name.startswith("robustness-") or name == "robustness-retrained":
-            continue
-        flags = shlex.split(step["run"])
-        assert "--play-only" in flags and step["cores"] == 1
+    for name in steps["robustness-retrained-final"]["needs"]:
+        flags = shlex.split(steps[name]["run"])
+        assert "--play-only" in flags and steps[name]["cores"] == 1
         (model,) = flags[flags.index("--models") + 1 : flags.index("--sets")]
         run = Path(model).parent.name
         assert model in models
-        assert set(step["needs"]) == {f"select-{run}", f"cells-{run}-first-seed-100"}
-        for words in (flags, collation):
-            assert words[words.index("--first-seed") + 1] == "100"
-            assert words[words.index("--baselines") + 1] == cells_out
+        assert set(steps[name]["needs"]) == {f"select-{run}", f"cells-{run}-first-seed-100"}
+        cells = shlex.split(steps[f"cells-{run}-first-seed-100"]["run"])
+        assert flags[flags.index("--first-seed") + 1] == "100"
+        assert flags[flags.index("--baselines") + 1] == cells[cells.index("--out") + 1]
         played.append((run, flags[flags.index("--sets") + 1]))
     assert sorted(played) == sorted(
         (run, s) for run in runs for s in ("vgn-pile-test:pile", "vgn-packed-test:packed")
     )
-    assert set(steps["robustness-retrained"]["needs"]) == {
-        n for n in steps if n.startswith("robustness-") and n != "robustness-retrained"
-    }
