@@ -372,6 +372,20 @@ def test_every_final_run_is_judged_on_the_rounds_no_checkpoint_was_chosen_by():
         assert "--seed" not in select  # the selections' own rounds, from 1 000 000
 
 
+def _same_commands_on_other_data(steps, arm, ablation, data, reps):
+    """Each run of ``ablation`` (seeds 0 and 1 of ``reps``) is trained, selected and judged by
+    ``arm``'s very commands, its data folder ``data[1]`` for ``data[0]``."""
+    for rep, seed in itertools.product(reps, (0, 1)):
+        for prefix in ("", "select-", "judge-"):
+            theirs = steps[f"{prefix}{arm}-{rep}-s{seed}"]["run"]
+            theirs = theirs.replace(f"{arm}-", f"{ablation}-").replace(
+                f"/root/data/{data[0]} ", f"/root/data/{data[1]} "
+            )
+            assert shlex.split(steps[f"{prefix}{ablation}-{rep}-s{seed}"]["run"]) == shlex.split(
+                theirs
+            )
+
+
 def test_the_noback_arm_is_the_wide_arm_without_the_back_spread():
     """noback.toml: its data is final.toml's wide data relabelled with the same spread less its
     back move, and its runs are trained, selected and judged by the wide runs' very commands
@@ -387,14 +401,7 @@ def test_the_noback_arm_is_the_wide_arm_without_the_back_spread():
     assert relabel[:4] == ["symgrasp", "data", "relabel", "/root/data/wide"]
     assert steps["data-wide-noback"]["needs"] == ["data-wide"]
     assert spread(generate)[0] > 0 and spread(relabel) == [0.0, *spread(generate)[1:]]
-    for seed in (0, 1):
-        for prefix in ("", "select-", "judge-"):
-            wide = steps[f"{prefix}wide-{REP}-s{seed}"]["run"]
-            noback = steps[f"{prefix}noback-{REP}-s{seed}"]["run"]
-            wide = wide.replace("wide-", "noback-").replace(
-                "/root/data/wide ", "/root/data/wide-noback "
-            )
-            assert shlex.split(noback) == shlex.split(wide)
+    _same_commands_on_other_data(steps, "wide", "noback", ("wide", "wide-noback"), [REP])
 
 
 def test_the_franka_noback_arm_is_the_dense_franka_arm_without_the_back_spread():
@@ -407,14 +414,8 @@ def test_the_franka_noback_arm_is_the_dense_franka_arm_without_the_back_spread()
     assert relabel[:4] == ["symgrasp", "data", "relabel", "/root/data/franka-dense"]
     assert relabel[4:] == [*robotiq[4:-3], "--out", "/root/data/franka-noback", "--resume"]
     assert steps["data-franka-noback"]["needs"] == ["data-franka"]
-    for rep, seed in itertools.product(("bingham2d", "rotmat6d"), (0, 1)):
-        for prefix in ("", "select-", "judge-"):
-            dense = steps[f"{prefix}dense-franka-{rep}-s{seed}"]["run"]
-            noback = steps[f"{prefix}noback-franka-{rep}-s{seed}"]["run"]
-            dense = dense.replace("dense-franka-", "noback-franka-").replace(
-                "/root/data/franka-dense ", "/root/data/franka-noback "
-            )
-            assert shlex.split(noback) == shlex.split(dense)
+    _same_commands_on_other_data(steps, "dense-franka", "noback-franka",
+                                 ("franka-dense", "franka-noback"), ["bingham2d", "rotmat6d"])  # fmt: skip
 
 
 def test_the_shipped_models_are_judged_on_the_retrained_runs_rounds():
