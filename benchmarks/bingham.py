@@ -16,7 +16,6 @@ import argparse
 import itertools
 import json
 import statistics
-import sys
 import time
 from pathlib import Path
 
@@ -27,7 +26,7 @@ from tqdm import tqdm
 from symgrasp.bingham import Bingham, eigh3, log_normalizer, nll, triu_to_sym
 from symgrasp.bingham.normalizer import _S2_NODES, _S2_WINDOW, _gauss_legendre, _s2_quadrature
 from symgrasp.bingham.reference import log_normalizer_mpmath
-from symgrasp.scripts import machine, parse_args, run_main
+from symgrasp.scripts import command_line, machine, parse_args, run_main
 
 RESULTS = Path(__file__).parent / "results" / "bingham.json"
 METHODS = {3: ["quadrature", "paper"], 4: ["bessel", "paper"]}
@@ -168,7 +167,7 @@ def main() -> None:
     )
 
     result: dict = {
-        "command": " ".join([Path(sys.executable).name, *sys.argv]),
+        "command": command_line(""),
         "machine": machine(),
     }
     result["setup"] = {"batch": args.batch, "dtype": "float64", "device": "cpu", "seed": args.seed}

@@ -36,7 +36,7 @@ from symgrasp.data.card import dataset_card
 from symgrasp.data.generate import generate
 from symgrasp.data.grasp_db import cached_database
 from symgrasp.data.scenes import scene_pool
-from symgrasp.scripts import machine, parse_args, run_main
+from symgrasp.scripts import command_line, machine, parse_args, run_main
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.sim.render import make_renderer
 
@@ -75,10 +75,7 @@ def main() -> None:
     torch.set_num_threads(1)
     tmp = Path(tempfile.mkdtemp(prefix="symgrasp_data_bench_"))
     result: dict = {
-        "command": "PYTHONPATH=src python benchmarks/data.py "
-        f"--pool {args.pool} --franka {args.franka} --scenes {args.scenes} "
-        f"--workers {args.workers} --validate {args.validate} --grasps {args.grasps} "
-        f"--directions {args.directions}",
+        "command": command_line(""),
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "depth_renderer": make_renderer().name,
     }

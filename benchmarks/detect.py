@@ -33,7 +33,7 @@ import numpy as np
 
 from symgrasp.detect import GraspDetector
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
-from symgrasp.scripts import machine, parse_args, run_main
+from symgrasp.scripts import command_line, machine, parse_args, run_main
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
@@ -111,11 +111,7 @@ def main() -> None:
     result = {
         "benchmark": "GraspDetector.detect: one 640×480 depth image to a ranked grasp list, "
         "the network eager and optimized (TorchScript, made for inference)",
-        "command": "PYTHONPATH=src python benchmarks/detect.py "
-        f"--model {args.model} --repeats {args.repeats} --block {args.block} "
-        f"--device {args.device}"
-        + (" --table-scale" if args.table_scale else "")
-        + (" --approach-check" if args.approach_check else ""),
+        "command": command_line(""),
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "machine": machine(),
         "device": str(detectors["eager"].device),

@@ -27,7 +27,6 @@ import csv
 import json
 import os
 import statistics
-import sys
 import time
 from pathlib import Path
 
@@ -49,7 +48,7 @@ from symgrasp.model.loss import at_voxels
 from symgrasp.model.network import PointwiseConv3d
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 from symgrasp.model.train import accumulate_gradient, collate_chunks
-from symgrasp.scripts import best_seconds, machine, parse_args, run_main
+from symgrasp.scripts import best_seconds, command_line, machine, parse_args, run_main
 
 RESULTS = Path(__file__).parent / "results" / "model.json"
 
@@ -234,7 +233,7 @@ def main() -> None:
         )
     report = {
         "benchmark": "grasp detection network: size, CPU latency and training throughput",
-        "command": " ".join(["python", *sys.argv]),
+        "command": command_line(""),
         "machine": machine(),
         "batch": args.batch,
         "valid_voxels_in_batch": len(batch["voxel_index"]),

@@ -14,14 +14,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 from pathlib import Path
 
 import torch
 
 from symgrasp import rotation
 from symgrasp.bingham import eigh3, log_normalizer, triu_to_sym
-from symgrasp.scripts import best_seconds, machine, parse_args, run_main
+from symgrasp.scripts import best_seconds, command_line, machine, parse_args, run_main
 
 RESULTS = Path(__file__).parent / "results" / "rotation.json"
 
@@ -129,7 +128,7 @@ def main() -> None:
 
     report = {
         "benchmark": "rotation representations: loss + backward and decode throughput",
-        "command": " ".join(["python", *sys.argv]),
+        "command": command_line(""),
         "environment": {
             key: value
             for key, value in os.environ.items()

@@ -18,7 +18,6 @@ import argparse
 import json
 import os
 import statistics
-import sys
 import time
 from collections.abc import Callable
 from datetime import datetime, timezone
@@ -29,7 +28,7 @@ import numpy as np
 from symgrasp.objects.folder import MissingData
 from symgrasp.objects.sets import resolve
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, default_extrinsic
-from symgrasp.scripts import machine, parse_args, run_main
+from symgrasp.scripts import command_line, machine, parse_args, run_main
 from symgrasp.sim import World, execute_grasp, get_gripper, make_scene
 from symgrasp.sim.execute import top_grasp
 from symgrasp.sim.objects import ObjectSpec, Part
@@ -128,11 +127,9 @@ def main() -> None:
             results[name]["target_ms"] = target
             results[name]["meets_target"] = results[name]["median_ms"] <= target
 
-    command = [Path(sys.executable).name, *sys.argv]
-    if "PYTHONPATH" in os.environ:
-        command.insert(0, f"PYTHONPATH={os.environ['PYTHONPATH']}")
+    pythonpath = os.environ.get("PYTHONPATH")
     report = {
-        "command": " ".join(command),
+        "command": command_line(f"PYTHONPATH={pythonpath}" if pythonpath else ""),
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "machine": {
             **machine(),

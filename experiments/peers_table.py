@@ -213,14 +213,15 @@ def main() -> None:
     text = table(collated)
     print(text)
     load = os.getloadavg()[0]
-    update_page(args.docs, BEGIN, END, f"{args.rounds} rounds a cell, collated by `SYMGRASP_DATA=../shared "
-                f"PYTHONPATH=src python experiments/peers_table.py` ({cpu_model()}, load {load:.1f}; "
+    command = command_line("SYMGRASP_DATA=../shared PYTHONPATH=src")
+    update_page(args.docs, BEGIN, END, f"{args.rounds} rounds a cell, collated by `{command}` "
+                f"({cpu_model()}, load {load:.1f}; "
                 "a round's outcomes do not depend on the load: each is a pure function of its "
                 "seed):\n\n" + text)  # fmt: skip
     write_result(
         args.result,
         "VGN's network in symgrasp's declutter benchmark, paired with symgrasp's detectors",
-        command_line("SYMGRASP_DATA=../shared PYTHONPATH=src"),
+        command,
         collated,
         text,
         rounds=args.rounds,

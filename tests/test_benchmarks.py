@@ -10,6 +10,7 @@ import argparse
 import json
 import os
 import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -110,6 +111,9 @@ def test_quick_run_writes_its_result_and_nothing_committed(script, tmp_path, sha
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads((tmp_path / name).read_text())
     assert key in result
+    assert result["command"].endswith(
+        shlex.join(["python", f"{script}.py", "--quick", str(tmp_path)])
+    )
     load = result["machine"]["load_average_1_5_15min"]
     assert len(load["start"]) == len(load["end"]) == 3
     assert _committed() == before
