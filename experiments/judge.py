@@ -4,7 +4,7 @@ experiments/results/judge_retrained.{json,md}.
 
     PYTHONPATH=src python experiments/judge.py --root DIR [--runs NAME ...] [--shipped NAME ...] \\
         [--contrast A B ...] [--objects vgn-pile-train] [--seed 2000000] [--rounds 400] [--num-objects 5] \\
-        [--quick [DIR]]
+        [--scene pile] [--test NAME] [--quick [DIR]]
 
 ``DIR`` is the root of experiments/campaigns/final.toml. Each run ``DIR/runs/MODEL-sS`` (a
 model's recipe and data, trained with seed S) was selected by the declutter validation
@@ -27,7 +27,11 @@ several noisy validations flatters the winner; these rounds do not.
   and SR + CR, the change of the means over training seeds with the training seed inside the
   interval (`symgrasp.benchmark.seeds.seed_lead`) and the pairings of seeds in which A's SR is
   ahead; A *beats* B when the SR + CR interval lies above 0, *trails* when below, else
-  undecided: the campaigns' rule for an arm replacing another (experiments/campaigns/noback.toml).
+  undecided: the campaigns' rule for an arm replacing another (experiments/campaigns/noback.toml);
+- ``--test NAME``: the same tables from each run's test rounds in ``DIR/bench/NAME/RUN`` (e.g.
+  links to the Table 1 cells of round seeds 100–199, ``--objects vgn-pile-test --seed 100
+  --rounds 100``, ``--scene packed`` for packed scenes), with no pick: test rounds report, they
+  never choose.
 
 The script plays nothing: a run not selected, not judged yet, or judged with another ``best.pt``
 than its own (selected again since) is listed with the reason, and a model picks only once
@@ -85,16 +89,21 @@ def parse_run(text: str) -> tuple[str, int]:
 
 def wanted(args: argparse.Namespace) -> dict[str, Any]:
     """The configuration fields the judging rounds must have been played with."""
-    return {"objects": args.objects, "scene": "pile", "num_objects": args.num_objects,
+    return {"objects": args.objects, "scene": args.scene, "num_objects": args.num_objects,
             "rounds": args.rounds, "seed": args.seed, **approach_check(args),
             **CONDITIONS["clean"]}  # fmt: skip
+
+
+def rounds_folder(run: str, args: argparse.Namespace) -> Path:
+    """Where ``run``'s rounds are: its judging rounds, or with ``--test NAME`` its test rounds."""
+    return args.root / "bench" / (args.test or "judge") / run
 
 
 def judged(name: str, args: argparse.Namespace) -> tuple[list[dict] | None, dict[str, Any]]:
     """Run ``name``'s judging rounds in seed order (None until all are there and its own), and
     its record: model, seed, chosen epoch and its validation, or why it has no rounds yet."""
     model, seed = parse_run(name)
-    run, folder = args.root / "runs" / name, args.root / "bench" / "judge" / name
+    run, folder = args.root / "runs" / name, rounds_folder(name, args)
     record: dict[str, Any] = {"run": name, "model": model, "seed": seed, "folder": str(folder)}
     selected, why = clean_folder(run)
     if selected is None:
@@ -138,7 +147,7 @@ def judging_rounds(
 def judged_shipped(name: str, args: argparse.Namespace) -> tuple[list[dict] | None, dict]:
     """The shipped model ``name``'s judging rounds, as `judged`'s for a one-run model."""
     model = SHIPPED_PREFIX + name
-    folder = args.root / "bench" / "judge" / model
+    folder = rounds_folder(model, args)
     record: dict[str, Any] = {"run": model, "model": model, "seed": None, "folder": str(folder)}
     played = folder / MODEL_SHA
     if played.exists() and played.read_text().strip() != file_sha256(shipped_path(name)):
@@ -213,9 +222,10 @@ def markdown(
         return f"{100 * run['validation_sr']:.1f} / {100 * run['validation_cr']:.1f}"
 
     first, last = (f"{s:,}".replace(",", " ") for s in (args.seed, args.seed + args.rounds - 1))
+    what = f"test rounds (`{args.test}`, no pick made on them)" if args.test else "judging rounds"
     lines = [
-        f"{args.rounds} judging rounds of {args.num_objects} `{args.objects}` objects (round "
-        f"seeds {first}–{last}), clean, the same rounds for every run:",
+        f"{args.rounds} {what} of {args.num_objects} `{args.objects}` objects, {args.scene} "
+        f"scenes (round seeds {first}–{last}), clean, the same rounds for every run:",
         "",
         "| run | chosen epoch | declutter validation SR / CR % | SR % [95 % CI] | CR % [95 % CI] "
         "| SR + CR | grasps | rounds ended with no grasp found |",
@@ -232,8 +242,9 @@ def markdown(
             f"{pct(run['clear_ratio'], run['clear_ratio_ci95'])} | "
             f"{100 * run[SR_PLUS_CR]:.1f} | {run['executed']} | {run['ended_none_found']} |"
         )
-    lines += ["", "| model | ships (highest SR + CR) | seeds' difference, paired: SR | CR |",
-              "|---|---|---|---|"]  # fmt: skip
+    if picked:
+        lines += ["", "| model | ships (highest SR + CR) | seeds' difference, paired: SR | CR |",
+                  "|---|---|---|---|"]  # fmt: skip
     for pick in picked:
         if "waiting" in pick:
             lines.append(f"| {pick['model']} | waiting for {', '.join(pick['waiting'])} | | |")
@@ -303,6 +314,13 @@ def main() -> None:
                         "shipped-NAME), paired on the rounds, the training seed inside the "
                         "interval; repeat for more (default: none)")  # fmt: skip
     add_round_options(parser, JUDGE_SEED, 400, "the judging rounds")
+    parser.add_argument("--scene", choices=("pile", "packed"), default="pile",
+                        help="scene of the rounds read (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--test", default=None, metavar="NAME",
+                        help="read each run's rounds from DIR/bench/NAME/RUN instead of its "
+                        "judging rounds: test rounds, only reported: no model's pick is made "
+                        "on them, as no choice is made on test rounds (default: the judging "
+                        "rounds, and each model's pick)")  # fmt: skip
     add_result_option(parser, "judge_retrained")
     args = parse_args(parser, outputs=("result",),
                       quick={"rounds": 1, "num_objects": 1, "objects": "household-train",
@@ -332,14 +350,17 @@ def main() -> None:
         runs.append(record if played is None else {**record, **numbers(played)})
         if played is not None:
             rounds[record["run"]] = played
-    picked = picks(runs)
+    picked = [] if args.test else picks(runs)
     contrasted = contrasts(runs, rounds, args.contrast)
     table = markdown(runs, picked, contrasted, args)
     print(table, end="")
     write_result(
         args.result,
-        "The final campaign's runs on the judging rounds (training objects, no choice made on "
-        "them): SR / CR per run and the training seed each model ships (highest SR + CR)",
+        f"The final campaign's runs on the test rounds {args.test} (reported, no pick)"
+        if args.test
+        else "The final campaign's runs on the judging rounds (training objects, "
+        "no choice made on them): SR / CR per run and the training seed each model ships "
+        "(highest SR + CR)",
         command_line("PYTHONPATH=src"),
         runs,
         table,

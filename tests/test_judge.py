@@ -155,3 +155,23 @@ def test_a_shipped_model_is_a_one_run_model_that_runs_are_contrasted_with(tmp_pa
 def test_a_contrast_of_a_model_not_judged_is_refused_by_name(tmp_path):
     done = _judge(tmp_path, "--runs", "m-bingham2d-s0", "--contrast", "m-bingham2d", "wide")
     assert done.returncode == 2 and "--contrast: 'wide' is none of the models" in done.stderr
+
+
+def test_test_rounds_are_reported_without_a_pick(tmp_path):
+    _campaign(tmp_path)
+    for name in ("m-bingham2d-s0", "m-bingham2d-s1"):  # the judging rounds, as test rounds
+        judging, test = (tmp_path / "bench" / n / name for n in ("judge", "test-packed"))
+        test.parent.mkdir(parents=True, exist_ok=True)
+        judging.rename(test)
+        config = json.loads((test / "config.json").read_text())
+        (test / "config.json").write_text(json.dumps({**config, "scene": "packed"}))
+    runs = ["--runs", "m-bingham2d-s0", "m-bingham2d-s1"]
+    assert "not judged" in _judge(tmp_path, *runs).stdout  # the judging rounds are gone
+    wrong_scene = _judge(tmp_path, *runs, "--test", "test-packed")
+    assert "its scene differ" in wrong_scene.stdout
+    done = _judge(tmp_path, *runs, "--test", "test-packed", "--scene", "packed")
+    assert done.returncode == 0, done.stderr
+    result = json.loads((tmp_path / "judge.json").read_text())
+    assert result["picks"] == [] and "ships" not in done.stdout
+    assert all("missing" not in run for run in result["cells"])
+    assert "test rounds (`test-packed`, no pick made on them)" in done.stdout
