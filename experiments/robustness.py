@@ -289,12 +289,14 @@ def write_archive(cells: list[dict[str, Any]], args: argparse.Namespace) -> None
     condition (`common.ARCHIVED` files of its folder) under ``out/`` or ``baselines/`` as they
     lie under ``--out`` or ``--baselines``, and the ``MANIFEST`` of ``--models``: what
     ``--models-from`` collates again without them."""
-    roots = {"out": Path(args.out).resolve(), "baselines": Path(args.baselines).resolve()}
+    # absolute, links kept: a --baselines of links (the final collations') holds its cells there
+    roots = {"out": Path(os.path.abspath(args.out)),
+             "baselines": Path(os.path.abspath(args.baselines))}  # fmt: skip
     folders = {}
     for cell in cells:
         if cell.get("waiting"):
             continue
-        source = Path(cell["source"]).resolve()
+        source = Path(os.path.abspath(cell["source"]))
         found = next(((n, r) for n, r in roots.items() if source.is_relative_to(r)), None)
         if found is None:
             raise ValueError(

@@ -199,3 +199,39 @@ def test_a_collation_of_other_cells_names_every_file_it_writes(tmp_path, named):
     left = [o for o in ("--figure", "--archive", "--docs") if o not in named]
     assert f"is not Table 1's, but {', '.join(left)} would write over" in done.stderr
     assert not any(tmp_path.iterdir())
+
+
+def test_the_readme_quotes_the_retrained_detectors_and_the_shipped_ones_on_the_same_rounds():
+    """The README's sentence on the retrained detectors is written by hand from the final
+    collation on round seeds 100–199 (experiments/results/retrained-first-seed-100.json) and
+    the shipped `bingham2d` on the same rounds (retrained_vs_shipped-*.json)."""
+    results = ROOT / "experiments/results"
+    stored = json.loads((results / "retrained-first-seed-100.json").read_text())
+    readme = " ".join((ROOT / "README.md").read_text().split())
+
+    def final(gripper, objects, cells="cells"):
+        cell = next(c for c in stored[cells] if (c["gripper"], c["rep"], c["threshold"],
+                    c["objects"]) == (gripper, "bingham2d", True, objects))  # fmt: skip
+        return [_quoted(cell["ratios"][r][0], False) for r in ("success_ratio", "clear_ratio")]
+
+    def shipped(gripper, objects):
+        result = json.loads(
+            (results / f"retrained_vs_shipped-{gripper}-{objects}.json").read_text()
+        )
+        cell = next(c for c in result["cells"] if c["run"] == f"shipped-bingham2d-{gripper}")
+        return [_quoted(cell[r], False) for r in ("success_ratio", "clear_ratio")]
+
+    (sr, cr), (shipped_sr, shipped_cr) = (
+        final("robotiq-2f85", "vgn-pile-test"),
+        shipped("robotiq-2f85", "vgn-pile-test"),
+    )
+    assert (
+        f"(CR {cr} against {shipped_cr})" in readme and f"(SR {sr} against {shipped_sr})" in readme
+    )
+    for gripper, objects, cells in (("robotiq-2f85", "large-box", "cells"),
+                                    ("franka", "vgn-packed-test", "field")):  # fmt: skip
+        (sr, cr), (shipped_sr, shipped_cr) = (
+            final(gripper, objects, cells),
+            shipped(gripper, objects),
+        )
+        assert f"{sr} / {cr} against {shipped_sr} / {shipped_cr}" in readme, (gripper, objects)

@@ -248,7 +248,7 @@ def test_models_from_needs_collate_only_and_a_manifest(tmp_path):
     assert played.returncode == 2 and "--collate-only" in played.stderr
 
 
-def test_the_archive_takes_folders_by_their_resolved_paths_and_names_one_outside(
+def test_the_archive_takes_folders_by_their_paths_links_kept_and_names_one_outside(
     tmp_path, monkeypatch
 ):
     import argparse
@@ -263,10 +263,19 @@ def test_the_archive_takes_folders_by_their_resolved_paths_and_names_one_outside
         (tmp_path / folder / "rounds.jsonl").write_text("{}\n")
     args = argparse.Namespace(out=Path("out"), baselines=tmp_path / "table", models=[],
                               result=tmp_path / "r")  # fmt: skip
-    cells = [{"source": str(tmp_path / "out/a/clean")}, {"source": "table/b"}, {"waiting": "x"}]
+    (tmp_path / "table/c").symlink_to(tmp_path / "elsewhere/c", target_is_directory=True)
+    (tmp_path / "elsewhere/c").mkdir(parents=True)
+    (tmp_path / "elsewhere/c/rounds.jsonl").write_text("{}\n")
+    cells = [{"source": str(tmp_path / "out/a/clean")}, {"source": "table/b"}, {"waiting": "x"},
+             {"source": str(tmp_path / "table/c")}]  # fmt: skip
     robustness.write_archive(cells, args)
     with tarfile.open(tmp_path / "r_rounds.tar.gz") as tar:
         names = set(tar.getnames())
-    assert {"out/a/clean/rounds.jsonl", "baselines/b/rounds.jsonl"} <= names
+    # a linked cell is kept where the link puts it, as the collation read it
+    assert {
+        "out/a/clean/rounds.jsonl",
+        "baselines/b/rounds.jsonl",
+        "baselines/c/rounds.jsonl",
+    } <= names
     with pytest.raises(ValueError, match=r"elsewhere.* neither --out out nor --baselines"):
         robustness.write_archive([{"source": str(tmp_path / "elsewhere")}], args)
