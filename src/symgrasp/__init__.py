@@ -8,7 +8,7 @@ the approach axis e_x as a 3-vector and the closing axis e_z as a 2D Bingham dis
 from symgrasp.gl_backend import choose_gl_backend
 
 # MuJoCo reads MUJOCO_GL once, when it is first imported, and any subpackage may import it
-# first (``symgrasp.sim.collision`` does): choose the backend before any of them loads.
+# first (``symgrasp.sim.world`` does): choose the backend before any of them loads.
 choose_gl_backend()
 
 __version__ = "0.1.0"

@@ -1,12 +1,24 @@
 """The swept-hand check tests only the points near each box (a k-d tree): its answer must be the
 exact test's over every point, whatever the points' order, and for any number of grasps."""
 
+import dataclasses
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
 from symgrasp.sim import FRANKA, ROBOTIQ_2F85
-from symgrasp.sim.collision import ALL_PAIRS, CHUNK, SIGNS, hand_boxes, hand_collides
+from symgrasp.sim.collision import (
+    ALL_PAIRS,
+    BOXES,
+    CHUNK,
+    SIGNS,
+    hand_boxes,
+    hand_collides,
+    simulated_hand_boxes,
+)
 from symgrasp.sim.execute import top_grasp
 from symgrasp.sim.protocol import PREGRASP_DISTANCE
 
@@ -131,3 +143,39 @@ def test_the_table_rule_defaults_to_the_points_tolerance():
             T, ROBOTIQ_2F85, np.zeros((0, 3)), tolerance=tolerance, table_tolerance=tolerance
         )
         assert list(same) == list(given) and 0 < same.mean() < 1
+
+
+@pytest.mark.parametrize("gripper", [FRANKA, ROBOTIQ_2F85], ids=lambda g: g.name)
+def test_the_stored_boxes_are_the_simulated_hands(gripper):
+    """The stored boxes stand for the simulated hand's (its model at the open configuration):
+    after a change to a hand, its spec or the code that builds it, `store_hand_boxes` writes
+    them again."""
+    stored, simulated = hand_boxes(gripper), simulated_hand_boxes(gripper)
+    for key in BOXES:
+        np.testing.assert_allclose(getattr(stored, key), getattr(simulated, key), rtol=0,
+                                   atol=1e-12, err_msg=f"{gripper.name} {key}: run "
+                                   "symgrasp.sim.collision.store_hand_boxes()")  # fmt: skip
+
+
+def test_a_hand_other_than_the_stored_ones_is_simulated():
+    wider = dataclasses.replace(ROBOTIQ_2F85, pad_width=ROBOTIQ_2F85.pad_width + 0.004)
+    boxes = hand_boxes(wider)
+    pads = np.flatnonzero(np.isclose(boxes.half, wider.pad_width / 2).any(axis=1))
+    assert len(pads) >= 2  # the pads' boxes are the wider spec's, not the stored hand's
+    assert not np.isclose(hand_boxes(ROBOTIQ_2F85).half, wider.pad_width / 2).any()
+
+
+def test_the_approach_check_of_a_built_in_hand_loads_no_simulator():
+    """A robot's detector with the approach check on needs the hand's boxes, not MuJoCo."""
+    code = (
+        "import sys, numpy as np\n"
+        "import symgrasp.detect\n"
+        "from symgrasp.sim import ROBOTIQ_2F85\n"
+        "from symgrasp.sim.collision import hand_collides\n"
+        "T = np.eye(4); T[2, 3] = 0.2\n"
+        "hits = hand_collides(T[None], ROBOTIQ_2F85, np.zeros((1, 3)))\n"
+        "assert hits.tolist() == [False], hits\n"
+        "assert 'mujoco' not in sys.modules, 'MuJoCo was loaded'\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr

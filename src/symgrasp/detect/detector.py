@@ -121,8 +121,9 @@ class GraspDetector:
             keeps the declutter benchmark's clearances from the fused surface and from the
             table (`symgrasp.benchmark.declutter.first_free`'s check, 1 mm each: the grasp the
             benchmark executes is the first such grasp), in their ranked order. Off by default
-            (every grasp the network ranks); on, the first detection builds the hand's boxes
-            in MuJoCo (`symgrasp.sim.collision`), which it then loads. `detect_tsdf` checks
+            (every grasp the network ranks); on, a built-in hand's boxes are read from their
+            stored copy, loading no simulator, and another hand's are built in MuJoCo at the
+            first detection (`symgrasp.sim.collision.hand_boxes`). `detect_tsdf` checks
             against the given grid's surface.
         seed: seed of ``samples_per_voxel``'s draws.
         optimize: run the network as a frozen TorchScript graph made for inference
@@ -373,7 +374,7 @@ class GraspDetector:
         without, ``grasps``."""
         if not (self.approach_check and grasps):
             return grasps
-        from symgrasp.sim.collision import hand_collides  # builds the hand in MuJoCo
+        from symgrasp.sim.collision import hand_collides
 
         start = time.perf_counter()
         grid = torch.as_tensor(grid, dtype=torch.float32, device=self.device)

@@ -2,7 +2,9 @@
 
 The open hand is a few oriented boxes (palm, finger links, pads) read from its simulated model
 (`World.hand_boxes`), so the check and the physics see the same hand. Data generation labels
-with it and the declutter benchmark chooses grasps with it.
+with it, the declutter benchmark chooses grasps with it, and a detector with its approach check
+on filters its grasps with it. The built-in hands' boxes are stored (`STORED`), so that the
+check runs on a robot without MuJoCo loaded; another hand's are read from its simulated model.
 Along the straight approach from the pre-grasp (``PREGRASP_DISTANCE`` back along ``e_x``)
 each box sweeps a box ⊕ segment; a scene point lies in that swept volume exactly when the
 three slab intervals of the segment parameter intersect. Scenes are surface point samples
@@ -19,15 +21,17 @@ against the test run on all of them.
 from __future__ import annotations
 
 import itertools
+import json
 from dataclasses import dataclass
 from functools import cache
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from symgrasp.sim.grippers import GripperSpec
+from symgrasp.atomic import write_atomic
+from symgrasp.sim.grippers import FRANKA, ROBOTIQ_2F85, GripperSpec
 from symgrasp.sim.protocol import PREGRASP_DISTANCE
-from symgrasp.sim.world import World
 from symgrasp.workspace import TABLE_HEIGHT
 
 PIECES = 3
@@ -54,10 +58,45 @@ class HandBoxes:
     half: np.ndarray
 
 
+STORED = Path(__file__).with_name("hand_boxes.json")
+"""The built-in hands' open boxes with the spec each was built from: `simulated_hand_boxes`'s
+numbers to the bit on the machine that wrote them (`store_hand_boxes`; tests/sim/test_collision.py
+checks them against the simulated hands)."""
+BOXES = ("centre", "rotation", "half")
+
+
 @cache
 def hand_boxes(gripper: GripperSpec) -> HandBoxes:
-    """The open ``gripper``'s box geoms (its simulated model at the open configuration)."""
+    """The open ``gripper``'s box geoms: stored for a built-in hand whose spec is the one they
+    were built from (no MuJoCo loaded), else `simulated_hand_boxes`."""
+    stored = json.loads(STORED.read_text()).get(gripper.name)
+    if stored is not None and stored["spec"] == _as_stored(gripper.to_dict()):
+        return HandBoxes(*(np.array(stored[key], dtype=float) for key in BOXES))
+    return simulated_hand_boxes(gripper)
+
+
+def simulated_hand_boxes(gripper: GripperSpec) -> HandBoxes:
+    """The open ``gripper``'s box geoms, read from its simulated model at the open
+    configuration (loads MuJoCo)."""
+    from symgrasp.sim.world import World
+
     return HandBoxes(*World([], gripper=gripper).hand_boxes())
+
+
+def store_hand_boxes(path: Path = STORED) -> Path:
+    """Write the built-in hands' `simulated_hand_boxes` and specs to ``path`` (after a change
+    to a built-in hand, its spec or the code that builds it)."""
+    stored = {}
+    for gripper in (FRANKA, ROBOTIQ_2F85):
+        boxes = simulated_hand_boxes(gripper)
+        stored[gripper.name] = {"spec": _as_stored(gripper.to_dict()),
+                                **{key: getattr(boxes, key).tolist() for key in BOXES}}  # fmt: skip
+    return write_atomic(path, lambda file: json.dump(stored, file, indent=1), "w")
+
+
+def _as_stored(value: object) -> object:
+    """``value`` as JSON gives it back (tuples as lists): what a stored spec compares with."""
+    return json.loads(json.dumps(value))
 
 
 def _corners(boxes: HandBoxes, half: np.ndarray) -> np.ndarray:
