@@ -30,7 +30,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from symgrasp.atomic import write_atomic
-from symgrasp.sim.grippers import FRANKA, ROBOTIQ_2F85, GripperSpec
+from symgrasp.names import GRIPPERS
+from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.sim.protocol import PREGRASP_DISTANCE
 from symgrasp.workspace import TABLE_HEIGHT
 
@@ -87,11 +88,11 @@ def store_hand_boxes(path: Path = STORED) -> Path:
     """Write the built-in hands' `simulated_hand_boxes` and specs to ``path`` (after a change
     to a built-in hand, its spec or the code that builds it)."""
     stored = {}
-    for gripper in (FRANKA, ROBOTIQ_2F85):
+    for gripper in map(get_gripper, GRIPPERS):
         boxes = simulated_hand_boxes(gripper)
         stored[gripper.name] = {"spec": _as_stored(gripper.to_dict()),
                                 **{key: getattr(boxes, key).tolist() for key in BOXES}}  # fmt: skip
-    return write_atomic(path, lambda file: json.dump(stored, file, indent=1), "w")
+    return write_atomic(path, lambda file: file.write(json.dumps(stored, indent=1) + "\n"), "w")
 
 
 def _as_stored(value: object) -> object:
