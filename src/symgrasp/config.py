@@ -22,6 +22,7 @@ from symgrasp.names import (
     BACKENDS,
     MESH_UNITS,
     NOISES,
+    PROTOCOLS,
     REPRESENTATIONS,
     SCENES,
     SCHEDULES,
@@ -540,6 +541,10 @@ class BenchmarkConfig:
     """Gap [m] the open hand must keep from the observed surface for a grasp to be executed
     (`symgrasp.benchmark.declutter.first_free`); negative: points that deep inside the hand are
     passed; −0.002 plays the rule of the benchmarks until 2026-11-27 18:00 UTC (`SURFACE_CLEARANCE`)."""
+    protocol: str = "symgrasp"
+    """Which of the planner's ranked grasps is executed: symgrasp (the first whose open hand, swept
+    from the pre-grasp, keeps the two clearances above from the observed scene: symgrasp's
+    addition) or paper (the first, unchecked: the paper's and VGN's simulated protocol)."""
 
     def __post_init__(self) -> None:
         if self.scene not in SCENES:
@@ -551,6 +556,8 @@ class BenchmarkConfig:
         check_sensing(self.noise, self.view, self.views)
         check_range("table_clearance", self.table_clearance, -0.01, 0.05, integer=False)
         check_range("surface_clearance", self.surface_clearance, -0.01, 0.05, integer=False)
+        if self.protocol not in PROTOCOLS:
+            raise ValueError(f"protocol must be one of {PROTOCOLS}, got {self.protocol!r}")
 
 
 MAX_WORKERS = 4096

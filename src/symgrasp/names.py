@@ -33,6 +33,11 @@ millimetres from each mesh's size."""
 SCENES = ("pile", "packed")
 """Scene kinds (`symgrasp.sim.world`)."""
 
+PROTOCOLS = ("symgrasp", "paper")
+"""What the declutter benchmark executes of a planner's ranked grasps: ``symgrasp``, the first
+whose approach misses the observed scene (`symgrasp.benchmark.declutter.first_free`);
+``paper``, the first, unchecked, as the paper's and VGN's simulated protocol."""
+
 NOISES = ("none", "dex")
 """Depth noise of the declutter benchmark's images (`symgrasp.benchmark.sensing`) and of the
 training data's (`symgrasp.data.scenes`): none, or the field's ``dex`` model (GIGA's, after

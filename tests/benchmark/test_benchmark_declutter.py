@@ -124,3 +124,27 @@ def test_first_free_keeps_the_surface_clearance_from_the_observed_points(depth, 
     grasp = Grasp(T, score=1.0)
     chosen, rejected = first_free([grasp], ROBOTIQ_2F85, point[None], surface_clearance=clearance)
     assert (chosen is grasp, rejected) == ((True, 0) if free else (False, 1))
+
+
+class _Listed:
+    """A planner that proposes a grasp whose TCP lies under the table, then a free one high
+    above the objects: which one runs is the protocol's."""
+
+    gripper, name, version = ROBOTIQ_2F85, "listed", "0"
+
+    def plan(self, observation):
+        under = top_grasp(np.array([0.15, 0.15, TABLE_HEIGHT - 0.02]))
+        above = top_grasp(np.array([0.15, 0.15, TABLE_HEIGHT + 0.25]))
+        return [Grasp(under, 1.0), Grasp(above, 0.5)]
+
+
+def test_the_protocol_decides_whether_the_approach_is_checked_before_execution():
+    checked = run_round(_Listed(), HOUSEHOLD, 1, seed=0, max_attempts=1, diagnose=False)
+    (attempt,) = checked.attempts
+    assert attempt.rejected == 1 and attempt.grasp.score == 0.5
+    paper = run_round(_Listed(), HOUSEHOLD, 1, seed=0, max_attempts=1, diagnose=False,
+                      protocol="paper")  # fmt: skip
+    (attempt,) = paper.attempts
+    assert attempt.rejected == 0 and attempt.grasp.score == 1.0 and not attempt.success
+    with pytest.raises(ValueError, match="protocol must be one of"):
+        run_round(_Listed(), HOUSEHOLD, 1, protocol="vgn")

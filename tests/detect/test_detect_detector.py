@@ -267,3 +267,115 @@ def test_the_approach_check_keeps_the_grasps_the_benchmark_would_execute(empty_t
     assert set(checker.timing) == {"network", "decode", "approach"}
     with pytest.raises(TypeError, match="approach_check must be True or False"):
         _detector(voxels, approach_check="yes")
+
+
+def _box_tsdf(lo, hi) -> np.ndarray:
+    """The workspace TSDF of one solid box ``lo``–``hi`` [m]: its signed distance over a
+    truncation of 4 voxels, clipped to [-1, 1]."""
+    centres = (np.stack(np.meshgrid(*[np.arange(R)] * 3, indexing="ij"), -1) + 0.5) * VOXEL
+    lo, hi = np.asarray(lo), np.asarray(hi)
+    q = np.abs(centres - (lo + hi) / 2) - (hi - lo) / 2
+    distance = np.linalg.norm(np.maximum(q, 0), axis=-1) + np.minimum(q.max(-1), 0)
+    return np.clip(distance / (4 * VOXEL), -1, 1).astype(np.float32)
+
+
+# A grasp straight down at 15 cm whose most probable closing axis (world y) puts a finger into a
+# block beside it, while the closing axis along x clears it.
+BLOCKED = _box_tsdf([0.145, 0.18, 0.06], [0.165, 0.23, 0.16])
+DOWN_Y = _rotation([0, 0, -1], [0, 1, 0])
+
+
+def test_fallbacks_rescue_a_voxel_whose_most_probable_yaw_is_blocked():
+    """Its Bingham (gap 1 towards e_y = world x) tolerates other yaws: with fallbacks the first
+    free draw is returned, marked as one; without, the voxel gives nothing. The benchmark's own
+    check (`first_free`) on the unchecked list executes the same grasp."""
+    from symgrasp.benchmark.declutter import first_free
+    from symgrasp.perception import surface_points
+
+    voxels = {(20, 20, 20): (0.9, 0.9, _bingham2d(DOWN_Y, gaps=(60.0, 1.0)))}
+    assert _detector(voxels, approach_check=True, confidence_threshold=0).detect_tsdf(BLOCKED) == []
+    checker = _detector(voxels, approach_check=True, confidence_threshold=0, fallbacks=8)
+    (rescued,) = checker.detect_tsdf(BLOCKED)
+    assert rescued.fallback >= 1 and rescued.voxel == (20, 20, 20)
+    assert np.allclose(rescued.approach, [0, 0, -1], atol=1e-12)
+    assert abs(rescued.closing_axis[1]) < 0.9  # turned away from the block
+    unchecked = _detector(voxels, confidence_threshold=0, fallbacks=8).detect_tsdf(BLOCKED)
+    assert [g.fallback for g in unchecked] == list(range(9))
+    points = surface_points(torch.as_tensor(BLOCKED)).numpy()
+    chosen, rejected = first_free(unchecked, ROBOTIQ_2F85, points)
+    assert chosen.fallback == rescued.fallback and rejected == rescued.fallback
+    assert np.array_equal(chosen.pose, rescued.pose)
+    assert rescued.record()["fallback"] == rescued.fallback
+
+
+def test_a_free_voxel_needs_no_fallback_and_the_control_turns_a_point_estimate():
+    """A voxel whose own grasp is free returns it (fallback 0) and checks nothing more; a
+    rotmat6d voxel's fallbacks are its yaw turned by 45°, 90°, 135°: the 45° turn clears."""
+    voxels = {(20, 20, 20): (0.9, 0.9, _bingham2d(_rotation([0, 0, -1], [1, 0, 0])))}
+    (free,) = _detector(voxels, approach_check=True, fallbacks=8).detect_tsdf(BLOCKED)
+    assert free.fallback == 0
+    six = np.r_[DOWN_Y[:, 0], DOWN_Y[:, 2]]
+    net = FixedNet("rotmat6d", {(20, 20, 20): (0.9, 0.9, six)})
+    checked = GraspDetector(net, ROBOTIQ_2F85, device="cpu", approach_check=True, fallbacks=3)
+    (turned,) = checked.detect_tsdf(BLOCKED)
+    assert turned.fallback == 1
+    assert abs(turned.closing_axis @ DOWN_Y[:, 2]) == pytest.approx(np.cos(np.pi / 4), abs=1e-9)
+
+
+def test_forced_decoding_ranks_the_voxels_below_the_threshold_after_those_above_it():
+    voxels = {
+        (5, 5, 5): (0.2, 0.9, _bingham2d(ROT_A)),
+        (30, 30, 30): (0.9, 0.05, _bingham2d(ROT_A)),  # best score, validity under 0.08
+        (20, 5, 30): (0.5, 0.01, _bingham2d(ROT_A)),  # under the floor
+    }
+    assert [g.voxel for g in _detector(voxels).detect_tsdf(np.ones((R,) * 3))] == [(5, 5, 5)]
+    forced = _detector(voxels, validity_floor=0.02).detect_tsdf(np.ones((R,) * 3))
+    assert [g.voxel for g in forced] == [(5, 5, 5), (30, 30, 30)]
+    only_forced = {k: v for k, v in voxels.items() if k != (5, 5, 5)}
+    forced = _detector(only_forced, validity_floor=0.0).detect_tsdf(np.ones((R,) * 3))
+    assert [g.voxel for g in forced] == [(30, 30, 30), (20, 5, 30)]  # by score within the tier
+    capped = _detector(voxels, validity_floor=0.02, top_k=1).detect_tsdf(np.ones((R,) * 3))
+    assert [g.voxel for g in capped] == [(5, 5, 5)]
+
+
+def test_decoding_options_are_checked():
+    for options, match in (
+        ({"validity_floor": 0.5}, "validity_floor"),  # above the threshold 0.08
+        ({"validity_floor": -0.1}, "validity_floor"),
+        ({"fallbacks": -1}, "fallbacks"),
+        ({"fallbacks": 2, "samples_per_voxel": 2}, "choose one"),
+        ({"confidence_threshold": True}, "confidence_threshold"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            _detector({}, **options)
+
+
+def test_a_shipped_models_operating_point_is_its_default_and_options_override_it(monkeypatch):
+    """`from_pretrained` reads a shipped model's card (here a stand-in card); a checkpoint file,
+    ``operating_point=False`` and explicit options are not changed by it."""
+    from symgrasp.detect import pretrained
+
+    card = {"validity_threshold": 0.05, "confidence_threshold": 0.0, "validity_floor": 0.01,
+            "fallbacks": 4}  # fmt: skip
+    monkeypatch.setattr(
+        pretrained, "_read_operating_points", lambda: {"bingham2d-franka": {**card, "chosen": {}}}
+    )
+    assert pretrained.shipped_operating_point("bingham2d-franka") == card
+    assert pretrained.shipped_operating_point(pretrained.shipped_path("bingham2d-franka")) == {}
+    detector = GraspDetector.from_pretrained("bingham2d-franka", device="cpu")
+    assert (detector.validity_threshold, detector.confidence_threshold) == (0.05, 0.0)
+    assert (detector.validity_floor, detector.fallbacks) == (0.01, 4)
+    mine = GraspDetector.from_pretrained("bingham2d-franka", device="cpu", fallbacks=0)
+    assert (mine.validity_threshold, mine.fallbacks) == (0.05, 0)
+    plain = GraspDetector.from_pretrained("bingham2d-franka", device="cpu", operating_point=False)
+    assert (plain.validity_threshold, plain.validity_floor, plain.fallbacks) == (0.08, None, 0)
+
+
+def test_the_shipped_operating_points_name_shipped_models_and_detector_options():
+    """The card file as shipped: every entry a shipped model, every value a valid option."""
+    from symgrasp.detect import PRETRAINED, pretrained
+
+    for name, point in pretrained._read_operating_points().items():
+        assert name in PRETRAINED
+        assert set(point) <= {*pretrained.OPERATING_POINT_KEYS, "chosen"}
+        GraspDetector.from_pretrained(name, device="cpu")  # its options pass the checks

@@ -4,12 +4,14 @@ A round drops ``N`` objects of a set as a pile on the table. Before every attemp
 depth images (by default one, from a fixed camera, noiseless: `symgrasp.benchmark.sensing`)
 are handed to the planner (any
 `symgrasp.detect.planner.GraspPlanner`: a `GraspDetector`, VGN's network, a user's
-function); its grasps are tried in its order (a detector's: gravity-rejection score) and the
-first whose open hand, from the pre-grasp along the approach to the grasp, misses the
-*observed* surface by ``surface_clearance`` and keeps ``table_clearance`` above the table
-(`first_free`, what a robot can check; the surface is the zero crossings of the images, noise and all, fused into the
-workspace TSDF, the same for every planner) is executed (`symgrasp.sim.execute.execute_grasp`); a successful grasp
-removes its object. The round ends when the table is clear, no grasp is found, or
+function), and one of its ranked grasps (a detector's: by gravity-rejection score) is executed
+(`symgrasp.sim.execute.execute_grasp`); a successful grasp removes its object. Which one is the
+``protocol``'s (`symgrasp.names.PROTOCOLS`): ``"paper"``, the first, as the paper's and VGN's
+simulated protocol; ``"symgrasp"``, symgrasp's addition, the first whose open hand, from the
+pre-grasp along the approach to the grasp, misses the *observed* surface by
+``surface_clearance`` and keeps ``table_clearance`` above the table (`first_free`, what a robot
+can check; the surface is the zero crossings of the images, noise and all, fused into the
+workspace TSDF, the same for every planner). The round ends when the table is clear, no grasp is found, or
 ``max_failures`` attempts in a row fail.
 
 A round is a pure function of its seed: the same seed gives the same round.
@@ -30,6 +32,7 @@ from symgrasp.config import SURFACE_CLEARANCE, TABLE_CLEARANCE
 from symgrasp.detect import Grasp
 from symgrasp.detect.detector import fuse
 from symgrasp.detect.planner import GraspPlanner
+from symgrasp.names import PROTOCOLS
 from symgrasp.objects.sets import ObjectSource, make_scene
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.execute import execute_grasp
@@ -49,7 +52,8 @@ class Attempt:
         outcome: an `symgrasp.sim.execute.Outcome` value, or `NONE_FOUND`.
         grasp: the executed grasp (None when none was found).
         candidates: grasps the planner proposed.
-        rejected: of those, skipped because their approach hit the observed scene.
+        rejected: of those, skipped because their approach hit the observed scene (0 under
+            the ``"paper"`` protocol, which checks nothing).
         planning_s: seconds from rendering the depth images to the chosen grasp (rendering,
             noise, the planner, the collision checks).
         objects_before: objects on the table before the attempt.
@@ -129,6 +133,7 @@ def run_round(
     diagnose: bool = True,
     table_clearance: float = TABLE_CLEARANCE,
     surface_clearance: float = SURFACE_CLEARANCE,
+    protocol: str = "symgrasp",
 ) -> Round:
     """Play one declutter round with ``planner`` (its gripper) on ``num_objects`` objects of
     the set ``objects`` (resolved once by `symgrasp.objects.sets.resolve`, for all the rounds
@@ -138,7 +143,8 @@ def run_round(
     ``max_attempts`` defaults to twice the number of objects; ``sensor`` (default: one
     noiseless image from the fixed camera) says what the cameras see before each attempt,
     drawn from ``seed`` and the attempt's index (`symgrasp.benchmark.sensing`);
-    ``table_clearance`` and ``surface_clearance`` are `first_free`'s. With
+    ``table_clearance`` and ``surface_clearance`` are `first_free`'s, which the ``"symgrasp"``
+    ``protocol`` applies and ``"paper"`` does not (the module docstring). With
     ``diagnose``, each failed grasp is replayed at other yaws to name its failure mode
     (`symgrasp.benchmark.failures`); the round itself is the same either way.
     """
@@ -146,6 +152,8 @@ def run_round(
         raise ValueError(
             f"num_objects and max_failures must be ≥ 1, got {num_objects}, {max_failures}"
         )
+    if protocol not in PROTOCOLS:
+        raise ValueError(f"protocol must be one of {PROTOCOLS}, got {protocol!r}")
     sensor = sensor or Sensor()
     renderer = make_renderer(sensor.intrinsic)
     world = make_scene(scene, objects, num_objects, seed, gripper=planner.gripper)
@@ -157,11 +165,14 @@ def run_round(
         start = time.perf_counter()
         observation = sensor.observe(renderer, world, seed, len(record.attempts))
         candidates = list(planner.plan(observation))
-        seen = fuse(observation.depth, observation.intrinsic, observation.T_world_camera)
-        points = seen.point_cloud().cpu().numpy()
-        chosen, rejected = first_free(
-            candidates, planner.gripper, points, table_clearance, surface_clearance
-        )
+        if protocol == "paper":
+            chosen, rejected = (candidates[0] if candidates else None), 0
+        else:
+            seen = fuse(observation.depth, observation.intrinsic, observation.T_world_camera)
+            points = seen.point_cloud().cpu().numpy()
+            chosen, rejected = first_free(
+                candidates, planner.gripper, points, table_clearance, surface_clearance
+            )
         planning = time.perf_counter() - start
         before = len(world.objects)
         mode: str | None = NONE_FOUND if diagnose else None

@@ -12,16 +12,14 @@ from symgrasp.arguments import sentence
 from symgrasp.cli.fields import add_config_options, config_from_args
 from symgrasp.cli.options import (
     PLANNER_METAVAR,
-    PROBABILITY,
-    add_confidence_options,
+    add_decoding_options,
     add_shared,
-    confidence_threshold,
+    decoding_options,
     input_folder,
     output_folder_path,
     parse_planner,
 )
 from symgrasp.config import (
-    DEFAULT_VALIDITY,
     TRAINING_DATABASE,
     BenchmarkConfig,
     DatabaseConfig,
@@ -78,13 +76,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         + f" (default: {BenchmarkConfig.model})",
     )
     add_config_options(declutter, BenchmarkConfig, skip=("model", "options"))
-    add_confidence_options(declutter)
-    declutter.add_argument(
-        "--validity",
-        type=PROBABILITY,
-        default=None,
-        help=f"validity threshold (default: {DEFAULT_VALIDITY}; a sweep per model: docs/results.md)",
-    )
+    add_decoding_options(declutter)
     add_shared(
         declutter,
         "representation",
@@ -140,26 +132,32 @@ def _run_compare(args: argparse.Namespace) -> None:
 
 def _run_declutter(args: argparse.Namespace) -> None:
     kind = planner_kind(args.model)
-    threshold = confidence_threshold(args)
-    options = () if threshold is None else (("confidence_threshold", threshold),)
-    if args.validity is not None:
-        options += (("validity_threshold", args.validity),)
+    given = decoding_options(args)
     oracle = {"grasps": args.oracle_grasps, "directions": args.oracle_directions,
               "offset": None if args.oracle_offset is None else tuple(args.oracle_offset)}  # fmt: skip
     oracle = tuple((k, v) for k, v in oracle.items() if v is not None)
     if oracle and kind != "oracle":
         raise SystemExit(f"error: --oracle-* options are the oracle's, not --model {args.model}'s")
     if kind != "model":
-        if options or args.representation is not None:
+        if given or args.no_operating_point or args.representation is not None:
             raise SystemExit(
-                "error: --validity, --confidence, --no-confidence and --rep are a trained "
-                f"model's; --model {args.model} takes none of them"
+                "error: --validity, --confidence, --no-confidence, --validity-floor, "
+                "--fallbacks, --no-operating-point and --rep are a trained model's; --model "
+                f"{args.model} takes none of them"
             )
         options = (() if args.gripper is None else (("gripper", args.gripper),)) + oracle
     if kind == "plugin" and os.getcwd() not in sys.path:
         sys.path.insert(0, os.getcwd())  # the planner's module, found as `python -m` finds it
-    config = dataclasses.replace(config_from_args(BenchmarkConfig, args), options=options)
+    config = config_from_args(BenchmarkConfig, args)
     parallel = parallel_from_args(args)
+    if kind == "model":
+        from symgrasp.detect.pretrained import OPERATING_POINT_KEYS, shipped_operating_point
+
+        # the card's operating point, resolved here so that config.json records it whole
+        card = {} if args.no_operating_point else shipped_operating_point(args.model)
+        chosen = {**card, **given}
+        options = tuple((key, chosen[key]) for key in OPERATING_POINT_KEYS if key in chosen)
+    config = dataclasses.replace(config, options=options)
 
     from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark
 

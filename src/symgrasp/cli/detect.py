@@ -12,17 +12,15 @@ from symgrasp.arguments import integer, number
 from symgrasp.cli.options import (
     MODEL_METAVAR,
     PLANNER_METAVAR,
-    PROBABILITY,
-    add_confidence_options,
+    add_decoding_options,
     add_shared,
-    confidence_threshold,
+    decoding_options,
     input_file,
     output_folder_path,
     output_path,
     parse_model,
     parse_planner,
 )
-from symgrasp.config import DEFAULT_VALIDITY
 from symgrasp.names import planner_kind
 
 
@@ -134,13 +132,7 @@ def add_detector_options(parser: argparse.ArgumentParser, planners: bool = False
         metavar=("X", "Y", "Z"),
         help="world position of the workspace cube's corner [m] (default: 0 0 0)",
     )
-    parser.add_argument(
-        "--validity",
-        type=PROBABILITY,
-        default=DEFAULT_VALIDITY,
-        help=f"validity threshold (default: {DEFAULT_VALIDITY}, docs/detect.md)",
-    )
-    add_confidence_options(parser)
+    add_decoding_options(parser)
     parser.add_argument(
         "--top-k", type=integer(1, 10**6), default=None, help="keep the best K grasps"
     )
@@ -199,8 +191,8 @@ def load_detector(args: argparse.Namespace):  # -> GraspDetector (imported here,
     return GraspDetector.from_pretrained(
         args.model,
         device=args.device,
-        validity_threshold=args.validity,
-        confidence_threshold=confidence_threshold(args),
+        operating_point=not args.no_operating_point,
+        **decoding_options(args),
         top_k=args.top_k,
         samples_per_voxel=args.samples_per_voxel,
         workspace_origin=tuple(args.workspace_origin),
@@ -297,9 +289,12 @@ def _check_planner_options(args: argparse.Namespace) -> None:
             )
         return
     model_only = {
-        "--validity": args.validity != DEFAULT_VALIDITY,
+        "--validity": args.validity is not None,
         "--confidence": args.confidence is not None,
         "--no-confidence": args.no_confidence,
+        "--validity-floor": args.validity_floor is not None,
+        "--fallbacks": args.fallbacks is not None,
+        "--no-operating-point": args.no_operating_point,
         "--samples-per-voxel": args.samples_per_voxel != 0,
         "--fill-holes": args.fill_holes != 0,
         "--table-scale": args.table_scale,

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from symgrasp.arguments import integer, number, sentence
-from symgrasp.config import MAX_VIEWS, SEED_MAX, BenchmarkConfig, SceneConfig
+from symgrasp.config import DEFAULT_VALIDITY, MAX_VIEWS, SEED_MAX, BenchmarkConfig, SceneConfig
 from symgrasp.fields import field_docs
 from symgrasp.folders import check_folder, check_path
 from symgrasp.names import (
@@ -210,6 +210,58 @@ def add_approach_check(parser: argparse.ArgumentParser, what: str) -> None:
 def approach_check(args: argparse.Namespace) -> dict[str, float]:
     """The approach check's fields given on the command line (`add_approach_check`)."""
     return {name: getattr(args, name) for name in APPROACH_CHECK}
+
+
+def add_decoding_options(parser: argparse.ArgumentParser) -> None:
+    """A trained model's decoding options, the operating point of its model card where not
+    given: ``--validity``, ``--confidence``/``--no-confidence``, ``--validity-floor``,
+    ``--fallbacks`` and ``--no-operating-point`` (`decoding_options` reads them)."""
+    parser.add_argument(
+        "--validity",
+        type=PROBABILITY,
+        default=None,
+        help=f"validity threshold (default: the model card's operating point, else "
+        f"{DEFAULT_VALIDITY}; docs/models.md)",
+    )
+    add_confidence_options(parser)
+    parser.add_argument(
+        "--validity-floor",
+        type=PROBABILITY,
+        default=None,
+        metavar="P",
+        help="forced decoding: rank the voxels whose validity lies between P and the threshold "
+        "after all those above it, so that a scene whose voxels all fall short still gets "
+        "grasps (default: the model card's, else none; docs/detect.md)",
+    )
+    parser.add_argument(
+        "--fallbacks",
+        type=integer(0, 1000),
+        default=None,
+        metavar="N",
+        help="after each voxel's grasp, N other rotations of the same voxel, tried when its "
+        "approach is refused: draws of the Bingham output, most probable first (e_x kept), or "
+        "for a point estimate its yaw turned about e_x in steps of 180/(N+1) degrees (default: "
+        "the model card's, else 0; docs/detect.md)",
+    )
+    parser.add_argument(
+        "--no-operating-point",
+        action="store_true",
+        help="ignore the model card's operating point: the library's defaults where an option "
+        f"is not given (validity {DEFAULT_VALIDITY}, confidence 15 for bingham2d, no forced "
+        "decoding, no fallbacks)",
+    )
+
+
+def decoding_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The `GraspDetector` options given by `add_decoding_options`' flags (those not given
+    are left out: the model card's or the class's defaults apply)."""
+    given = {
+        "validity_threshold": args.validity,
+        "confidence_threshold": confidence_threshold(args),
+        "validity_floor": args.validity_floor,
+        "fallbacks": args.fallbacks,
+    }
+    return {name: value for name, value in given.items() if value is not None}
 
 
 def add_confidence_options(parser: argparse.ArgumentParser) -> None:

@@ -6,7 +6,12 @@ decode a rotation per voxel (for ``bingham2d``: e_z the mode of B(A), Eq. 6,
 then Gram–Schmidt keeping e_x), drop grasps whose Bingham confidence (λ₃ − λ₂) + (λ₃ − λ₁)
 is below the threshold (15 in the paper), suppress non-maxima of the score, and sort by the
 gravity-rejection score. With ``samples_per_voxel`` the closing axis is instead drawn from
-B(A) several times per voxel (the paper's third decoding mode, Sec. 3.3).
+B(A) several times per voxel (the paper's third decoding mode, Sec. 3.3). With ``fallbacks``
+each voxel's grasp is followed by other rotations of the same voxel, most probable first (draws
+of B(A) that keep e_x), tried when its approach is refused: one voxel's 2D Bingham holds every
+closing axis the grasp tolerates. With ``validity_floor`` the voxels below the validity
+threshold but above the floor follow all those above it (GIGA's forced decoding), so that a
+scene whose voxels all fall short of the threshold still gets its best grasps.
 The steps after the network are `symgrasp.model.ranking.rank_voxels`, which the validation's
 top-k metrics share.
 
@@ -36,7 +41,7 @@ from symgrasp.config import (
 )
 from symgrasp.detect.grasp import Grasp
 from symgrasp.detect.planner import Observation
-from symgrasp.detect.pretrained import resolve_model
+from symgrasp.detect.pretrained import resolve_model, shipped_operating_point
 from symgrasp.device import resolve_device
 from symgrasp.digest import file_sha256
 from symgrasp.model import torchscript
@@ -98,6 +103,21 @@ class GraspDetector:
             ±inf leaves an axis open); it must hold a voxel centre of the workspace.
         samples_per_voxel: 0 decodes the mode; n ≥ 1 draws n closing axes per voxel from the
             predicted distribution (Bingham representations only).
+        fallbacks: after each voxel's grasp, this many other rotations of the same voxel, most
+            plausible first (`symgrasp.rotation.Representation.fallbacks`: draws of the
+            predicted distribution ordered by density, e_x kept for ``bingham2d``; for a point
+            estimate the control a user would try, the yaw turned about e_x in steps of
+            180°/(fallbacks + 1)), each marked by `Grasp.fallback`. Whoever checks the
+            approach in the ranked order (``approach_check``, the benchmark's `first_free`)
+            tries them before the next voxel; with ``approach_check`` each voxel gives at most
+            one grasp, its first free one, and a voxel whose own grasp is free costs no more
+            checks. 0 (default): none. Not with ``samples_per_voxel``.
+        validity_floor: forced decoding (GIGA's): the voxels whose validity lies in
+            [validity_floor, validity_threshold) are ranked too, all after the voxels that pass
+            the threshold (thresholds, NMS and sort applied within each tier), so that a scene
+            whose voxels all fall short of the threshold still gets grasps, and a checker that
+            refuses every grasp above the threshold moves on to them. None (default): no
+            forced decoding.
         workspace_origin: world position [m] of the workspace cube's corner; the table top is
             expected 5 cm above it, as in training (docs/sim.md).
         fill_holes: fill the holes of every depth image up to this many pixels from their edge
@@ -151,6 +171,8 @@ class GraspDetector:
         top_k: int | None = None,
         bounds: tuple[np.ndarray, np.ndarray] | None = None,
         samples_per_voxel: int = 0,
+        fallbacks: int = 0,
+        validity_floor: float | None = None,
         workspace_origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
         fill_holes: int = 0,
         table_scale: bool = False,
@@ -168,7 +190,8 @@ class GraspDetector:
         if confidence_threshold is None:
             confidence_threshold = self.representation.default_confidence
         elif not (
-            isinstance(confidence_threshold, int | float)
+            not isinstance(confidence_threshold, bool)
+            and isinstance(confidence_threshold, int | float)
             and math.isfinite(confidence_threshold)
             and confidence_threshold >= 0
         ):
@@ -184,6 +207,14 @@ class GraspDetector:
         if top_k is not None:
             check_range("top_k", top_k, 1, RESOLUTION**3 * MAX_SAMPLES_PER_VOXEL)
         check_range("samples_per_voxel", samples_per_voxel, 0, MAX_SAMPLES_PER_VOXEL)
+        check_range("fallbacks", fallbacks, 0, MAX_SAMPLES_PER_VOXEL)
+        if samples_per_voxel and fallbacks:
+            raise ValueError(
+                "samples_per_voxel and fallbacks both draw other rotations of a voxel: choose "
+                f"one (got {samples_per_voxel} and {fallbacks})"
+            )
+        if validity_floor is not None:
+            check_range("validity_floor", validity_floor, 0.0, validity_threshold, integer=False)
         check_range("seed", seed, 0, SEED_MAX)
         check_range("fill_holes", fill_holes, 0, MAX_FILL_HOLES)
         origin = np.asarray(workspace_origin, dtype=float)
@@ -216,6 +247,8 @@ class GraspDetector:
         self.top_k = top_k
         self.bounds = None if bounds is None else _check_bounds(bounds)
         self.samples_per_voxel = int(samples_per_voxel)
+        self.fallbacks = int(fallbacks)
+        self.validity_floor = None if validity_floor is None else float(validity_floor)
         self.fill_holes = int(fill_holes)
         self.origin = origin
         self.voxel_size = VOXEL_SIZE
@@ -238,12 +271,20 @@ class GraspDetector:
         name_or_path: str | Path,
         device: str | torch.device = "auto",
         gripper: GripperSpec | None = None,
+        operating_point: bool = True,
         **options: Any,
     ) -> GraspDetector:
         """A detector from a shipped model name (`symgrasp.detect.PRETRAINED`) or a checkpoint
         path written by ``symgrasp train``, for the gripper stored in it. ``gripper``: the
         gripper you will use; a model trained for another one is loaded with a warning.
-        ``options``: see the class."""
+        ``operating_point``: a shipped model decodes at the operating point of its model card
+        (`symgrasp.detect.pretrained.shipped_operating_point`: thresholds, forced decoding, fallbacks
+        chosen on training-object rounds) where ``options`` do not say otherwise; False: the
+        class's defaults. ``options``: see the class."""
+        if not isinstance(operating_point, bool):
+            raise TypeError(f"operating_point must be True or False, got {operating_point!r}")
+        if operating_point:
+            options = {**shipped_operating_point(name_or_path), **options}
         path = resolve_model(name_or_path)
         model, state = load_model(path, map_location="cpu")
         trained_for = trained_gripper(state)
@@ -379,13 +420,34 @@ class GraspDetector:
         start = time.perf_counter()
         grid = torch.as_tensor(grid, dtype=torch.float32, device=self.device)
         points = surface_points(grid, WORKSPACE_SIZE, tuple(self.origin)).cpu().numpy()
-        hits = hand_collides(
-            np.array([g.pose for g in grasps]), self.gripper, points,
-            tolerance=-SURFACE_CLEARANCE, table_height=self.origin[2] + TABLE_HEIGHT,
-            table_tolerance=-TABLE_CLEARANCE,
-        )  # fmt: skip
+
+        def free(checked: list[Grasp]) -> list[bool]:
+            if not checked:
+                return []
+            hits = hand_collides(
+                np.array([g.pose for g in checked]), self.gripper, points,
+                tolerance=-SURFACE_CLEARANCE, table_height=self.origin[2] + TABLE_HEIGHT,
+                table_tolerance=-TABLE_CLEARANCE,
+            )  # fmt: skip
+            return (~hits).tolist()
+
+        voxels: list[list[Grasp]] = []  # each voxel's own grasp, then its fallbacks
+        for grasp in grasps:
+            if grasp.fallback == 0:
+                voxels.append([grasp])
+            else:
+                voxels[-1].append(grasp)
+        own_free = free([group[0] for group in voxels])
+        # a voxel's fallbacks are checked only where its own grasp was refused
+        tried = [g for group, ok in zip(voxels, own_free, strict=True) if not ok for g in group[1:]]
+        tried_free = dict(zip(map(id, tried), free(tried), strict=True))
+        kept = []
+        for group, ok in zip(voxels, own_free, strict=True):
+            first = group[0] if ok else next((g for g in group[1:] if tried_free[id(g)]), None)
+            if first is not None:
+                kept.append(first)
         self.timing["approach"] = _ms_since(start, self.device)
-        return [grasp for grasp, hit in zip(grasps, hits, strict=True) if not hit]
+        return kept
 
     @torch.no_grad()
     def predict(self, tsdf: np.ndarray | Tensor) -> dict[str, Tensor]:
@@ -458,19 +520,47 @@ class GraspDetector:
         )
 
     def _decode(self, out: dict[str, Tensor]) -> list[Grasp]:
+        """The grasps of the network's outputs ``out``: the voxels that pass the validity
+        threshold, then, with ``validity_floor``, those between the floor and the threshold
+        (forced decoding), each tier ranked by `rank_voxels`."""
+        generator = torch.Generator(self.device).manual_seed(self.seed)
+        keep = None if self.bounds is None else self._inside_bounds()
+        grasps = self._tier(out, self.validity_threshold, keep, self.top_k, generator)
+        if self.validity_floor is not None and (self.top_k is None or len(grasps) < self.top_k):
+            below = out["validity"] < self.validity_threshold
+            left = None if self.top_k is None else self.top_k - len({g.voxel for g in grasps})
+            forced = below if keep is None else below & keep
+            grasps += self._tier(out, self.validity_floor, forced, left, generator)
+        return grasps
+
+    def _tier(
+        self,
+        out: dict[str, Tensor],
+        threshold: float,
+        keep: Tensor | None,
+        top_k: int | None,
+        generator: torch.Generator,
+    ) -> list[Grasp]:
+        """The grasps of the voxels `rank_voxels` keeps at validity ``threshold`` within
+        ``keep``: each voxel's decoded rotation (or its draws, ``samples_per_voxel``), then its
+        ``fallbacks``."""
         ranked = rank_voxels(
             out["score"], out["validity"], out["rotation"], self.representation,
-            validity_threshold=self.validity_threshold,
-            confidence_threshold=self.confidence_threshold, nms_radius=self.nms_radius,
-            top_k=self.top_k, keep=None if self.bounds is None else self._inside_bounds(),
+            validity_threshold=threshold, confidence_threshold=self.confidence_threshold,
+            nms_radius=self.nms_radius, top_k=top_k, keep=keep,
         )  # fmt: skip
         validity = out["validity"][tuple(ranked.index.T)]
         if self.samples_per_voxel:
-            generator = torch.Generator(self.device).manual_seed(self.seed)
             rotations = self.representation.sample(ranked.pred, self.samples_per_voxel, generator)
         else:
             rotations = ranked.rotation[:, None]
-        return self._grasps(ranked.index, rotations, ranked.score, validity, ranked.confidence)
+            if self.fallbacks and len(ranked.pred):
+                others = self.representation.fallbacks(ranked.pred, self.fallbacks, generator)
+                rotations = torch.cat([rotations, others], dim=1)
+        numbered = bool(self.fallbacks)
+        return self._grasps(
+            ranked.index, rotations, ranked.score, validity, ranked.confidence, numbered
+        )
 
     def _inside_bounds(self) -> Tensor:
         lo, hi = (torch.as_tensor(b, device=self.device) for b in self.bounds)
@@ -486,8 +576,10 @@ class GraspDetector:
         score: Tensor,
         validity: Tensor,
         confidence: Tensor | None,
+        numbered: bool = False,
     ) -> list[Grasp]:
-        """One `Grasp` per voxel and rotation: ``rotations`` [M, S, 3, 3]."""
+        """One `Grasp` per voxel and rotation: ``rotations`` [M, S, 3, 3]; ``numbered``: the
+        rotations after a voxel's first are its fallbacks (`Grasp.fallback`)."""
         centres = self.origin + (index.cpu().numpy() + 0.5) * self.voxel_size
         rotations = rotations.cpu().numpy()
         score, validity = score.cpu().tolist(), validity.cpu().tolist()
@@ -495,10 +587,11 @@ class GraspDetector:
         voxels = [tuple(int(v) for v in row) for row in index.cpu().tolist()]
         grasps = []
         for m in range(len(voxels)):
-            for R in rotations[m]:
+            for s, R in enumerate(rotations[m]):
                 pose = np.eye(4)
                 pose[:3, :3], pose[:3, 3] = R, centres[m]
-                grasps.append(Grasp(pose, score[m], validity[m], conf[m], voxels[m]))
+                fallback = s if numbered else 0
+                grasps.append(Grasp(pose, score[m], validity[m], conf[m], voxels[m], fallback))
         return grasps
 
 

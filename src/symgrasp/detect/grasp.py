@@ -25,6 +25,10 @@ class Grasp:
             Bingham representations, None for the others.
         voxel: index ``(i, j, k)`` of the voxel in the 40³ grid it was read from, None for
             planners without a grid.
+        fallback: 0 for the rotation the planner decoded; i ≥ 1 for the voxel's i-th fallback,
+            another rotation of the same voxel tried after the approach of those before it was
+            refused (`GraspDetector`'s ``fallbacks``: a draw of its Bingham distribution, or the
+            yaw turned about e_x for a point estimate).
     """
 
     pose: np.ndarray
@@ -32,6 +36,7 @@ class Grasp:
     validity: float | None = None
     confidence: float | None = None
     voxel: tuple[int, int, int] | None = None
+    fallback: int = 0
 
     @property
     def position(self) -> np.ndarray:
@@ -57,6 +62,7 @@ class Grasp:
             "validity": None if self.validity is None else round(self.validity, 4),
             "confidence": None if self.confidence is None else round(self.confidence, 2),
             "voxel": None if self.voxel is None else list(self.voxel),
+            "fallback": self.fallback,
         }
 
     def transformed(self, T_frame_world: np.ndarray) -> Grasp:

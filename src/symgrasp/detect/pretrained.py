@@ -9,8 +9,10 @@ stored in ``symgrasp/detect/models/<name>.pt``; its model card is ``docs/models.
 
 from __future__ import annotations
 
+import json
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 from symgrasp import __version__
 from symgrasp.config import DEFAULT_VALIDITY
@@ -32,9 +34,35 @@ TORCHSCRIPT_FORMAT = "symgrasp-torchscript-1"
 """The ``format`` of an exported file's metadata; a change of its meaning changes the name."""
 
 
+OPERATING_POINT_KEYS = ("validity_threshold", "confidence_threshold", "validity_floor", "fallbacks")
+"""The `GraspDetector` options a model card's operating point sets."""
+
+
+def shipped_operating_point(name_or_path: str | Path) -> dict[str, Any]:
+    """The operating point stored in the model card of the shipped model ``name_or_path``
+    (``symgrasp/detect/models/operating_points.json``: the `OPERATING_POINT_KEYS` chosen for it
+    on training-object rounds, docs/models.md), as `GraspDetector` keyword arguments; ``{}``
+    for a checkpoint file or a shipped model whose operating point has not been chosen (the
+    library's defaults apply)."""
+    if str(name_or_path) not in PRETRAINED:
+        return {}
+    point = _read_operating_points().get(str(name_or_path), {})
+    return {key: point[key] for key in OPERATING_POINT_KEYS if key in point}
+
+
+def _read_operating_points() -> dict[str, dict[str, Any]]:
+    """The shipped models' operating points by name: the chosen options and, under
+    ``"chosen"``, how they were chosen (rounds, objects, command, result file)."""
+    return json.loads((_models_folder() / "operating_points.json").read_text())
+
+
+def _models_folder() -> Path:
+    return Path(str(resources.files("symgrasp.detect") / "models"))
+
+
 def shipped_path(name: str) -> Path:
     """Where the shipped model ``name`` lives in the installed package."""
-    return Path(str(resources.files("symgrasp.detect") / "models" / f"{name}.pt"))
+    return _models_folder() / f"{name}.pt"
 
 
 def resolve_model(name_or_path: str | Path) -> Path:

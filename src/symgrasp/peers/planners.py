@@ -32,7 +32,8 @@ def load_planner(
     """The planner ``name`` names (module docstring), on ``device``. ``gripper`` (a spec or a
     built-in's name): the hand for a planner that takes any (``vgn``, ``oracle``, a user's
     function); a checkpoint decides its own, and a hand other than it is refused.
-    ``options``: keyword arguments of `GraspDetector`, `symgrasp.peers.vgn.VGN` or
+    ``options``: keyword arguments of `GraspDetector` (all of them: a shipped model's
+    operating point is not read from its card here), `symgrasp.peers.vgn.VGN` or
     `symgrasp.peers.oracle.OraclePlanner` (which runs no network: ``device`` is not its).
     Raises ValueError naming what is wrong, `symgrasp.objects.folder.MissingData` when VGN's weights are not in the data
     folder."""
@@ -48,7 +49,9 @@ def load_planner(
                 f"planner {name} takes no detector options, got {', '.join(sorted(options))}"
             )
         return load_plugin(str(name), hand)
-    detector = GraspDetector.from_pretrained(name, device=device, **options)
+    # a benchmark records its planner's options whole: a model card's operating point is
+    # resolved where the options are given (`symgrasp.detect.pretrained.shipped_operating_point`)
+    detector = GraspDetector.from_pretrained(name, device=device, operating_point=False, **options)
     if hand is not None and hand != detector.gripper:
         raise ValueError(
             f"model {name} was trained for the {detector.gripper.name!r} gripper, not "

@@ -92,6 +92,33 @@ class Representation(ABC):
             raise ValueError(f"{self.name}: `n` must be non-negative, got {n}")
         return self._sample(pred, n, generator)
 
+    def fallbacks(self, pred: Tensor, k: int, generator: torch.Generator | None = None) -> Tensor:
+        """``k`` other rotations of each element, most plausible first, ``[..., k, 3, 3]``: what
+        a detector tries when the decoded rotation's approach is refused.
+
+        A distribution draws them (`sample`) and orders them by their density under it, most
+        probable first (`_density_order`; for ``bingham2d`` the closing axis is drawn from B(A)
+        and Gram–Schmidt keeps e_x: the paper's third decoding mode, Sec. 3.3). A point estimate
+        has nothing to draw from: its fallbacks are the control a user would try, the decoded
+        rotation turned about its approach axis e_x by multiples of 180°/(k + 1), nearest turn
+        first (`yaw_turns`); a turn of 180° is the same grasp, so the k turns cover the others
+        evenly."""
+        self._check_pred(pred)
+        if isinstance(k, bool) or not isinstance(k, int) or k < 0:
+            raise ValueError(f"{self.name}: `k` must be an integer ≥ 0, got {k!r}")
+        if not self.has_distribution:
+            return yaw_turns(self._decode(pred).rotation, k)
+        drawn = self._sample(pred, k, generator)
+        order = torch.argsort(
+            self._density_order(pred, drawn), dim=-1, descending=True, stable=True
+        )
+        return torch.take_along_dim(drawn, order[..., None, None], dim=-3)
+
+    def _density_order(self, pred: Tensor, R: Tensor) -> Tensor:
+        """A key ``[..., n]`` that orders rotations ``R [..., n, 3, 3]`` of elements ``pred``
+        like their density under the predicted distribution (distributions only)."""
+        raise NotImplementedError
+
     def distribution(self, pred: Tensor) -> Bingham:
         """The predicted Bingham distribution, batch shape ``[...]``: of the closing axis e_z
         on S² (`bingham2d`) or of the grasp quaternion on S³ (`bingham3d`)."""
@@ -166,3 +193,17 @@ def _combine(losses: Tensor, mask: Tensor | None, how: Literal["mean", "min"]) -
         return losses.amin(-1)
     nearest = losses.masked_fill(~mask, torch.inf).amin(-1)
     return torch.where(mask.any(-1), nearest, torch.zeros_like(nearest))
+
+
+def yaw_turns(R: Tensor, k: int) -> Tensor:
+    """``R [..., 3, 3]`` turned about its own approach axis e_x by j·180°/(k + 1), j = 1 … k,
+    nearest turn first (j and k + 1 − j, the same angle either way up to the gripper's flip,
+    ordered by min(j, k + 1 − j), then j): ``[..., k, 3, 3]``. e_x is kept exactly."""
+    j = torch.arange(1, k + 1, dtype=torch.long)
+    j = j[torch.argsort(torch.minimum(j, k + 1 - j) * (k + 1) + j, stable=True)]
+    angle = (j.to(R.dtype) * torch.pi / (k + 1)).to(R.device)
+    c, s = torch.cos(angle), torch.sin(angle)
+    turn = torch.zeros(k, 3, 3, dtype=R.dtype, device=R.device)  # about x, in the grasp frame
+    turn[:, 0, 0] = 1
+    turn[:, 1, 1], turn[:, 1, 2], turn[:, 2, 1], turn[:, 2, 2] = c, -s, s, c
+    return R[..., None, :, :] @ turn

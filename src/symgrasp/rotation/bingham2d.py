@@ -62,3 +62,9 @@ class Bingham2D(Representation):
     def _sample(self, pred: Tensor, n: int, generator: torch.Generator | None) -> Tensor:
         closing = self._distribution(pred).sample((n,), generator).movedim(0, -2)
         return gram_schmidt(pred[..., None, 6:], closing)
+
+    def _density_order(self, pred: Tensor, R: Tensor) -> Tensor:
+        # one voxel's draws share B(A)'s normaliser: the exponent e_zᵀ A e_z orders them
+        A = triu_to_sym(pred[..., None, :6])
+        e_z = R[..., 2]
+        return (e_z[..., None, :] @ A @ e_z[..., :, None])[..., 0, 0]

@@ -58,3 +58,9 @@ class Bingham3D(Representation):
     def _sample(self, pred: Tensor, n: int, generator: torch.Generator | None) -> Tensor:
         q = self._distribution(pred).sample((n,), generator).movedim(0, -2)
         return quaternion_to_matrix(unit(q))
+
+    def _density_order(self, pred: Tensor, R: Tensor) -> Tensor:
+        # one voxel's draws share B(A)'s normaliser: the exponent qᵀ A q orders them
+        A = triu_to_sym(pred[..., None, :])
+        q = matrix_to_quaternion(R)
+        return (q[..., None, :] @ A @ q[..., :, None])[..., 0, 0]
