@@ -3,10 +3,13 @@ cores, resume by their done markers, run again when their command changes, outli
 through the bank, and a bad plan is one clear line."""
 
 import hashlib
+import io
 import json
 import os
+import random
 import subprocess
 import sys
+import tarfile
 import time
 from pathlib import Path
 
@@ -206,10 +209,32 @@ def _chain(log):
     ])  # fmt: skip
 
 
-def _banked_status(plan, root, bank):
-    done = _campaign("status", [plan], root, "--bank", bank)
+def _banked_status(plan, root, bank, *options):
+    done = _campaign("status", [plan], root, "--bank", bank, *options)
     assert done.returncode == 0, done.stderr
     return dict(line.split(maxsplit=1) for line in done.stdout.splitlines())
+
+
+def _files(folder):
+    """Every file under ``folder``: relative name → bytes."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}  # fmt: skip
+
+
+def _members(archive):
+    """The files of a tar archive: name → bytes."""
+    with tarfile.open(archive) as opened:
+        return {m.name: opened.extractfile(m).read() for m in opened if m.isfile()}
+
+
+def _tar_gz(path, members):
+    """A tar.gz at ``path`` of ``members`` (name → bytes), as the stored rounds are."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with tarfile.open(path, "w:gz") as archive:
+        for name, data in members.items():
+            info = tarfile.TarInfo(name)
+            info.size = len(data)
+            archive.addfile(info, io.BytesIO(data))
 
 
 def test_a_fresh_root_takes_kept_steps_back_from_the_bank_and_runs_nothing_again(tmp_path):
@@ -218,15 +243,22 @@ def test_a_fresh_root_takes_kept_steps_back_from_the_bank_and_runs_nothing_again
     assert _campaign("run", [plan], first, "--bank", bank).returncode == 0
     assert log.read_text() == "DTSR"
     (first / "report" / "s0" / "note.log").write_text("not kept")
-    assert sorted(p.relative_to(bank).as_posix() for p in bank.rglob("*") if p.is_file()) == [
-        "data/record.json", "report/files/report/s0/table.md", "report/record.json",
-        "select/files/runs/s0/best.txt", "select/record.json", "train/record.json",
-    ]  # fmt: skip
-    record = json.loads((bank / "select" / "record.json").read_text())
+    # one archive for each step that keeps something, and the index
+    assert sorted(_files(bank)) == ["index.json", "step-report.tar.xz", "step-select.tar.xz"]
+    index = json.loads((bank / "index.json").read_text())
+    assert sorted(index["steps"]) == ["data", "report", "select", "train"]
+    assert index["archives"] == {name: hashlib.sha256((bank / name).read_bytes()).hexdigest()
+                                 for name in ("step-report.tar.xz", "step-select.tar.xz")}  # fmt: skip
+    record = index["steps"]["select"]
     shown = [json.loads(line) for line in _campaign("show", [plan], first).stdout.splitlines()]
     assert record["run"] == shown[2]["run"].replace(str(first), "{root}")
-    assert shown[2]["keep"] == ["runs/s0/best.txt"]
-    assert record["files"] == {"runs/s0/best.txt": hashlib.sha256(b"scenes model best").hexdigest()}
+    assert record["plan"] == "plan" and shown[2]["keep"] == ["runs/s0/best.txt"]
+    digest = hashlib.sha256(b"scenes model best").hexdigest()
+    assert record["files"] == {"runs/s0/best.txt": {"sha256": digest, "in": "step-select.tar.xz"}}
+    assert _members(bank / "step-select.tar.xz") == {
+        "select/runs/s0/best.txt": b"scenes model best"
+    }
+    assert index["steps"]["data"]["files"] == {}
 
     second = tmp_path / "second"  # the machine was replaced: a new, empty root
     assert _status([plan], second) == dict.fromkeys(("data", "train", "select", "report"), "to do")
@@ -262,10 +294,13 @@ def test_the_bank_refuses_an_altered_copy_and_a_changed_command(tmp_path):
     text = _chain(log)
     plan = _plan(tmp_path, text)
     assert _campaign("run", [plan], tmp_path / "a", "--bank", bank).returncode == 0
-    (bank / "report" / "files" / "report" / "s0" / "table.md").write_text("edited")
+    _tar_gz(bank / "step-report.tar.xz", {"report/report/s0/table.md": b"edited"})
     done = _campaign("run", [plan], tmp_path / "b", "--bank", bank)
     assert done.returncode == 0, done.stderr
-    assert "is missing or not the file its record names; report is not restored" in done.stdout
+    assert (
+        "step-report.tar.xz is missing or not the file its index names; report is not "
+        "restored" in done.stdout
+    )
     assert log.read_text() == "DTSR" + "R"  # the report again, on the restored selection
     assert (tmp_path / "b" / "report" / "s0" / "table.md").read_text() == "scenes model best table"
     changed = _plan(tmp_path, text.replace('" best"', '" best!"'))
@@ -284,7 +319,7 @@ def test_a_keep_pattern_that_matches_nothing_fails_its_step(tmp_path):
     assert done.returncode == 1
     assert "made: failed (step 'made' keeps 'b/*.txt', which matches no file under" in done.stdout
     assert not (tmp_path / "root" / "after.txt").exists()
-    assert not (tmp_path / "bank" / "made").exists()
+    assert not (tmp_path / "bank" / "index.json").exists()
 
 
 def test_first_runs_the_named_steps_before_the_others_and_their_needs_still_hold(tmp_path):
@@ -302,3 +337,164 @@ def test_first_runs_the_named_steps_before_the_others_and_their_needs_still_hold
     assert (tmp_path / "order.txt").read_text() == "1ac2"
     unknown = _campaign("run", [plan], tmp_path, "--first", "d*")
     assert unknown.returncode == 2 and "--first: 'd*' names no step of the plan" in unknown.stderr
+
+
+def _outputs(tmp_path):
+    """A step's outputs that a bank stores differently: bytes of every value (random ones, which
+    compression cannot shorten), an empty file, rounds that a results archive holds byte for
+    byte, a checkpoint that a shipped model is, and one that nothing else holds."""
+    draw = random.Random(0)
+    outputs = {
+        "bench/a/noise.bin": draw.randbytes(3000),
+        "bench/a/every-byte.bin": bytes(range(256)) * 4,
+        "bench/a/empty.txt": b"",
+        "bench/a/rounds.jsonl": b'{"seed": 0, "cleared": 3}\n' * 50,
+        "runs/s0/shipped.pt": draw.randbytes(500),
+        "runs/s0/best.pt": draw.randbytes(500),
+    }
+    _tar_gz(tmp_path / "results" / "table_rounds.tar.gz",
+            {"robotiq/s0/rounds.jsonl": outputs["bench/a/rounds.jsonl"]})  # fmt: skip
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / "shipped.pt").write_bytes(outputs["runs/s0/shipped.pt"])
+    source = tmp_path / "outputs"
+    for name, data in outputs.items():
+        (source / name).parent.mkdir(parents=True, exist_ok=True)
+        (source / name).write_bytes(data)
+    copies = ("--copies", str(tmp_path / "results" / "*.tar.gz"), str(tmp_path / "models" / "*"))
+    return outputs, source, copies
+
+
+def _copying(source, log, letter):
+    """A step's code: copy the files under ``source`` into the root, append ``letter`` to ``log``."""
+    return ('import shutil; shutil.copytree("' + str(source) + '", "{root}", dirs_exist_ok=True); '
+            'open("' + str(log) + '", "a").write("' + letter + '")')  # fmt: skip
+
+
+def test_a_bank_stores_each_kept_file_once_and_a_fresh_root_gets_the_same_bytes(tmp_path):
+    outputs, source, copies = _outputs(tmp_path)
+    log, bank = tmp_path / "log.txt", tmp_path / "bank"
+    text = (_step("bench", _copying(source, log, "B"), keep=["bench/**"])
+            + _step("train", _copying(source, log, "T"), keep=["runs/s0/*.pt"]))  # fmt: skip
+    plan = _plan(tmp_path, text)
+    done = _campaign("run", [plan], tmp_path / "a", "--cores", "1", "--bank", bank, *copies)
+    assert done.returncode == 0, done.stderr
+    index = json.loads((bank / "index.json").read_text())
+    digest = {name: hashlib.sha256(data).hexdigest() for name, data in outputs.items()}
+    # the rounds and the shipped checkpoint where their copies are, the other checkpoint by its
+    # hash alone, the rest in the step's archive
+    assert index["steps"]["bench"]["files"]["bench/a/rounds.jsonl"] == {
+        "sha256": digest["bench/a/rounds.jsonl"], "in": "../results/table_rounds.tar.gz",
+        "member": "robotiq/s0/rounds.jsonl"}  # fmt: skip
+    assert index["steps"]["train"]["files"] == {
+        "runs/s0/best.pt": {"sha256": digest["runs/s0/best.pt"]},
+        "runs/s0/shipped.pt": {"sha256": digest["runs/s0/shipped.pt"], "in": "../models/shipped.pt"},
+    }  # fmt: skip
+    assert sorted(_files(bank)) == ["index.json", "step-bench.tar.xz"]
+    stored = ("bench/a/empty.txt", "bench/a/every-byte.bin", "bench/a/noise.bin")
+    assert _members(bank / "step-bench.tar.xz") == {f"bench/{n}": outputs[n] for n in stored}
+    with tarfile.open(bank / "step-bench.tar.xz") as archive:  # nothing of the machine in it
+        assert {(m.mtime, m.uid, m.gid, m.uname, m.gname, m.mode) for m in archive} == {
+            (0, 0, 0, "", "", 0o644)}  # fmt: skip
+
+    fresh = tmp_path / "b"  # a replaced machine: every banked file back, byte for byte
+    assert _banked_status(plan, fresh, bank) == {
+        "bench": "banked: the next run restores it",
+        "train": "banked without its checkpoints: runs again only if a step to run needs it",
+    }
+    done = _campaign("run", [plan], fresh, "--bank", bank, *copies)
+    assert done.returncode == 0, done.stderr
+    assert log.read_text() == "BT"  # nothing ran again
+    assert _files(fresh / "bench") == {n.removeprefix("bench/"): d for n, d in outputs.items()
+                                       if n.startswith("bench/")}  # fmt: skip
+    assert not (fresh / "runs").exists()
+
+    # a new step needs the checkpoint: the step that made it runs again, its bytes checked
+    later = _plan(tmp_path, text + _step("play", "pass", needs=["train"]), "later.toml")
+    done = _campaign("run", [later], fresh, "--bank", bank, *copies)
+    assert done.returncode == 0, done.stderr
+    assert log.read_text() == "BTT"
+    assert "train's runs/s0/best.pt is the checkpoint its earlier record names" in done.stdout
+
+    unpacked = tmp_path / "unpacked"  # a reader's copy: each step's files in its own folder
+    done = _campaign("unpack", [], tmp_path, "--bank", bank, "--out", unpacked)
+    assert done.returncode == 0, done.stderr
+    assert _files(unpacked) == {f"bench/{n}": d for n, d in outputs.items() if n.startswith("bench/")} | {
+        "train/runs/s0/shipped.pt": outputs["runs/s0/shipped.pt"]}  # fmt: skip
+    assert (
+        f"train: runs/s0/best.pt is not banked (a checkpoint, SHA-256 {digest['runs/s0/best.pt']})"
+        in done.stdout
+    )
+
+
+def test_a_changed_copy_is_not_taken_for_the_banked_file(tmp_path):
+    _, source, copies = _outputs(tmp_path)
+    log, bank = tmp_path / "log.txt", tmp_path / "bank"
+    plan = _plan(tmp_path, _step("bench", _copying(source, log, "B"), keep=["bench/**"]))
+    assert _campaign("run", [plan], tmp_path / "a", "--bank", bank, *copies).returncode == 0
+    _tar_gz(tmp_path / "results" / "table_rounds.tar.gz", {"robotiq/s0/rounds.jsonl": b"other"})
+    done = _campaign("run", [plan], tmp_path / "b", "--bank", bank, *copies)
+    assert done.returncode == 0, done.stderr
+    assert (
+        "table_rounds.tar.gz is missing or not the file its index names; bench is not "
+        "restored" in done.stdout
+    )
+    assert log.read_text() == "BB"  # run again, and banked with its rounds in its archive now
+    assert "bench/bench/a/rounds.jsonl" in _members(bank / "step-bench.tar.xz")
+
+
+def test_pack_merges_a_plans_step_archives_into_the_same_bytes_on_any_machine(tmp_path):
+    outputs, source, copies = _outputs(tmp_path)
+    log, banks = tmp_path / "log.txt", (tmp_path / "bank1", tmp_path / "bank2")
+    text = "".join(_step(f"bench-{n}", _copying(source, log, "B"), keep=[f"bench/a/*.{n}"])
+                   for n in ("bin", "txt"))  # fmt: skip
+    plan = _plan(tmp_path, text)
+    for number, bank in enumerate(banks):  # two roots, two banks, banked at other times
+        root = tmp_path / f"r{number}"
+        done = _campaign("run", [plan], root, "--cores", "1", "--bank", bank, *copies)
+        assert done.returncode == 0, done.stderr
+        assert sorted(_files(bank)) == [
+            "index.json",
+            *(f"step-bench-{n}.tar.xz" for n in ("bin", "txt")),
+        ]
+        done = _campaign("pack", [], tmp_path, "--bank", bank, *copies)
+        assert done.returncode == 0, done.stderr
+        assert sorted(_files(bank)) == ["index.json", "plan-plan.tar.xz"]
+    assert (banks[0] / "plan-plan.tar.xz").read_bytes() == (
+        banks[1] / "plan-plan.tar.xz"
+    ).read_bytes()
+    packed = _files(banks[0])
+    assert _campaign("pack", [], tmp_path, "--bank", banks[0], *copies).returncode == 0
+    assert _files(banks[0]) == packed  # packed again: the same bytes
+
+    # split in parts of at most 2 kB where each member allows it (the noise is 3 kB)
+    done = _campaign("pack", [], tmp_path, "--bank", banks[1], *copies, "--split-mb", "0.002")
+    assert done.returncode == 0, done.stderr
+    parts = sorted(set(_files(banks[1])) - {"index.json"})
+    assert parts == [f"plan-plan-{n}.tar.xz" for n in range(1, len(parts) + 1)] and len(parts) > 1
+
+    # the noise is now in a results archive too: the next pack leaves it out of the bank
+    _tar_gz(
+        tmp_path / "results" / "noise_rounds.tar.gz", {"noise.bin": outputs["bench/a/noise.bin"]}
+    )
+    assert _campaign("pack", [], tmp_path, "--bank", banks[0], *copies).returncode == 0
+    assert "bench-bin/bench/a/noise.bin" not in _members(banks[0] / "plan-plan.tar.xz")
+    for bank in banks:
+        fresh = tmp_path / f"fresh-{bank.name}"
+        assert _campaign("run", [plan], fresh, "--bank", bank, *copies).returncode == 0
+        assert _files(fresh / "bench") == {n.removeprefix("bench/"): d for n, d in outputs.items()
+                                           if n.startswith("bench/a/") and n != "bench/a/rounds.jsonl"}  # fmt: skip
+    assert log.read_text() == "BB" * 2  # nothing ran again
+
+
+def test_pack_and_unpack_need_a_bank_and_a_bad_index_is_one_line(tmp_path):
+    no_bank = _campaign("pack", [], tmp_path)
+    assert no_bank.returncode == 2 and "pack takes --bank DIR and no plan" in no_bank.stderr
+    empty = _campaign("unpack", [], tmp_path, "--bank", tmp_path)
+    assert empty.returncode == 2 and f"--bank: {tmp_path} holds no index.json" in empty.stderr
+    (tmp_path / "index.json").write_text('{"steps": {}}')
+    bad = _campaign("pack", [], tmp_path, "--bank", tmp_path)
+    assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1
+    assert (
+        f"{tmp_path}/index.json is not a valid campaign bank index: it lacks the key "
+        "'archives'" in bad.stderr
+    )
