@@ -1,7 +1,8 @@
 """Latency of grasp detection, depth image to ranked grasps → benchmarks/results/detect.json.
 
     PYTHONPATH=src python benchmarks/detect.py [--model bingham2d-robotiq-2f85] [--repeats 100]
-        [--block 10] [--device cpu] [--table-scale] [--approach-check] [--quick [DIR]]
+        [--block 10] [--device cpu] [--table-scale] [--approach-check] [--fallbacks N]
+        [--quick [DIR]]
 
 Renders one 640×480 depth image of a 5-object household-test pile (seed 0) from the default
 camera, then times ``GraspDetector.detect`` on it, per stage (TSDF fusion, network, decoding)
@@ -16,7 +17,11 @@ scale read off the table first (``GraspDetector(table_scale=True)``, part of the
 written to ``detect-table.json``, or ``detect-DEVICE-table.json``). ``--approach-check`` times
 detectors that return only the grasps whose approach keeps the benchmark's clearances
 (``GraspDetector(approach_check=True)``: a stage of its own, ``approach``, after decoding;
-written with ``-approach`` in the name). The decoding stage depends
+written with ``-approach`` in the name). ``--fallbacks N`` times detectors that follow each
+voxel's grasp with N other rotations of it (``GraspDetector(fallbacks=N)``: drawn in the
+decoding stage, or with ``--approach-check`` in the approach stage and only when a voxel's own
+grasp was refused; written with ``-fallbacksN`` in the name). A shipped model decodes at its
+model card's operating point, recorded as ``decoding``. The decoding stage depends
 on how many voxels pass the thresholds, so the shipped model is timed, not a random network. ``--quick`` times two calls of each.
 """
 
@@ -32,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from symgrasp.detect import GraspDetector
+from symgrasp.detect.pretrained import OPERATING_POINT_KEYS
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
 from symgrasp.scripts import command_line, machine, parse_args, run_main
 from symgrasp.sim.objects import object_set
@@ -73,16 +79,27 @@ def main() -> None:
         "and the table (GraspDetector(approach_check=True), timed as its own stage; default: "
         "off)",
     )
+    parser.add_argument(
+        "--fallbacks",
+        type=int,
+        default=None,
+        metavar="N",
+        help="detectors that follow each voxel's grasp with N other rotations of it "
+        "(GraspDetector(fallbacks=N); default: the model card's, else none)",
+    )
     args = parse_args(parser, outputs=("out",), quick={"repeats": 2, "block": 1})
     on_cpu = args.device == "cpu"
     out = Path(args.out)
     if str(out) == DEFAULT_OUT:
         suffix = ("" if on_cpu else f"-{args.device}") + ("-table" if args.table_scale else "")
         suffix += "-approach" if args.approach_check else ""
+        suffix += "" if args.fallbacks is None else f"-fallbacks{args.fallbacks}"
         out = out.with_name(f"detect{suffix}.json")
 
     options = {"device": args.device, "table_scale": args.table_scale,
                "approach_check": args.approach_check}  # fmt: skip
+    if args.fallbacks is not None:
+        options["fallbacks"] = args.fallbacks
     stages = STAGES + ("approach",) * args.approach_check
     detectors = {
         "eager": GraspDetector.from_pretrained(args.model, **options),
@@ -118,6 +135,7 @@ def main() -> None:
         "model": args.model,
         "table_scale": args.table_scale,
         "approach_check": args.approach_check,
+        "decoding": {key: getattr(detectors["eager"], key) for key in OPERATING_POINT_KEYS},
         "depth_renderer": renderer.name,
         "grasps_returned": len(grasps["eager"]),
         "same_grasps": same,

@@ -17,6 +17,7 @@ The seconds of each case show whether it was checked before any work started: a 
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 import tempfile
@@ -26,7 +27,16 @@ from pathlib import Path
 
 from common import add_result_option
 
-from symgrasp.bad_input import API, ARGUMENTS, FILES, MODEL, WARNED_API, WARNED_CLI, make_files
+from symgrasp.bad_input import (
+    API,
+    ARGUMENTS,
+    FILES,
+    MODEL,
+    PLANNERS,
+    WARNED_API,
+    WARNED_CLI,
+    make_files,
+)
 from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 WIDE_JAW = Path(__file__).resolve().parents[1] / "tests" / "wide-jaw.toml"
@@ -37,16 +47,20 @@ OUTCOMES = ("clear error", "clear warning", "unclear", "traceback", "silent", "h
 
 
 def command_line_case(
-    argv: list[str], named: str, timeout: float, warned: bool = False
+    argv: list[str], named: str, timeout: float, folder: Path, warned: bool = False
 ) -> tuple[str, float, str]:
-    """(outcome, seconds, the message's last line) of ``symgrasp ARGV`` in its own process;
+    """(outcome, seconds, the message's last line) of ``symgrasp ARGV`` in its own process,
+    ``folder`` (the cases' files) first on its path, where a user's planners are imported from;
     ``warned``: a case that should exit 0 with one ``warning:`` line naming ``named``."""
+    path = os.pathsep.join(filter(None, (str(folder), os.environ.get("PYTHONPATH"))))
     program = "import sys; from symgrasp.cli import main; main(sys.argv[1:])"
     start = time.perf_counter()
     try:
         done = subprocess.run(
-            [sys.executable, "-c", program, *argv], capture_output=True, text=True, timeout=timeout
-        )
+            [sys.executable, "-c", program, *argv],
+            capture_output=True, text=True, timeout=timeout,
+            env={**os.environ, "PYTHONPATH": path},
+        )  # fmt: skip
     except subprocess.TimeoutExpired:
         return "hang", time.perf_counter() - start, ""
     seconds = time.perf_counter() - start
@@ -108,10 +122,11 @@ def main() -> None:
         files = make_files(Path(folder), WIDE_JAW)
         for kind, table, warned in (("command line, arguments", ARGUMENTS, False),
                                      ("command line, files", FILES, False),
+                                     ("command line, planners", PLANNERS, False),
                                      ("command line, no grasp", WARNED_CLI, True)):  # fmt: skip
             for case, (argv, named) in list(table.items())[:limit]:
                 outcome, seconds, message = command_line_case(
-                    argv(files), named, args.timeout, warned
+                    argv(files), named, args.timeout, files, warned
                 )
                 cells.append({"kind": kind, "case": case, "outcome": outcome,
                               "seconds": round(seconds, 2), "message": message})  # fmt: skip

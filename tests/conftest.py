@@ -145,7 +145,7 @@ def fake_rounds(monkeypatch):
 
     def use(play) -> None:
         monkeypatch.setattr(runner, "run_round", play)
-        monkeypatch.setattr(runner, "_init_worker", lambda config, threads, out: runner._WORKER.update(
+        monkeypatch.setattr(runner, "_init_worker", lambda config, out: runner._WORKER.update(
             config=config, planner=Planner(), out=out, objects=None))  # fmt: skip
 
     return use

@@ -31,7 +31,10 @@ from symgrasp.detect import NoGraspWarning
 
 
 @pytest.fixture
-def files(tmp_path, wide_jaw):
+def files(tmp_path, wide_jaw, monkeypatch):
+    """The `make_files` folder, the current folder (the `PLANNERS` cases import from it)."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
     return make_files(tmp_path, wide_jaw)
 
 
@@ -87,7 +90,7 @@ def test_bad_arguments_are_refused_before_the_heavy_imports(files):
     argvs = [argv(files) for argv, _ in ARGUMENTS.values()]
     played = subprocess.run(
         [sys.executable, "-c", _PLAY_BLOCKED, json.dumps(HEAVY), json.dumps(argvs)],
-        capture_output=True, text=True, check=True, timeout=120,
+        capture_output=True, text=True, check=True, timeout=120, cwd=files,
     )  # fmt: skip
     for (case, (_, named)), (message, code) in zip(
         ARGUMENTS.items(), json.loads(played.stdout), strict=True
@@ -119,6 +122,7 @@ def _refused(case, files, capsys):
     assert named in message
     assert "error" in message
     assert not list(files.rglob("*.tmp")), "a temporary file was left behind"
+    assert not (files / "b").exists(), "a refused benchmark left its folder behind"
 
 
 def test_detect_with_no_grasp_is_an_answer(files, capsys):

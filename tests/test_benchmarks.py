@@ -37,6 +37,8 @@ RESULTS = {  # script: the result file its quick run writes, and a key that file
     "benchmarks/scene_labels": ("scene_labels.json", "summary"),
     "experiments/declutter_table": ("declutter.json", "cells"),
     "experiments/validity_sweep": ("validity_sweep.json", "cells"),
+    "experiments/decoding": ("decoding.json", "cells"),
+    "experiments/operating_points": ("operating_points.json", "chosen"),
     "experiments/validity_calibration": ("validity_calibration.json", "cells"),
     "experiments/eigen_gap": ("eigen_gap.json", "cells"),
     "experiments/yaw_tolerance": ("yaw_tolerance.json", "cells"),

@@ -92,12 +92,25 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     first = next(tensor for tensor in state["model"].values() if tensor.is_floating_point())
     first.view(-1)[0] = torch.nan  # one weight of a diverged run
     torch.save(state, folder / "nan.pt")
+    state["model"][next(iter(state["model"]))] = torch.zeros(1)  # a tensor of another shape
+    torch.save(state, folder / "misshapen.pt")
     del state["model"]  # a checkpoint without its network (hand-made, or a script's)
     torch.save(state, folder / "no_network.pt")
     (folder / "garbage.npy").write_bytes(b"\x93NUMPY garbage")
     np.save(folder / "cloud.npy", table_cloud())
     np.save(folder / "pairs.npy", table_cloud()[:, :2])
     (folder / "faces.ply").write_text("ply\nformat ascii 1.0\nelement face 0\nend_header\n")
+    for fmt in ("ascii", "binary_little_endian"):  # a header claiming 10⁹ vertices, one given
+        header = f"ply\nformat {fmt} 1.0\nelement vertex {10**9}\n" + "".join(
+            f"property float {axis}\n" for axis in "xyz"
+        )
+        body = b"0 0 0\n" if fmt == "ascii" else np.zeros(3, "<f4").tobytes()
+        (folder / f"huge_{fmt}.ply").write_bytes(f"{header}end_header\n".encode() + body)
+    with open(folder / "archive.npy", "wb") as file:  # np.savez under a .npy name
+        np.savez(file, depth=depth)
+    np.save(folder / "empty.npy", np.zeros((0, 0), np.float32))
+    K_true = {"fx": True, "fy": INTRINSIC.fy, "cx": INTRINSIC.cx, "cy": INTRINSIC.cy}
+    (folder / "fx_true.json").write_text(json.dumps(K_true))
     (folder / "a_file").write_text("x")
     (folder / "unrelated").mkdir()
     (folder / "unrelated" / "notes.txt").write_text("mine")
@@ -115,6 +128,12 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     _urdf_object(folder / "face_out_of_range", mesh=0.05, faces="f 1 2 4\nf 5 6 99\n")
     _urdf_object(folder / "face_text", mesh=0.05, faces="f 1 2 4\nf one two three\n")
     _urdf_object(folder / "bad_scale", mesh=0.05, scale="0.1 0.1")
+    _urdf_object(folder / "one_broken", mesh=0.05)  # thing.urdf, then a file it does not have
+    (folder / "one_broken" / "zz_broken.urdf").write_text(
+        (folder / "one_broken" / "thing.urdf").read_text().replace("thing.obj", "gone.obj")
+    )
+    for name, text in PLUGINS.items():
+        (folder / f"{name}.py").write_text(text)
     (folder / "mine").mkdir()  # a user's own files, named as a benchmark's are
     (folder / "mine" / "results.md").write_text("my notes")
     (folder / "mine" / "model.sha256").write_text("my hash")
@@ -179,6 +198,24 @@ def _urdf_object(
         f'<collision><geometry><mesh filename="thing.obj"{scaled}/></geometry></collision>'
         "</link></robot>"
     )
+
+
+PLUGINS = {
+    "plugin_raising": 'raise RuntimeError("no camera driver")\n',
+    "plugin_syntax": "def plan(observation) return []\n",
+    "plugin_planners": (
+        "import numpy as np\n"
+        "from symgrasp.detect import Grasp\n\n"
+        "def nothing(observation):\n    return None\n\n"
+        "def scaled(observation):\n    return [Grasp(2 * np.eye(4), score=1.0)]\n\n"
+        "def nan_score(observation):\n"
+        "    pose = np.eye(4)\n    pose[:3, 3] = 0.15\n"
+        "    return [Grasp(pose, score=float('nan'))]\n"
+    ),
+}
+"""A user's planner modules (`make_files` writes them as ``NAME.py``, imported from the folder
+they are played in): one that raises on import, one that does not parse, and functions that
+return None, a pose that is not rigid and a NaN score."""
 
 
 def detect_argv(
@@ -275,6 +312,15 @@ ARGUMENTS = {  # case: (argv of the `make_files` folder, text the one-line messa
     "objects inspect a procedural set": (lambda d: ["objects", "inspect", "blocks"], "built in code"),
     "detect --points without a pose": (lambda d: ["detect", "--points", str(d / "cloud.npy"), "--out", str(d / "out")], "--points needs --extrinsic or --viewpoint"),
     "serve an unknown model": (lambda d: ["serve", "--port", "0", "--model", "bingham9d-hand"], "bingham9d-hand"),
+    "detect --device tpu": (lambda d: detect_argv(d, "--device", "tpu"), "--device"),
+    "detect --device ''": (lambda d: detect_argv(d, "--device", ""), "--device"),
+    "serve --device mps": (lambda d: ["serve", "--port", "0", "--device", "mps"], "--device"),
+    "select --device tpu": (lambda d: ["select", str(d), "--by", "val_loss", "--device", "tpu"], "--device"),
+    "train --device mps": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--device", "mps"], "device must be 'auto', 'cpu' or 'cuda[:N]', got 'mps'"),
+    "select --by bogus": (lambda d: ["select", str(d), "--by", "bogus"], "--by"),
+    "figures continuity --model of no file": (lambda d: ["figures", "continuity", "--model", f"a={d / 'nothing.pt'}", "--out", str(d / "pictures")], "nothing.pt"),
+    "figures continuity --model without a label": (lambda d: ["figures", "continuity", "--model", MODEL, "--out", str(d / "pictures")], "LABEL=MODEL"),
+    "train with every loss weight 0": (lambda d: ["train", "--data", str(d), "--out", str(d / "r"), "--weight-validity", "0", "--weight-score", "0", "--weight-rotation", "0"], "all 0"),
 }  # fmt: skip
 """Bad arguments: values out of range or of no known name, options that contradict each other,
 paths that are blank, missing or of the wrong kind, gripper spec files (plain data). Each is
@@ -331,18 +377,45 @@ FILES = {  # case: (argv of the `make_files` folder, text the one-line message n
     "export a checkpoint without its network": (lambda d: ["export", str(d / "no_network.pt"), str(d / "x.pt")], "no_network.pt lacks 'model'"),
     "detect --model a checkpoint without its network": (lambda d: detect_argv(d, model=d / "no_network.pt"), "no_network.pt lacks 'model'"),
     "export a garbage checkpoint": (lambda d: ["export", str(d / "garbage.pt"), str(d / "x.pt")], "garbage.pt"),
+    "detect --points a PLY header claiming 10**9 ASCII vertices": (lambda d: ["detect", "--points", str(d / "huge_ascii.ply"), "--viewpoint", "1", "0", "1", "--out", str(d / "out")], "huge_ascii.ply (the file ends before its 1000000000 vertices"),
+    "detect --points a PLY header claiming 10**9 binary vertices": (lambda d: ["detect", "--points", str(d / "huge_binary_little_endian.ply"), "--viewpoint", "1", "0", "1", "--out", str(d / "out")], "the file ends before its 1000000000 vertices"),
+    "detect --depth an .npz named .npy": (lambda d: detect_argv(d, depth="archive.npy"), "archive.npy (it is an .npz archive"),
+    "detect --points an .npz named .npy": (lambda d: ["detect", "--points", str(d / "archive.npy"), "--viewpoint", "1", "0", "1", "--out", str(d / "out")], "archive.npy (it is an .npz archive"),
+    "detect an empty depth image": (lambda d: detect_argv(d, depth="empty.npy"), "empty.npy"),
+    "detect intrinsic fx: true": (lambda d: detect_argv(d, intrinsic="fx_true.json"), "fx must be a number"),
+    "detect a checkpoint with a tensor of another shape": (lambda d: detect_argv(d, model=d / "misshapen.pt"), "misshapen.pt's weights do not fit its network"),
+    "bench a checkpoint with a tensor of another shape": (lambda d: ["bench", "declutter", "--model", str(d / "misshapen.pt"), "--out", str(d / "b")], "misshapen.pt's weights do not fit its network"),
+    "bench --objects a folder with one broken object": (lambda d: ["bench", "declutter", "--objects", str(d / "one_broken"), "--out", str(d / "b")], "gone.obj"),
 }  # fmt: skip
+
+PLANNERS = {  # case: (argv of the `make_files` folder, played in it, text the message names)
+    "detect --planner a module that raises": (lambda d: detect_argv(d, "--gripper", "franka", model="plugin_raising:plan"), "importing plugin_raising raised RuntimeError: no camera driver (plugin_raising.py:1)"),
+    "bench --planner a module that raises": (lambda d: ["bench", "declutter", "--planner", "plugin_raising:plan", "--gripper", "franka", "--out", str(d / "b")], "importing plugin_raising raised RuntimeError"),
+    "detect --planner a module that does not parse": (lambda d: detect_argv(d, "--gripper", "franka", model="plugin_syntax:plan"), "plugin_syntax.py:1"),
+    "bench --planner a module that does not parse": (lambda d: ["bench", "declutter", "--planner", "plugin_syntax:plan", "--gripper", "franka", "--out", str(d / "b")], "raised SyntaxError"),
+    "detect --planner a missing module": (lambda d: detect_argv(d, "--gripper", "franka", model="plugin_missing:plan"), "cannot import plugin_missing"),
+    "detect --planner returning None": (lambda d: detect_argv(d, "--gripper", "franka", model="plugin_planners:nothing"), "must return a sequence of symgrasp.detect.Grasp"),
+    "detect --planner returning a pose that is not rigid": (lambda d: detect_argv(d, "--gripper", "franka", model="plugin_planners:scaled"), "grasp 0's pose must be T_world_tcp, a rigid 4×4 transform"),
+    "detect --planner returning a NaN score": (lambda d: detect_argv(d, "--gripper", "franka", model="plugin_planners:nan_score"), "grasp 0's score must be a finite number, got nan"),
+}  # fmt: skip
+"""A user's planner (`PLUGINS`): imported, and its grasps checked, by `symgrasp.peers.plugin`,
+each refused naming the planner (and where its module failed), nothing written. Played with the
+`make_files` folder as the current folder, where the command line imports planners from."""
 """Files whose contents are wrong (a checkpoint, a dataset, a benchmark folder, a depth image, a
 mesh): refused when the command reads them, with the library it reads them by, naming the file."""
 
-CLI = {**ARGUMENTS, **FILES}
-"""Every command-line case."""
+CLI = {**ARGUMENTS, **FILES, **PLANNERS}
+"""Every command-line case (played in the `make_files` folder: `PLANNERS` import from it)."""
 
 
 def _construct(**options):
+    return _pretrained(MODEL, **options)
+
+
+def _pretrained(name, **options):
     from symgrasp.detect import GraspDetector
 
-    return GraspDetector.from_pretrained(MODEL, device="cpu", **options)
+    return GraspDetector.from_pretrained(name, device="cpu", **options)
 
 
 API = {
@@ -380,6 +453,10 @@ API = {
     "Bingham NaN A, sampled": (lambda d: bingham.Bingham(torch.full((3, 3), torch.nan)).sample(), "`A` must be finite"),
     "Bingham nll of a non-unit v": (lambda d: bingham.nll(torch.zeros(3, 3), torch.tensor([2.0, 0, 0])), "unit vectors"),
     "Bingham normalizer method": (lambda d: bingham.log_normalizer(torch.zeros(3), method="laplace"), "`method`"),
+    "from_pretrained(None)": (lambda d: _pretrained(None), "model must be a shipped model's name or a checkpoint path, got None"),
+    "from_pretrained(123)": (lambda d: _pretrained(123), "got 123"),
+    "CameraIntrinsic fx=True": (lambda d: CameraIntrinsic(64, 48, True, 50.0, 32.0, 24.0), "fx must be a number"),
+    "CameraIntrinsic width 64.5": (lambda d: CameraIntrinsic(64.5, 48, 50.0, 50.0, 32.0, 24.0), "width must be an integer"),
 }  # fmt: skip
 """Bad calls of the API, each ``case: (call of a detector of `MODEL`, text its message names)``:
 each raises ValueError or TypeError naming the argument. The Bingham rows cover its entry

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
@@ -60,6 +61,18 @@ def check_range(name: str, value: Any, lo: float, hi: float, integer: bool = Tru
     if not (isinstance(value, kind) and not isinstance(value, bool) and lo <= value <= hi):
         what = "an integer" if integer else "a number"  # NaN fails the comparison too
         raise ValueError(f"{name} must be {what} in [{_number(lo)}, {_number(hi)}], got {value!r}")
+
+
+DEVICE = re.compile(r"auto|cpu|cuda(:\d+)?")
+"""The devices symgrasp runs on: "auto" (CUDA when available, else the CPU), "cpu", "cuda" or
+"cuda:N"."""
+
+
+def check_device(name: Any) -> None:
+    """Raise ValueError unless ``name`` is one of `DEVICE`'s (whether this machine has CUDA is
+    `symgrasp.device.resolve_device`'s to say, with torch)."""
+    if not (isinstance(name, str) and DEVICE.fullmatch(name)):
+        raise ValueError(f"device must be 'auto', 'cpu' or 'cuda[:N]', got {name!r}")
 
 
 def _is_number(value: Any) -> bool:
@@ -299,6 +312,11 @@ class LossWeights:
     def __post_init__(self) -> None:
         for name in ("validity", "score", "rotation"):
             check_range(f"weight of the {name} loss", getattr(self, name), 0, 1e6, integer=False)
+        if self.validity == self.score == self.rotation == 0:
+            raise ValueError(
+                "the weights of the validity, score and rotation losses are all 0: the total "
+                "loss would be 0 and training would change nothing; give one a positive weight"
+            )
 
 
 def _check_choice(name: str, value: Any, choices: tuple[str, ...]) -> None:
@@ -415,6 +433,7 @@ class TrainConfig:
         check_range("micro_batch", self.micro_batch, 0, 4096)
         check_range("lr", self.lr, 1e-12, 10.0, integer=False)
         check_range("seed", self.seed, 0, SEED_MAX)
+        check_device(self.device)
         check_range("workers", self.workers, 0, 64)
         _check_choice("schedule", self.schedule, SCHEDULES)
         check_range("warmup", self.warmup, 0, 1, integer=False)

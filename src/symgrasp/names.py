@@ -17,13 +17,23 @@ GRIPPERS = ("franka", "robotiq-2f85")
 GRIPPER_SPEC_SUFFIX = ".toml"
 """A gripper is also given by a spec file whose name ends so (`symgrasp.sim.grippers`)."""
 
-PROCEDURAL_OBJECT_SETS = ("household-train", "household-test", "large-box", "blocks")
+PROCEDURAL_OBJECT_SETS = (
+    "household-train",
+    "household-test",
+    "large-box",
+    "blocks",
+    "thin-boxes-train",
+)
 """Object sets built in code (`symgrasp.sim.objects`); they need no files."""
 
 MESH_OBJECT_SETS = ("vgn-pile-train", "vgn-pile-test", "vgn-packed-train", "vgn-packed-test")
 """VGN's household mesh sets, read from the data folder (`symgrasp.objects.folder`)."""
 
 OBJECT_SETS = (*PROCEDURAL_OBJECT_SETS, *MESH_OBJECT_SETS)
+
+TEST_OBJECT_SETS = ("household-test", "large-box", "vgn-pile-test", "vgn-packed-test")
+"""The sets that only report: no choice (checkpoint, threshold, operating point) is made on them;
+``large-box`` is the paper's precision test (``thin-boxes-train`` stands in for it in choices)."""
 """Named object sets; ``--objects`` also takes a folder of meshes."""
 
 MESH_UNITS = ("auto", "m", "cm", "mm")
@@ -112,3 +122,34 @@ def planner_kind(name: str) -> str:
     if str(name) in (*PEERS, ORACLE):
         return str(name)
     return "plugin" if is_plugin_name(str(name)) else "model"
+
+
+MEASURE_ALIASES = {"declutter": "declutter_sr_cr", "val_loss": "val_total"}
+"""Measure names ``symgrasp select --by`` also takes (`symgrasp.benchmark.selection`)."""
+
+DECLUTTER_MEASURES = ("declutter_sr_cr", "declutter_sr", "declutter_cr")
+"""Of the declutter validation: success ratio plus clear ratio (what ``declutter`` selects by),
+the success ratio and the clear ratio. SR alone rewards a detector that hardly tries: the
+checkpoint that executes one grasp in 200 rounds and lifts it has SR 100 % (docs/model.md,
+"Model selection")."""
+
+
+def measure_direction(measure: str) -> int:
+    """+1 when a higher ``measure`` is better (AP, shares, SR, CR), −1 when lower is (losses,
+    angles, score error, ``top_empty``); ValueError naming ``--by`` for a column that is no
+    measure of quality (bookkeeping, confidences)."""
+    name = MEASURE_ALIASES.get(measure, measure)
+    higher = ("_valid", "_correct", "_valid_near", "_correct_near")
+    if name in DECLUTTER_MEASURES or name == "validity_ap":
+        return 1
+    if name.startswith("top") and name.endswith(higher):
+        return 1
+    if name.startswith(("val_", "train_")) or name.endswith("_deg"):
+        return -1
+    if name in ("score_mae", "top_empty"):
+        return -1
+    raise ValueError(
+        f"--by: {measure!r} is not a measure to select by (no better direction); use declutter "
+        "(SR + CR), declutter_sr, declutter_cr, val_loss, a loss (val_*), validity_ap, "
+        "score_mae, an angle (*_deg) or a top-k share (top1_valid, top5_correct, …)"
+    )

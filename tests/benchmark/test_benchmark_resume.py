@@ -157,24 +157,12 @@ def _run_and_kill(argv, out, delay):
     return rounds.read_text()
 
 
-@pytest.fixture
-def fresh_process_threads():
-    """Torch threads as a fresh process has them, for rounds played here beside rounds played in
-    a new process: a round's floats depend on the thread count (an earlier test in this
-    process may have set one thread, as data generation's workers do)."""
-    import torch
-
-    before = torch.get_num_threads()
-    torch.set_num_threads(int(subprocess.check_output(
-        [sys.executable, "-c", "import torch; print(torch.get_num_threads())"]
-    )))  # fmt: skip
-    yield
-    torch.set_num_threads(before)
-
-
 def test_killed_benchmarks_resume_to_the_uninterrupted_result(
-    tmp_path, without_timings, fresh_process_threads
+    tmp_path, without_timings, cpu_hog, caller_threads
 ):
+    # rounds played on a loaded machine, in fresh processes (torch's threads: one per core)
+    # and in this one, given one thread: the same rounds
+    caller_threads(1)
     argv = ["bench", "declutter", "--rounds", "4", "--num-objects", "1", "--seed", "3"]
     out, delays = tmp_path / "killed", random.Random(0)
     saved = []
@@ -189,6 +177,7 @@ def test_killed_benchmarks_resume_to_the_uninterrupted_result(
     assert without_timings(resumed) == without_timings(whole)
     results = [json.loads((tmp_path / n / "results.json").read_text()) for n in ("killed", "whole")]
     assert without_timings(results[0]) == without_timings(results[1])
+    assert cpu_hog.poll() is None, "the machine was not loaded to the end"
 
 
 def test_a_model_file_overwritten_by_other_weights_is_refused_not_reused(played, tmp_path):

@@ -254,6 +254,7 @@ def test_directions():
     ("household-train", 1, 0, "seed"), ("household-train", 20, 9_990, "seed"),
     ("household-train", 1, TEST_SEED_LIMIT - 1, "seed"), ("vgn-pile-test", 1, VALIDATION_SEED,
     "objects"), ("vgn-pile-train,household-test", 1, VALIDATION_SEED, "objects"),
+    ("large-box", 1, VALIDATION_SEED, "objects"),
 ])  # fmt: skip
 def test_declutter_validation_refuses_test_seeds_and_test_objects(tmp_path, objects, rounds, seed,
                                                                   word):  # fmt: skip

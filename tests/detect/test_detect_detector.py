@@ -336,6 +336,31 @@ def test_forced_decoding_ranks_the_voxels_below_the_threshold_after_those_above_
     assert [g.voxel for g in forced] == [(30, 30, 30), (20, 5, 30)]  # by score within the tier
     capped = _detector(voxels, validity_floor=0.02, top_k=1).detect_tsdf(np.ones((R,) * 3))
     assert [g.voxel for g in capped] == [(5, 5, 5)]
+    both = _detector(voxels, validity_floor=0.02, fallbacks=2).detect_tsdf(np.ones((R,) * 3))
+    assert [(g.voxel, g.fallback) for g in both] == [
+        ((5, 5, 5), 0), ((5, 5, 5), 1), ((5, 5, 5), 2),
+        ((30, 30, 30), 0), ((30, 30, 30), 1), ((30, 30, 30), 2),
+    ]  # fmt: skip
+
+
+def test_the_checked_detector_draws_fallbacks_only_when_needed_and_draws_the_same_ones():
+    """Two tiers, the forced voxel's own grasp blocked: the detector's own check returns the
+    grasp the benchmark's check finds in the unchecked list, whose draws are made up front."""
+    from symgrasp.benchmark.declutter import first_free
+    from symgrasp.perception import surface_points
+
+    free = _bingham2d(_rotation([0, 0, -1], [1, 0, 0]))
+    voxels = {(8, 8, 20): (0.9, 0.9, free),
+              (20, 20, 20): (0.5, 0.05, _bingham2d(DOWN_Y, gaps=(60.0, 1.0)))}  # fmt: skip
+    options = {"validity_floor": 0.02, "fallbacks": 8, "confidence_threshold": 0, "seed": 4}
+    unchecked = _detector(voxels, **options).detect_tsdf(BLOCKED)
+    checked = _detector(voxels, approach_check=True, **options).detect_tsdf(BLOCKED)
+    assert [(g.voxel, g.fallback > 0) for g in checked] == [((8, 8, 20), False),
+                                                           ((20, 20, 20), True)]  # fmt: skip
+    points = surface_points(torch.as_tensor(BLOCKED)).numpy()
+    rest = [g for g in unchecked if g.voxel == (20, 20, 20)]
+    chosen, _ = first_free(rest, ROBOTIQ_2F85, points)
+    assert np.array_equal(chosen.pose, checked[1].pose) and chosen.fallback == checked[1].fallback
 
 
 def test_decoding_options_are_checked():

@@ -25,6 +25,22 @@ def test_large_box_is_the_papers_30x70x200mm_box():
     np.testing.assert_allclose(sorted(extents), [0.03, 0.07, 0.2])
 
 
+def test_thin_training_boxes_are_flat_boxes_other_than_the_test_box():
+    """Both sizes drawn, reproducibly, each lying flat with the large box's density."""
+    from symgrasp.sim.objects import LARGE_BOX_SIZE, THIN_BOX_TRAIN_SIZES
+
+    boxes = object_set("thin-boxes-train", 40, seed=2)
+    assert boxes == object_set("thin-boxes-train", 40, seed=2)
+    sizes = {tuple(np.round(sorted(b.mesh().extents), 6)) for b in boxes}
+    assert sizes == {tuple(sorted(s)) for s in THIN_BOX_TRAIN_SIZES}
+    assert tuple(sorted(LARGE_BOX_SIZE)) not in sizes
+    for box in boxes:
+        (part,) = box.parts
+        assert part.pos[2] == part.size[2] == min(part.size)  # flat, its bottom on the table
+        volume = 8 * np.prod(part.size)
+        assert box.mass / volume == pytest.approx(large_box().mass / np.prod(LARGE_BOX_SIZE))
+
+
 def test_surface_samples_lie_on_the_union_not_inside_it():
     t = ObjectSpec(
         "t", "t", (Part("box", (0.03, 0.01, 0.01)), Part("box", (0.01, 0.03, 0.01))), 0.1, 0.5

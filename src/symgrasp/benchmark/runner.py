@@ -11,6 +11,13 @@ the paper and VGN do (`RATIOS`: SR = successes / executed grasps, CR = successes
 presented, `pooled_ratio`); their 95 % intervals come from a bootstrap over rounds (rounds are
 the independent units; attempts within a round are not).
 
+A round is the same bytes wherever it is played (this process, local workers, a Ray node, a
+loaded machine or an idle one): it runs on `ROUND_THREADS` torch thread, whatever the
+process's own setting (restored after it), and its depth images come from the driver's
+renderer (`local_renderer`: OpenGL or the ray cast), which every round records; a worker that
+renders otherwise fails its rounds, and a resume where depth is rendered otherwise than in the
+folder's rounds is refused (`check_out`).
+
 Layout of a benchmark folder (`run_benchmark`)::
 
     config.json     the configuration, written (atomically) before any round runs
@@ -18,8 +25,10 @@ Layout of a benchmark folder (`run_benchmark`)::
                     a user's planner's source file): a file of the same name with other weights
                     (a run selected again) is refused, not taken for the old one
     rounds.jsonl    one line per round, appended as each finishes; in seed order at the end
-    results.json    configuration and summary, derived from rounds.jsonl at the end
-    results.md      the summary as a Markdown table row
+    results.json    configuration and summary, derived from rounds.jsonl at the end (strict
+                    JSON: an undefined ratio is null)
+    results.md      the summary as a Markdown table row, and under it, when rounds failed,
+                    how many and that the ratios are over the others only
 
 A killed run loses only the rounds in flight; ``resume=True`` (``--resume``) plays the rounds
 missing from ``rounds.jsonl`` and those recorded as failed, and refuses a folder of another
@@ -30,10 +39,13 @@ anything else, or held by another run, is refused (`BENCHMARK`, `symgrasp.folder
 
 from __future__ import annotations
 
+import functools
 import json
+import math
 import os
 from collections import Counter
 from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any, TextIO
@@ -106,6 +118,8 @@ def round_record(record: Round) -> dict[str, Any]:
                 "struck": list(a.struck),
                 "score": None if a.grasp is None else a.grasp.score,
                 "confidence": None if a.grasp is None else a.grasp.confidence,
+                "validity": None if a.grasp is None else a.grasp.validity,
+                "fallback": None if a.grasp is None else a.grasp.fallback,
                 "pose": None if a.grasp is None else a.grasp.pose.tolist(),
                 "candidates": a.candidates,
                 "rejected": a.rejected,
@@ -118,13 +132,16 @@ def round_record(record: Round) -> dict[str, Any]:
     }
 
 
+ROUND_THREADS = 1
+"""Torch threads every round runs on, wherever it is played, the process's own setting restored
+after it: a float reduction split over threads rounds differently (a sum of 10⁶ float32 differs
+on 1 and 2 threads), and a grasp's score, pose or rank then depends on the executor, the
+machine and its load. One thread is also a worker's one core."""
+
 _WORKER: dict[str, Any] = {}
 
 
-def _init_worker(config: BenchmarkConfig, threads: int, out: Path) -> None:
-    import torch
-
-    torch.set_num_threads(threads)
+def _init_worker(config: BenchmarkConfig, out: Path) -> None:
     _WORKER["config"] = config
     _WORKER["out"] = out
     _WORKER["objects"] = resolve(config.objects, config.mesh_unit)  # once for all its rounds
@@ -145,23 +162,52 @@ def _round_task(seed: int) -> dict[str, Any]:
         diagnose=config.diagnose,
         table_clearance=config.table_clearance,
         surface_clearance=config.surface_clearance,
+        protocol=config.protocol,
     )  # fmt: skip
     return round_record(record)
+
+
+@contextmanager
+def _torch_threads(threads: int) -> Iterator[None]:
+    """Torch's intra-op threads set to ``threads`` meanwhile, then restored."""
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
+
+
+def _played_round(renderer: str, seed: int) -> dict[str, Any]:
+    """The benchmark's task: round ``seed`` on `ROUND_THREADS` torch threads, refused where
+    depth images come from another renderer than ``renderer`` (the driver's)."""
+    here = local_renderer()
+    if here != renderer:
+        raise RuntimeError(
+            f"depth images on this worker come from the {here} renderer, the benchmark's from "
+            f"{renderer}: its rounds would differ; give every worker the driver's OpenGL "
+            f"(MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r} here)"
+        )
+    with _torch_threads(ROUND_THREADS):
+        return _round_task(seed)
+
+
+@functools.cache
+def local_renderer() -> str:
+    """The depth renderer of the rounds played in this process: ``"gl"`` where MuJoCo opens an
+    OpenGL context (``MUJOCO_GL``, `symgrasp.gl_backend`), else ``"raycast"``
+    (`symgrasp.sim.render.make_renderer`). Their images differ by float noise, so a benchmark's
+    rounds are all of one."""
+    from symgrasp.sim.render import make_renderer
+
+    return make_renderer().name
 
 
 def round_seeds(config: BenchmarkConfig) -> list[int]:
     """The seeds of ``config``'s rounds, in order: ``seed … seed + rounds − 1``."""
     return [config.seed + r for r in range(config.rounds)]
-
-
-def _in_process_threads() -> int:
-    """Torch threads for rounds played in this process: two (the detector's network gains
-    little beyond), or fewer when the process was given fewer (``OMP_NUM_THREADS``,
-    ``torch.set_num_threads``), so that jobs sharing a machine one core each do not
-    oversubscribe it."""
-    import torch
-
-    return max(1, min(2, torch.get_num_threads(), os.cpu_count() or 1))
 
 
 def run_rounds(
@@ -173,10 +219,11 @@ def run_rounds(
     """The round records of ``seeds`` (default: all of ``config``'s) as ``executor`` finishes
     them, with a progress bar: in seed order in process, in any order otherwise. A round that
     raised is ``{"seed", "error", "traceback"}`` (pictures, if asked for, go under ``out`` on
-    the machine that plays the round)."""
+    the machine that plays the round). Every round is played on `ROUND_THREADS` torch threads
+    and rendered as in this process (`local_renderer`), or fails."""
     seeds = round_seeds(config) if seeds is None else list(seeds)
-    threads = _in_process_threads() if executor.in_process else 1
-    job = Job(_round_task, _init_worker, (config, threads, Path(out)))
+    task = functools.partial(_played_round, local_renderer())
+    job = Job(task, _init_worker, (config, Path(out)))
     for seed, result in executor.map(job, seeds, "declutter rounds"):
         if isinstance(result, Failure):  # a crashed round is data, not the end of the benchmark
             result = {"seed": seed, "error": result.error, "traceback": result.traceback}
@@ -253,20 +300,53 @@ def left_on_table(rounds: list[dict[str, Any]]) -> dict[str, dict[str, int]]:
 
 
 def percent_with_interval(summary: dict[str, Any], name: str) -> str:
-    """``summary[name]`` and its 95 % interval in percent, e.g. ``81.7 [77.0, 86.2]``."""
+    """``summary[name]`` and its 95 % interval in percent, e.g. ``81.7 [77.0, 86.2]``; ``—``
+    for an undefined ratio (nothing counted: `pooled_ratio`)."""
+    if not math.isfinite(summary[name]):
+        return "—"
     lo, hi = summary[f"{name}_ci95"]
     return f"{100 * summary[name]:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
 
 
 def markdown_table(summary: dict[str, Any], config: BenchmarkConfig) -> str:
-    """One Markdown row per benchmark (with its header)."""
-
-    return (
+    """One Markdown row per benchmark (with its header); when rounds failed, a line under it
+    says how many, the first error, and that the ratios are over the finished rounds only (or
+    that there is none), so that a partial run is not read as the benchmark's result."""
+    table = (
         "| model | objects | rounds | SR % [95 % CI] | CR % [95 % CI] | grasps | errors |\n"
         "|---|---|---|---|---|---|---|\n"
         f"| {config.model} | {config.objects} | {summary['rounds']} | {percent_with_interval(summary, 'success_ratio')} "
         f"| {percent_with_interval(summary, 'clear_ratio')} | {summary['executed']} | {len(summary['errors'])} |\n"
     )
+    errors, rounds = summary["errors"], summary["rounds"]
+    if not errors:
+        return table
+    finished = rounds - len(errors)
+    ratios = f"SR and CR are over the {finished} that finished only" if finished else "no ratio"
+    return table + (
+        f"\n**Not a result: {_how_many_failed(len(errors), rounds)} failed** (the first, seed "
+        f"{errors[0]['seed']}: {errors[0]['error']}); {ratios}. `--resume` plays the failed "
+        "rounds again.\n"
+    )
+
+
+def _how_many_failed(failed: int, rounds: int) -> str:
+    """``failed`` of ``rounds`` rounds in words: "every one of the 3 rounds", "1 of the 3 rounds"."""
+    if failed == rounds:
+        return f"every one of the {rounds} rounds"
+    return f"{failed} of the {rounds} rounds"
+
+
+def _strict_json(value: Any) -> Any:
+    """``value`` (JSON data) with every non-finite float as None: strict JSON, an undefined
+    ratio (NaN) written as null."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _strict_json(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_strict_json(v) for v in value]
+    return value
 
 
 # --- the output folder: configuration record, streamed rounds, derived results ------------
@@ -299,8 +379,9 @@ default; other fields added later read as their defaults."""
 def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) -> None:
     """Raise ValueError unless ``out`` may take ``config``'s rounds: a folder path holding
     nothing (`BENCHMARK`), or, with ``resume``, a benchmark of ``config`` played by the same
-    model file and of readable rounds (`read_rounds`). Reads small files and hashes the model
-    file, so the CLI calls it before it loads a model or starts workers."""
+    model file, of readable rounds (`read_rounds`) rendered as rounds played here would be
+    (`local_renderer`). Reads small files and hashes the model file, so the CLI calls it
+    before it loads a model or starts workers."""
     out = check_folder(out)
     check_owned(out, BENCHMARK)
     if not any((out / name).exists() for name in ("config.json", "rounds.jsonl", "results.json")):
@@ -325,7 +406,22 @@ def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) ->
             "differ); choose another out (--out)"
         )
     _check_model(config, out)
-    read_rounds(out / "rounds.jsonl")  # a line torn in the middle is named before any work
+    rounds = read_rounds(out / "rounds.jsonl")  # a line torn in the middle: named before any work
+    _check_renderer(rounds.values(), out)
+
+
+def _check_renderer(rounds: Iterable[dict[str, Any]], out: Path) -> None:
+    """ValueError when the finished ``rounds`` of ``out`` were rendered otherwise than rounds
+    played here would be (`local_renderer`): the benchmark would mix rounds of two renderers."""
+    rendered = sorted({r["renderer"] for r in rounds if "error" not in r})
+    here = local_renderer()
+    if rendered and rendered != [here]:
+        raise ValueError(
+            f"out {out} holds rounds rendered by {' and '.join(rendered)}, but depth images here "
+            f"come from the {here} renderer (MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r}): the "
+            f"rounds played now would differ; resume where the {rendered[0]} renderer works, or "
+            "choose another out (--out)"
+        )
 
 
 def _check_model(config: BenchmarkConfig, out: Path) -> None:
@@ -433,8 +529,8 @@ def run_benchmark(
     rounds = [done[seed] for seed in round_seeds(config)]  # seed order: the bootstrap's order
     _write_rounds(path, rounds)
     summary = summarise(rounds, config.seed)
-    result = {"config": asdict(config), "summary": summary}
-    _write_text(out / "results.json", json.dumps(result, indent=1) + "\n")
+    result = _strict_json({"config": asdict(config), "summary": summary})
+    _write_text(out / "results.json", json.dumps(result, indent=1, allow_nan=False) + "\n")
     _write_text(out / "results.md", markdown_table(summary, config))
     _check_finished(rounds, out)
     return summary
@@ -447,13 +543,9 @@ def _check_finished(rounds: list[dict[str, Any]], out: Path) -> None:
     model, an unstable simulation) may fail again; ``--resume`` plays them again."""
     failed = [r for r in rounds if "error" in r]
     if failed:
-        how_many = (
-            f"every one of the {len(rounds)} rounds"
-            if len(failed) == len(rounds)
-            else f"{len(failed)} of the {len(rounds)} rounds"
-        )
         raise TasksFailed(
-            f"{how_many} in {out} failed; the first (seed {failed[0]['seed']}): "
+            f"{_how_many_failed(len(failed), len(rounds))} in {out} failed; the first (seed "
+            f"{failed[0]['seed']}): "
             f"{failed[0]['error']} (tracebacks in {out / 'rounds.jsonl'}; --resume plays them "
             "again)"
         )

@@ -59,7 +59,9 @@ from symgrasp.model.checkpoint import (
     trained_gripper,
 )
 from symgrasp.model.train import FirstScenes, evaluate
-from symgrasp.names import OBJECT_SETS
+from symgrasp.names import DECLUTTER_MEASURES, TEST_OBJECT_SETS
+from symgrasp.names import MEASURE_ALIASES as ALIASES
+from symgrasp.names import measure_direction as direction
 from symgrasp.sim.grippers import same_name_note
 
 __all__ = [
@@ -81,41 +83,11 @@ __all__ = [
     "validation_metrics",
 ]
 
-ALIASES = {"declutter": "declutter_sr_cr", "val_loss": "val_total"}
-"""Measure names ``--by`` also takes."""
-
-DECLUTTER_MEASURES = ("declutter_sr_cr", "declutter_sr", "declutter_cr")
-"""Of the declutter validation: success ratio plus clear ratio (what ``declutter`` selects by),
-the success ratio and the clear ratio. SR alone rewards a detector that hardly tries: the
-checkpoint that executes one grasp in 200 rounds and lifts it has SR 100 % (docs/model.md,
-"Model selection")."""
-
 BOOKKEEPING = ("epoch", "world_size", "global_batch_size", "lr", "seconds")
 """metrics.csv columns that describe a run rather than measure it."""
 
 CHECKPOINT = re.compile(r"epoch_(\d+)\.pt")
 """The file name of a kept per-epoch checkpoint (``symgrasp train --keep-every N``)."""
-
-
-def direction(measure: str) -> int:
-    """+1 when a higher ``measure`` is better (AP, shares, SR, CR), −1 when lower is (losses,
-    angles, score error, ``top_empty``); ValueError naming ``--by`` for a column that is no
-    measure of quality (bookkeeping, confidences)."""
-    name = ALIASES.get(measure, measure)
-    higher = ("_valid", "_correct", "_valid_near", "_correct_near")
-    if name in DECLUTTER_MEASURES or name == "validity_ap":
-        return 1
-    if name.startswith("top") and name.endswith(higher):
-        return 1
-    if name.startswith(("val_", "train_")) or name.endswith("_deg"):
-        return -1
-    if name in ("score_mae", "top_empty"):
-        return -1
-    raise ValueError(
-        f"--by: {measure!r} is not a measure to select by (no better direction); use declutter "
-        "(SR + CR), declutter_sr, declutter_cr, val_loss, a loss (val_*), validity_ap, "
-        "score_mae, an angle (*_deg) or a top-k share (top1_valid, top5_correct, …)"
-    )
 
 
 def check_validation_rounds(objects: str, rounds: int, seed: int) -> None:
@@ -127,11 +99,12 @@ def check_validation_rounds(objects: str, rounds: int, seed: int) -> None:
             f"overlap the test seeds 0…{TEST_SEED_LIMIT - 1} (reserved for test benchmarks); "
             f"use a seed ≥ {TEST_SEED_LIMIT} (default {VALIDATION_SEED})"
         )
-    tests = [p for p in str(objects).split(",") if p in OBJECT_SETS and p.endswith("-test")]
+    tests = [p for p in str(objects).split(",") if p in TEST_OBJECT_SETS]
     if tests:
         raise ValueError(
             f"objects: {', '.join(tests)} is a test object set; declutter validation plays "
-            f"training objects (default {VALIDATION_OBJECTS}, or household-train)"
+            f"training objects (default {VALIDATION_OBJECTS}, household-train or "
+            "thin-boxes-train)"
         )
 
 

@@ -162,11 +162,15 @@ def _run_declutter(args: argparse.Namespace) -> None:
     from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark
 
     check_out(config, args.out, args.resume)  # before the model loads
+    if kind == "model":  # a network its weights do not fit: refused before a file is written
+        from symgrasp.detect.pretrained import resolve_model
+        from symgrasp.model.checkpoint import load_model, trained_gripper
+
+        _, state = load_model(resolve_model(args.model))
     if kind == "model" and (args.representation is not None or args.gripper is not None):
-        from symgrasp.detect.pretrained import trained_for
         from symgrasp.sim.grippers import get_gripper, same_name_note
 
-        rep, hand = trained_for(args.model)  # read from the checkpoint: no network is built
+        rep, hand = state["representation"], trained_gripper(state)
         if args.representation not in (None, rep):
             raise SystemExit(
                 f"error: --rep {args.representation}, but --model {args.model} is {rep}"
@@ -177,6 +181,9 @@ def _run_declutter(args: argparse.Namespace) -> None:
             raise SystemExit(
                 f"error: --gripper {args.gripper}, but --model {args.model} is {hand.name}{note}"
             )
+    from symgrasp.objects.sets import resolve
+
+    resolve(config.objects, config.mesh_unit).check()  # every object, before the first round
     summary = run_benchmark(config, args.out, args.resume, parallel)
     print(markdown_table(summary, config), end="")
     print(f"outcomes {summary['outcomes']}")

@@ -18,6 +18,7 @@ from symgrasp.cli.options import (
     input_file,
     output_folder_path,
     output_path,
+    parse_device,
     parse_model,
     parse_planner,
 )
@@ -181,7 +182,9 @@ def add_detector_options(parser: argparse.ArgumentParser, planners: bool = False
         help="run the network as a TorchScript graph made for inference: ≈ 0.45× the forward "
         "time on a CPU, outputs equal up to float rounding (docs/detect.md, 'Latency')",
     )
-    parser.add_argument("--device", default="auto", help="auto, cpu or cuda (default: auto)")
+    parser.add_argument(
+        "--device", type=parse_device, default="auto", help="auto, cpu or cuda (default: auto)"
+    )
 
 
 def load_detector(args: argparse.Namespace):  # -> GraspDetector (imported here, not above)
@@ -369,6 +372,9 @@ def _add_export(subparsers: argparse._SubParsersAction) -> None:
 
 def _run_export(args: argparse.Namespace) -> None:
     from symgrasp.detect import export_model, export_torchscript
+    from symgrasp.detect.pretrained import resolve_model
 
-    export = export_torchscript if args.torchscript else export_model
-    print(export(args.checkpoint, args.out))
+    if args.torchscript:
+        print(export_torchscript(args.checkpoint, args.out))
+    else:
+        print(export_model(resolve_model(args.checkpoint), args.out))

@@ -7,7 +7,14 @@ import argparse
 import shlex
 
 from symgrasp.arguments import integer, number
-from symgrasp.cli.options import MODEL_METAVAR, PROBABILITY, SEED, output_folder_path, parse_model
+from symgrasp.cli.options import (
+    MODEL_METAVAR,
+    PROBABILITY,
+    SEED,
+    output_folder_path,
+    parse_model,
+    parse_model_spec,
+)
 from symgrasp.config import DEFAULT_VALIDITY
 from symgrasp.workspace import WORKSPACE_SIZE
 
@@ -77,6 +84,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     continuity.add_argument(
         "--model",
         action="append",
+        type=parse_model_spec,
         required=True,
         metavar="LABEL=PATH",
         help="a panel: its title and a checkpoint path or shipped model name; repeat for more "

@@ -14,6 +14,8 @@ from symgrasp.cli.options import (
     add_shared,
     approach_check,
     input_folder,
+    parse_device,
+    parse_measure,
 )
 from symgrasp.config import (
     MAX_OBJECTS,
@@ -64,6 +66,9 @@ def _run_train(args: argparse.Namespace) -> None:
     from symgrasp.model.train import train
 
     if args.nproc > 1:
+        from symgrasp.device import resolve_device
+
+        resolve_device(config.device)  # a device that is not there: refused once, not per rank
         distributed.launch(train, (config,), args.nproc)
         print(f"{config.epochs} epochs on {args.nproc} processes; checkpoints and metrics in "
               f"{config.out}")  # fmt: skip
@@ -98,7 +103,7 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
         help="run folder of symgrasp train (its --out)",
     )
     parser.add_argument(
-        "--by", required=True, metavar="MEASURE",
+        "--by", type=parse_measure, required=True, metavar="MEASURE",
         help="declutter (the declutter validation's success ratio plus clear ratio; "
         "declutter_sr the success ratio alone, declutter_cr the clear ratio), val_loss, or a "
         "column of RUN_DIR/metrics.csv: higher is better for validity_ap, the top-k shares "
@@ -149,6 +154,7 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
     )  # fmt: skip
     parser.add_argument(
         "--device",
+        type=parse_device,
         default="auto",
         help="where --revalidate runs: auto, cpu or cuda (default: auto)",
     )

@@ -9,7 +9,14 @@ from pathlib import Path
 from typing import Any
 
 from symgrasp.arguments import integer, number, sentence
-from symgrasp.config import DEFAULT_VALIDITY, MAX_VIEWS, SEED_MAX, BenchmarkConfig, SceneConfig
+from symgrasp.config import (
+    DEFAULT_VALIDITY,
+    MAX_VIEWS,
+    SEED_MAX,
+    BenchmarkConfig,
+    SceneConfig,
+    check_device,
+)
 from symgrasp.fields import field_docs
 from symgrasp.folders import check_folder, check_path
 from symgrasp.names import (
@@ -27,6 +34,7 @@ from symgrasp.names import (
     SCHEDULES,
     VALIDITY_LOSSES,
     VIEWS,
+    measure_direction,
     planner_kind,
 )
 from symgrasp.objects.folder import data_folder
@@ -116,6 +124,37 @@ def parse_model(value: str) -> str:
         f"expected a shipped model ({', '.join(PRETRAINED)}) or an existing checkpoint file, "
         f"got {value!r}"
     )
+
+
+def parse_device(value: str) -> str:
+    """An argparse type: a device name symgrasp runs on (`symgrasp.config.check_device`);
+    whether this machine has CUDA is checked when the command runs, with torch."""
+    try:
+        check_device(value)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return value
+
+
+def parse_measure(value: str) -> str:
+    """An argparse type: a measure ``symgrasp select --by`` may choose by
+    (`symgrasp.names.measure_direction`); whether the run holds it is checked when it runs."""
+    try:
+        measure_direction(value)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error).removeprefix("--by: ")) from None
+    return value
+
+
+def parse_model_spec(value: str) -> str:
+    """An argparse type: ``LABEL=MODEL``, a figure panel's title and a model (`parse_model`)."""
+    label, separator, model = value.partition("=")
+    if not separator or not label:
+        raise argparse.ArgumentTypeError(
+            f"expected LABEL=MODEL, e.g. bingham2d=best.pt, got {value!r}"
+        )
+    parse_model(model)
+    return value
 
 
 def parse_gripper(value: str) -> str:

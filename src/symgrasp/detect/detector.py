@@ -47,7 +47,7 @@ from symgrasp.digest import file_sha256
 from symgrasp.model import torchscript
 from symgrasp.model.checkpoint import load_model, trained_gripper
 from symgrasp.model.network import GraspNet
-from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, rank_voxels
+from symgrasp.model.ranking import DEFAULT_NMS_RADIUS, Ranked, rank_voxels
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, depth_to_points, surface_points
 from symgrasp.perception.camera import is_rigid
 from symgrasp.perception.points import DEFAULT_PIXEL_SIZE, fill_holes, points_view
@@ -431,21 +431,18 @@ class GraspDetector:
             )  # fmt: skip
             return (~hits).tolist()
 
-        voxels: list[list[Grasp]] = []  # each voxel's own grasp, then its fallbacks
-        for grasp in grasps:
-            if grasp.fallback == 0:
-                voxels.append([grasp])
-            else:
-                voxels[-1].append(grasp)
-        own_free = free([group[0] for group in voxels])
-        # a voxel's fallbacks are checked only where its own grasp was refused
-        tried = [g for group, ok in zip(voxels, own_free, strict=True) if not ok for g in group[1:]]
-        tried_free = dict(zip(map(id, tried), free(tried), strict=True))
-        kept = []
-        for group, ok in zip(voxels, own_free, strict=True):
-            first = group[0] if ok else next((g for g in group[1:] if tried_free[id(g)]), None)
-            if first is not None:
-                kept.append(first)
+        own_free = free(grasps)
+        kept = [grasp for grasp, ok in zip(grasps, own_free, strict=True) if ok]
+        if self.fallbacks and not all(own_free):
+            # drawn only now, and checked only where a voxel's own grasp was refused
+            groups = self._fallback_groups()
+            tried = [g for group, ok in zip(groups, own_free, strict=True) if not ok for g in group]
+            tried_free = dict(zip(map(id, tried), free(tried), strict=True))
+            kept = []
+            for grasp, group, ok in zip(grasps, groups, own_free, strict=True):
+                first = grasp if ok else next((g for g in group if tried_free[id(g)]), None)
+                if first is not None:
+                    kept.append(first)
         self.timing["approach"] = _ms_since(start, self.device)
         return kept
 
@@ -522,45 +519,49 @@ class GraspDetector:
     def _decode(self, out: dict[str, Tensor]) -> list[Grasp]:
         """The grasps of the network's outputs ``out``: the voxels that pass the validity
         threshold, then, with ``validity_floor``, those between the floor and the threshold
-        (forced decoding), each tier ranked by `rank_voxels`."""
-        generator = torch.Generator(self.device).manual_seed(self.seed)
+        (forced decoding), each tier ranked by `rank_voxels`; each voxel's grasp followed by its
+        ``fallbacks``, except with ``approach_check``, which draws them only once a voxel's own
+        grasp is refused (`_fallback_groups`: the same draws)."""
         keep = None if self.bounds is None else self._inside_bounds()
-        grasps = self._tier(out, self.validity_threshold, keep, self.top_k, generator)
-        if self.validity_floor is not None and (self.top_k is None or len(grasps) < self.top_k):
+        tiers = [self._rank(out, self.validity_threshold, keep, self.top_k)]
+        found = len(tiers[0].index)
+        if self.validity_floor is not None and (self.top_k is None or found < self.top_k):
             below = out["validity"] < self.validity_threshold
-            left = None if self.top_k is None else self.top_k - len({g.voxel for g in grasps})
+            left = None if self.top_k is None else self.top_k - found
             forced = below if keep is None else below & keep
-            grasps += self._tier(out, self.validity_floor, forced, left, generator)
-        return grasps
+            tiers.append(self._rank(out, self.validity_floor, forced, left))
+        self._tiers, self._validity = tiers, out["validity"]
+        if self.samples_per_voxel:
+            generator = torch.Generator(self.device).manual_seed(self.seed)
+            return [grasp for tier in tiers for grasp in self._grasps(
+                tier, self.representation.sample(tier.pred, self.samples_per_voxel, generator)
+            )]  # fmt: skip
+        own = [grasp for tier in tiers for grasp in self._grasps(tier, tier.rotation[:, None])]
+        if not self.fallbacks or self.approach_check:
+            return own
+        groups = self._fallback_groups()
+        return [g for grasp, others in zip(own, groups, strict=True) for g in (grasp, *others)]
 
-    def _tier(
-        self,
-        out: dict[str, Tensor],
-        threshold: float,
-        keep: Tensor | None,
-        top_k: int | None,
-        generator: torch.Generator,
-    ) -> list[Grasp]:
-        """The grasps of the voxels `rank_voxels` keeps at validity ``threshold`` within
-        ``keep``: each voxel's decoded rotation (or its draws, ``samples_per_voxel``), then its
-        ``fallbacks``."""
-        ranked = rank_voxels(
+    def _rank(
+        self, out: dict[str, Tensor], threshold: float, keep: Tensor | None, top_k: int | None
+    ) -> Ranked:
+        """The voxels `rank_voxels` keeps at validity ``threshold`` within ``keep``."""
+        return rank_voxels(
             out["score"], out["validity"], out["rotation"], self.representation,
             validity_threshold=threshold, confidence_threshold=self.confidence_threshold,
             nms_radius=self.nms_radius, top_k=top_k, keep=keep,
         )  # fmt: skip
-        validity = out["validity"][tuple(ranked.index.T)]
-        if self.samples_per_voxel:
-            rotations = self.representation.sample(ranked.pred, self.samples_per_voxel, generator)
-        else:
-            rotations = ranked.rotation[:, None]
-            if self.fallbacks and len(ranked.pred):
-                others = self.representation.fallbacks(ranked.pred, self.fallbacks, generator)
-                rotations = torch.cat([rotations, others], dim=1)
-        numbered = bool(self.fallbacks)
-        return self._grasps(
-            ranked.index, rotations, ranked.score, validity, ranked.confidence, numbered
-        )
+
+    def _fallback_groups(self) -> list[list[Grasp]]:
+        """Each ranked voxel's ``fallbacks`` of the last decoding, in rank order (tier by tier,
+        one generator seeded by ``seed``: the same draws whenever they are drawn)."""
+        generator = torch.Generator(self.device).manual_seed(self.seed)
+        groups = []
+        for tier in self._tiers:
+            if len(tier.pred):
+                others = self.representation.fallbacks(tier.pred, self.fallbacks, generator)
+                groups += self._grasps(tier, others, first_fallback=1, grouped=True)
+        return groups
 
     def _inside_bounds(self) -> Tensor:
         lo, hi = (torch.as_tensor(b, device=self.device) for b in self.bounds)
@@ -570,29 +571,27 @@ class GraspDetector:
         return inside[0][:, None, None] & inside[1][None, :, None] & inside[2][None, None, :]
 
     def _grasps(
-        self,
-        index: Tensor,
-        rotations: Tensor,
-        score: Tensor,
-        validity: Tensor,
-        confidence: Tensor | None,
-        numbered: bool = False,
-    ) -> list[Grasp]:
-        """One `Grasp` per voxel and rotation: ``rotations`` [M, S, 3, 3]; ``numbered``: the
-        rotations after a voxel's first are its fallbacks (`Grasp.fallback`)."""
-        centres = self.origin + (index.cpu().numpy() + 0.5) * self.voxel_size
-        rotations = rotations.cpu().numpy()
-        score, validity = score.cpu().tolist(), validity.cpu().tolist()
-        conf = [None] * len(score) if confidence is None else confidence.cpu().tolist()
-        voxels = [tuple(int(v) for v in row) for row in index.cpu().tolist()]
-        grasps = []
+        self, ranked: Ranked, rotations: Tensor, first_fallback: int = 0, grouped: bool = False
+    ) -> list:
+        """One `Grasp` per ranked voxel and rotation ``rotations`` [M, S, 3, 3], in order, the
+        s-th of a voxel numbered ``first_fallback`` + s if that is not 0 (`Grasp.fallback`):
+        a flat list, or with ``grouped`` one list per voxel."""
+        index, rotations = ranked.index.cpu(), rotations.cpu().numpy()
+        centres = self.origin + (index.numpy() + 0.5) * self.voxel_size
+        validity = self._validity[tuple(ranked.index.T)].cpu().tolist()
+        score = ranked.score.cpu().tolist()
+        conf = [None] * len(score) if ranked.confidence is None else ranked.confidence.tolist()
+        voxels = [tuple(int(v) for v in row) for row in index.tolist()]
+        groups = []
         for m in range(len(voxels)):
+            group = []
             for s, R in enumerate(rotations[m]):
                 pose = np.eye(4)
                 pose[:3, :3], pose[:3, 3] = R, centres[m]
-                fallback = s if numbered else 0
-                grasps.append(Grasp(pose, score[m], validity[m], conf[m], voxels[m], fallback))
-        return grasps
+                fallback = first_fallback + s if first_fallback else 0
+                group.append(Grasp(pose, score[m], validity[m], conf[m], voxels[m], fallback))
+            groups.append(group)
+        return groups if grouped else [grasp for group in groups for grasp in group]
 
 
 def fuse(

@@ -45,7 +45,7 @@ def load_depth(path: str | Path, png_scale: float = 0.001) -> np.ndarray:
         raise ValueError(f"depth must be a .npy or .png file, got {path}")
     try:
         if path.suffix == ".npy":
-            raw = np.load(path)
+            raw = _load_npy(path)
         else:
             image = Image.open(path)
             raw = np.asarray(image)
@@ -72,12 +72,26 @@ def load_depth(path: str | Path, png_scale: float = 0.001) -> np.ndarray:
         )
     if raw.ndim == 3 and raw.shape[-1] == 1:
         raw = raw[..., 0]
-    if raw.ndim != 2:
+    if raw.ndim != 2 or raw.size == 0:
         raise ValueError(
-            f"depth must be one (H, W) or (H, W, 1) image, got shape {raw.shape} from {path}"
+            f"depth must be one (H, W) or (H, W, 1) image of at least one pixel, got shape "
+            f"{raw.shape} from {path}"
         )
     scale = 1.0 if path.suffix == ".npy" else png_scale
     return (raw.astype(np.float64) * scale).astype(np.float32)
+
+
+def _load_npy(path: Path) -> np.ndarray:
+    """The array of a ``.npy`` file; ValueError for another content under that name (a
+    ``.npz`` archive, a pickle: ``np.load`` reads the bytes, not the name)."""
+    loaded = np.load(path)
+    if not isinstance(loaded, np.ndarray):  # np.load opened an .npz archive
+        loaded.close()
+        raise ValueError(
+            "it is an .npz archive, not one .npy array (np.savez writes archives; np.save one "
+            "array)"
+        )
+    return loaded
 
 
 PLY_TYPES = {
@@ -100,7 +114,7 @@ def load_points(path: str | Path) -> np.ndarray:
     if path.suffix not in (".npy", ".ply"):
         raise ValueError(f"points must be a .npy or .ply file, got {path}")
     try:
-        cloud = np.load(path) if path.suffix == ".npy" else _read_ply(path)
+        cloud = _load_npy(path) if path.suffix == ".npy" else _read_ply(path)
     except (OSError, ValueError, EOFError, TypeError, IndexError) as err:  # a broken file
         raise ValueError(f"points: cannot read a point cloud from {path} ({err})") from None
     if (
@@ -149,22 +163,35 @@ def _read_ply(path: Path) -> np.ndarray:
             raise ValueError(
                 f"its vertices must have scalar properties x, y, z, got {', '.join(names)}"
             )
+        dtype = None if fmt == "ascii" else _vertex_dtype(properties, PLY_FORMATS[fmt])
+        # checked before anything is allocated: a vertex takes at least this many of the file's
+        # bytes (an ASCII line: n one-digit values, n − 1 spaces and a newline, which the last
+        # line may lack)
+        least = 2 * len(names) if dtype is None else dtype.itemsize
+        left = path.stat().st_size - file.tell()
+        most = (left + (dtype is None)) // least
+        if not 0 <= count <= most:
+            raise ValueError(
+                f"the file ends before its {count} vertices: the {left} bytes after its header "
+                f"hold at most {most}"
+            )
         if fmt == "ascii":
             rows = [file.readline().split() for _ in range(count)]
             if any(len(row) < len(names) for row in rows):
                 raise ValueError(f"fewer than {count} vertex lines of {len(names)} values")
             table = np.array([r[: len(names)] for r in rows], dtype=np.float64).reshape(count, -1)
             return table[:, [names.index(axis) for axis in "xyz"]]
-        unknown = sorted({kind for _, kind in properties} - set(PLY_TYPES))
-        if unknown:
-            raise ValueError(f"unknown property type {', '.join(unknown)}")
-        order = PLY_FORMATS[fmt]
-        dtype = np.dtype([(name, order + PLY_TYPES[kind]) for name, kind in properties])
-        data = file.read(dtype.itemsize * count)
-        if len(data) != dtype.itemsize * count:
-            raise ValueError(f"the file ends before its {count} vertices")
-        vertices = np.frombuffer(data, dtype=dtype)
+        vertices = np.frombuffer(file.read(dtype.itemsize * count), dtype=dtype)
         return np.stack([vertices[axis].astype(np.float64) for axis in "xyz"], axis=1)
+
+
+def _vertex_dtype(properties: list[tuple[str, str]], order: str) -> np.dtype:
+    """The numpy record of a binary PLY vertex of ``properties`` (name, PLY type) in byte
+    ``order`` ("<" or ">"); ValueError for a type PLY does not name."""
+    unknown = sorted({kind for _, kind in properties} - set(PLY_TYPES))
+    if unknown:
+        raise ValueError(f"unknown property type {', '.join(unknown)}")
+    return np.dtype([(name, order + PLY_TYPES[kind]) for name, kind in properties])
 
 
 def _load_json(path: str | Path, what: str) -> Any:
@@ -191,11 +218,9 @@ def intrinsic_from_json(data: Any, shape: tuple[int, int] | None, what: str) -> 
     try:
         if isinstance(data, dict) and "K" not in data:
             size = shape or (data["height"], data["width"])
-            return CameraIntrinsic(
-                int(data.get("width", size[1])),
-                int(data.get("height", size[0])),
-                *(float(data[k]) for k in ("fx", "fy", "cx", "cy")),
-            )
+            values = {"width": data.get("width", size[1]), "height": data.get("height", size[0]),
+                      **{k: data[k] for k in ("fx", "fy", "cx", "cy")}}  # fmt: skip
+            return CameraIntrinsic(**values)
         if shape is None:
             raise ValueError("a 3×3 matrix does not say the image size: give width and height")
         K = np.asarray(data["K"] if isinstance(data, dict) else data, dtype=float)

@@ -66,7 +66,12 @@ def shipped_path(name: str) -> Path:
 
 
 def resolve_model(name_or_path: str | Path) -> Path:
-    """The checkpoint file of a shipped model name or of a path; ValueError otherwise."""
+    """The checkpoint file of a shipped model name or of a path; ValueError otherwise (TypeError
+    for neither a string nor a path)."""
+    if not isinstance(name_or_path, (str, Path)):
+        raise TypeError(
+            f"model must be a shipped model's name or a checkpoint path, got {name_or_path!r}"
+        )
     path = Path(name_or_path)
     if path.is_file():
         return path

@@ -128,10 +128,36 @@ def load_model(
     representation: str | None = None,
     map_location: str | torch.device = "cpu",
 ) -> tuple[GraspNet, dict[str, Any]]:
-    """The trained `GraspNet` at ``path`` (in eval mode) and its checkpoint dict."""
+    """The trained `GraspNet` at ``path`` (in eval mode) and its checkpoint dict. ValueError as
+    `load_checkpoint`, and naming the file when its ``network`` is no `NetworkConfig` or its
+    weights do not fit the network it describes (a tensor of another shape, one missing or
+    unknown: a hand-edited file, another version's)."""
     state = load_checkpoint(path, representation, map_location)
-    model = GraspNet(NetworkConfig(**state["network"]))
-    model.load_state_dict(state["model"])
+    try:
+        model = GraspNet(NetworkConfig(**state["network"]))
+    except (TypeError, ValueError) as error:
+        raise ValueError(
+            f"checkpoint: {path}'s network is not a valid NetworkConfig: {error}"
+        ) from None
+    expected = model.state_dict()
+    weights = state["model"]
+    for name, tensor in weights.items():
+        if name in expected and tuple(tensor.shape) != tuple(expected[name].shape):
+            raise ValueError(
+                f"checkpoint: {path}'s weights do not fit its network: model[{name!r}] has shape "
+                f"{tuple(tensor.shape)}, the network's is {tuple(expected[name].shape)}"
+            )
+    missing, unknown = sorted(set(expected) - set(weights)), sorted(set(weights) - set(expected))
+    if missing or unknown:
+        raise ValueError(
+            f"checkpoint: {path}'s weights do not fit its network: "
+            + "; ".join(
+                f"{what} {', '.join(map(repr, names[:3]))}{' …' if len(names) > 3 else ''}"
+                for what, names in (("missing", missing), ("unknown", unknown))
+                if names
+            )
+        )
+    model.load_state_dict(weights)
     return model.to(map_location).eval(), state
 
 

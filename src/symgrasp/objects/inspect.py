@@ -166,6 +166,6 @@ def contact_sheet(source: ObjectSource, path: str | Path, limit: int = 48) -> Pa
     figure.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path, dpi=80)
+    figure.savefig(path, dpi=80, format="png")  # the path given, whatever its suffix
     plt.close(figure)
     return path

@@ -69,6 +69,13 @@ class ObjectSource:
         path = self.files[index]
         return _load(path, self.mesh_unit, path.parent not in self.folders)
 
+    def check(self) -> None:
+        """Read every object of a mesh set once (`load`), so that a broken file or an object
+        larger than the workspace is refused now, naming the file, and not in the first round
+        or scene that draws it (a training pool reads every object anyway)."""
+        for index in range(len(self.files)):
+            self.load(index)
+
     def draw(self, n: int, seed: int, scene: str = "pile") -> list[ObjectSpec]:
         """The ``n`` objects of round/scene ``seed`` for a ``scene`` of that kind."""
         if scene not in SCENES:

@@ -34,9 +34,10 @@ def versions() -> dict[str, str]:
 
 @dataclass(frozen=True)
 class Job:
-    """A pure task mapped over arguments. ``task`` and ``setup`` are module-level functions (a
-    worker imports them by name); ``setup(*setup_args)`` runs once in each worker process
-    before its first task, to build what every task reads (a model, grasp databases)."""
+    """A pure task mapped over arguments. ``task`` and ``setup`` are module-level functions, or
+    ``functools.partial`` of one (a worker imports them by name); ``setup(*setup_args)`` runs
+    once in each worker process before its first task, to build what every task reads (a model,
+    grasp databases)."""
 
     task: Callable[[Any], Any]
     setup: Callable[..., None] | None = None

@@ -8,7 +8,8 @@ holds the ``z`` coordinate [m] of the surface seen by each pixel, 0 where nothin
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import numbers
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -20,7 +21,8 @@ DEFAULT_EYE_OFFSET = (0.5, 0.0, 0.5)
 
 @dataclass(frozen=True)
 class CameraIntrinsic:
-    """Image size [px] and pinhole parameters [px]."""
+    """Image size [px], integers, and pinhole parameters [px], numbers (not bools or strings:
+    refused, as a JSON ``"fx": true`` would otherwise be 1 px)."""
 
     width: int = 640
     height: int = 480
@@ -30,6 +32,12 @@ class CameraIntrinsic:
     cy: float = 240.0
 
     def __post_init__(self) -> None:
+        for field in fields(self):
+            value = getattr(self, field.name)
+            kind = numbers.Integral if field.name in ("width", "height") else numbers.Real
+            if isinstance(value, bool) or not isinstance(value, kind):
+                what = "an integer" if kind is numbers.Integral else "a number"
+                raise TypeError(f"{field.name} must be {what} [px], got {value!r}")
         if self.width <= 0 or self.height <= 0:
             raise ValueError(f"width and height must be positive, got {self.width}×{self.height}")
         if not (self.fx > 0 and self.fy > 0 and np.isfinite([self.fx, self.fy]).all()):

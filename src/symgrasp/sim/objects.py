@@ -406,6 +406,14 @@ TEST_FAMILIES = (*TRAIN_FAMILIES, "mug", "t_shape", "cup")
 LARGE_BOX_SIZE = (0.07, 0.2, 0.03)
 """The paper's precision case (Appx. D): 70 × 200 mm footprint, 30 mm thick, laid flat."""
 
+THIN_BOX_TRAIN_SIZES = ((0.06, 0.18, 0.025), (0.065, 0.16, 0.035))
+"""The thin boxes of ``thin-boxes-train`` [m], laid flat: 60 × 180 × 25 mm and 65 × 160 × 35
+mm, thinner and thicker than `LARGE_BOX_SIZE` and of other footprints, so that a choice made on
+training objects sees what thin flat objects need without seeing the test box."""
+
+LARGE_BOX_DENSITY = 0.25 / np.prod(LARGE_BOX_SIZE)
+"""[kg/m³] the large box's 0.25 kg over its volume, the thin training boxes' density too."""
+
 _SET_STREAM = {name: i for i, name in enumerate(PROCEDURAL_OBJECT_SETS)}  # disjoint seed streams
 
 
@@ -422,9 +430,16 @@ def make_object(family: str, rng: np.random.Generator, name: str = "") -> Object
 
 def large_box(name: str = "large_box") -> ObjectSpec:
     """The 30 × 70 × 200 mm box of the paper, 0.25 kg, friction 0.6, lying flat."""
-    half = np.asarray(LARGE_BOX_SIZE) / 2
-    part = Part("box", tuple(half), (0.0, 0.0, half[2]))
-    return ObjectSpec(name, "large_box", (part,), 0.25, 0.6, (0.8, 0.55, 0.25, 1.0))
+    return flat_box(LARGE_BOX_SIZE, "large_box", name)
+
+
+def flat_box(size: tuple[float, float, float], family: str, name: str) -> ObjectSpec:
+    """A box of ``size`` (x, y, thickness) [m] lying flat, of the large box's density and
+    friction (0.6)."""
+    half = np.asarray(size) / 2
+    part = Part("box", tuple(float(h) for h in half), (0.0, 0.0, float(half[2])))
+    mass = float(LARGE_BOX_DENSITY * np.prod(size))
+    return ObjectSpec(name, family, (part,), mass, 0.6, (0.8, 0.55, 0.25, 1.0))
 
 
 def block(rng: np.random.Generator, name: str = "block") -> ObjectSpec:
@@ -441,7 +456,8 @@ def object_set(name: str, n: int, seed: int = 0) -> list[ObjectSpec]:
     Sets: ``household-train`` (training families), ``household-test`` (all families, with
     ``mug``, ``t_shape`` and ``cup`` only here; its own seed stream so no parameter draw is
     shared with training), ``large-box`` (``n`` copies of the paper's precision box),
-    ``blocks`` (cuboids for debugging).
+    ``blocks`` (cuboids for debugging), ``thin-boxes-train`` (``n`` thin boxes of
+    `THIN_BOX_TRAIN_SIZES`, each size drawn, for choices on training objects).
     """
     if name not in _SET_STREAM:
         raise ValueError(f"name must be one of {PROCEDURAL_OBJECT_SETS}, got {name!r}")
@@ -454,6 +470,10 @@ def object_set(name: str, n: int, seed: int = 0) -> list[ObjectSpec]:
         return [large_box(f"large_box_{i}") for i in range(n)]
     if name == "blocks":
         return [block(rng, f"block_{i}") for i in range(n)]
+    if name == "thin-boxes-train":
+        sizes = rng.choice(len(THIN_BOX_TRAIN_SIZES), size=n)
+        return [flat_box(THIN_BOX_TRAIN_SIZES[k], "thin_box", f"thin_box_{i}")
+                for i, k in enumerate(sizes)]  # fmt: skip
     families = TRAIN_FAMILIES if name == "household-train" else TEST_FAMILIES
     chosen = rng.choice(len(families), size=n)
     return [make_object(families[k], rng, f"{families[k]}_{i}") for i, k in enumerate(chosen)]

@@ -131,7 +131,7 @@ def save_gripper_png(gripper: GripperSpec, path: str | Path) -> Path:
     text.text(0, 1, _spec_lines(g), family="monospace", fontsize=9, va="top")
     fig.suptitle(f"gripper {g.name!r} ({g.kind}): the boxes of its simulated hand", fontsize=11)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=90, format="png")  # the path given, whatever its suffix
     plt.close(fig)
     return path
 
