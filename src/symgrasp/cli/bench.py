@@ -77,6 +77,14 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     )
     add_config_options(declutter, BenchmarkConfig, skip=("model", "options"))
     add_decoding_options(declutter)
+    declutter.add_argument(
+        "--approach-check",
+        action="store_true",
+        help="a trained model checks its own grasps' approach against what it sees "
+        "(GraspDetector(approach_check=True): a robot's check, trying each voxel's --fallbacks "
+        "before the next voxel); what --protocol paper then executes is the first grasp that "
+        "passes it (default: off; docs/detect.md)",
+    )
     add_shared(
         declutter,
         "representation",
@@ -139,11 +147,11 @@ def _run_declutter(args: argparse.Namespace) -> None:
     if oracle and kind != "oracle":
         raise SystemExit(f"error: --oracle-* options are the oracle's, not --model {args.model}'s")
     if kind != "model":
-        if given or args.no_operating_point or args.representation is not None:
+        if given or args.no_operating_point or args.approach_check or args.representation:
             raise SystemExit(
                 "error: --validity, --confidence, --no-confidence, --validity-floor, "
-                "--fallbacks, --no-operating-point and --rep are a trained model's; --model "
-                f"{args.model} takes none of them"
+                "--fallbacks, --no-operating-point, --approach-check and --rep are a trained "
+                f"model's; --model {args.model} takes none of them"
             )
         options = (() if args.gripper is None else (("gripper", args.gripper),)) + oracle
     if kind == "plugin" and os.getcwd() not in sys.path:
@@ -157,6 +165,7 @@ def _run_declutter(args: argparse.Namespace) -> None:
         card = {} if args.no_operating_point else shipped_operating_point(args.model)
         chosen = {**card, **given}
         options = tuple((key, chosen[key]) for key in OPERATING_POINT_KEYS if key in chosen)
+        options += (("approach_check", True),) if args.approach_check else ()
     config = dataclasses.replace(config, options=options)
 
     from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark

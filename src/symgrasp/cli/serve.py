@@ -10,7 +10,7 @@ import threading
 
 from symgrasp.arguments import integer
 from symgrasp.cli.detect import add_detector_options, load_detector
-from symgrasp.serve import DEFAULT_PORT, DETECT_PATH, HEALTH_PATH
+from symgrasp.serve import DEFAULT_PORT, DETECT_PATH, HEALTH_PATH, MAX_CONNECTIONS
 
 
 def add(subparsers: argparse._SubParsersAction) -> None:
@@ -38,6 +38,14 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         help=f"port to listen on (default: {DEFAULT_PORT}; 0 picks a free one, printed)",
     )
     parser.add_argument(
+        "--max-connections",
+        type=integer(1, 10_000),
+        default=MAX_CONNECTIONS,
+        metavar="N",
+        help=f"connections served at once; one more is answered 503 at once (default: "
+        f"{MAX_CONNECTIONS}; each may hold about 1 GiB while its request is decoded)",
+    )
+    parser.add_argument(
         "--quiet",
         action="store_true",
         help="no line per request (the traceback of an internal error is still printed)",
@@ -56,7 +64,8 @@ def _run_serve(args: argparse.Namespace) -> None:
     detector.predict(torch.ones((40, 40, 40)))  # warm-up: the first request is not slower
     try:
         server = GraspServer((args.host, args.port), detector, str(args.model),
-                             log=None if args.quiet else sys.stderr)  # fmt: skip
+                             log=None if args.quiet else sys.stderr,
+                             max_connections=args.max_connections)  # fmt: skip
     except OSError as error:  # the port taken, the address not this machine's
         raise ValueError(f"cannot listen on {args.host}:{args.port}: {error.strerror}") from None
     stopped: list[str] = []

@@ -19,3 +19,8 @@ DETECT_PATH = "/v1/detect"
 
 DEFAULT_PORT = 8642
 """The port ``symgrasp serve`` listens on unless told."""
+
+MAX_CONNECTIONS = 16
+"""Connections ``symgrasp serve`` serves at once unless told (``--max-connections``); one more is
+answered 503 at once. Each may hold a request of up to 256 MiB, and about 2.8 times that while
+it is decoded (docs/serve.md)."""

@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import base64
 import binascii
+import itertools
+import json
 import math
+import reprlib
 from typing import Any
 
 import numpy as np
@@ -21,19 +24,67 @@ MAX_BODY = 256 * 2**20
 """[bytes] the largest request accepted (eight 1280 × 720 float32 depth images in base64 take
 about 40 MB)."""
 
+MAX_VALUES = 2**23
+"""The most JSON values (numbers, strings, lists, …) a request may hold: eight 1280 × 720 depth
+images as nested lists, about 0.4 GiB once parsed and decoded. Counted on the bytes, before they
+are parsed: a nested list of numbers costs about 7 times its text."""
+
+MAX_DIMS = 8
+"""The most dimensions an array may have (the protocol's have at most 3); a deeper one is refused
+before it is built."""
+
 DTYPES = {"float32": "<f4", "float64": "<f8", "uint16": "<u2"}
 """The element types an encoded array may have (little-endian, whatever the machine)."""
 
 
 __all__ = [
-    "DEFAULT_PORT", "DETECT_PATH", "DTYPES", "HEALTH_PATH", "MAX_BODY", "PROTOCOL",
-    "RequestError", "decode_array", "encode_array",
+    "DEFAULT_PORT", "DETECT_PATH", "DTYPES", "HEALTH_PATH", "MAX_BODY", "MAX_DIMS", "MAX_VALUES",
+    "PROTOCOL", "RequestError", "decode_array", "encode_array", "parse_request",
 ]  # fmt: skip
 
 
 class RequestError(ValueError):
     """A request the server refuses (HTTP 400); the message names the field and what was
     expected."""
+
+
+def parse_request(data: bytes | bytearray) -> Any:
+    """A request's body ``data`` parsed as JSON, refused (`RequestError`) before it is parsed
+    when it holds more than `MAX_VALUES` values, and when it is not strict JSON (NaN and
+    Infinity are not: null is a missing value) or nests deeper than Python's recursion limit."""
+    # every value is the body itself, the first of a list or an object's value ("[", ":"), or
+    # follows a "," (as does each key but an object's first, which follows a "{"): exact but
+    # for one more per empty list or object, and these characters inside strings
+    values = 1 + sum(data.count(mark) for mark in (b"[", b"{", b",", b":"))
+    if values > MAX_VALUES:
+        raise RequestError(
+            f"the request holds up to {values} JSON values, over the {MAX_VALUES} accepted "
+            "(send large arrays in base64)"
+        )
+    try:
+        return json.loads(data, parse_constant=_refuse_constant)
+    except RequestError:
+        raise
+    except RecursionError:
+        raise RequestError("the request nests its JSON too deep") from None
+    except ValueError as error:  # JSONDecodeError, bytes that are not UTF-8, huge integers
+        raise RequestError(f"the request is not JSON: {error}") from None
+
+
+def _refuse_constant(name: str) -> None:
+    raise RequestError(f"the request is not JSON: {name} is no JSON number (null: a missing value)")
+
+
+def is_number(value: Any) -> bool:
+    """Whether the parsed JSON ``value`` is a number (true and false are not, although Python's
+    bool is an int)."""
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def shown(value: Any) -> str:
+    """``value`` as an error message shows it: its repr, shortened (a request's values can be
+    any size)."""
+    return reprlib.repr(value)
 
 
 def encode_array(array: np.ndarray) -> dict[str, Any]:
@@ -52,9 +103,11 @@ def encode_array(array: np.ndarray) -> dict[str, Any]:
 def decode_array(
     value: Any, field: str, dtypes: tuple[str, ...] = ("float32", "float64")
 ) -> np.ndarray:
-    """The array of a request's ``field``: nested lists of numbers (read as float64), or the
-    encoded form of `encode_array` with a dtype among ``dtypes``. `RequestError` naming the
-    field for anything else."""
+    """The array of a request's ``field``: nested lists of numbers (read as float64, null as
+    NaN), or the encoded form of `encode_array` with a dtype among ``dtypes``. `RequestError`
+    naming the field for anything else: strings and booleans where numbers are due, ragged
+    lists, more than `MAX_DIMS` dimensions, data off its shape; both forms are checked whole
+    before an array is built."""
     if isinstance(value, dict):
         return _decode_encoded(value, field, dtypes)
     if not isinstance(value, list):
@@ -62,13 +115,33 @@ def decode_array(
             f"{field} must be an array: nested lists of numbers or "
             f'{{"dtype", "shape", "data"}}, got {type(value).__name__}'
         )
-    try:
-        array = np.array(value, dtype=np.float64)
-    except (ValueError, TypeError) as error:
+    shape, level = [], [value]
+    while level and isinstance(level[0], list):
+        sizes = set(map(len, level)) if set(map(type, level)) == {list} else set()
+        if len(sizes) != 1:
+            raise RequestError(
+                f"{field} must be nested lists of numbers of one rectangular shape; its lists "
+                f"at depth {len(shape) + 1} differ in length or mix lists and numbers"
+            )
+        shape.append(sizes.pop())
+        if len(shape) > MAX_DIMS:
+            raise RequestError(f"{field} must have at most {MAX_DIMS} dimensions")
+        level = list(itertools.chain.from_iterable(level))
+    kinds = set(map(type, level)) - {int, float, type(None)}
+    if kinds:
+        names = ", ".join(sorted(_JSON_KINDS.get(kind, kind.__name__) for kind in kinds))
         raise RequestError(
-            f"{field} must be nested lists of numbers of one rectangular shape ({error})"
-        ) from None
-    return array
+            f"{field} must be nested lists of numbers of one rectangular shape (null: missing), "
+            f"got {names} among them"
+        )
+    try:
+        return np.array(level, dtype=np.float64).reshape(shape)
+    except OverflowError:  # an integer beyond float64
+        raise RequestError(f"{field} holds a number beyond float64's range") from None
+
+
+_JSON_KINDS = {bool: "true/false", str: "strings", dict: "objects", list: "lists"}
+"""What JSON calls the Python types a parsed request holds, for error messages."""
 
 
 def _decode_encoded(value: dict[str, Any], field: str, dtypes: tuple[str, ...]) -> np.ndarray:
@@ -79,24 +152,32 @@ def _decode_encoded(value: dict[str, Any], field: str, dtypes: tuple[str, ...]) 
         )
     name, shape, data = value["dtype"], value["shape"], value["data"]
     if name not in dtypes:
-        raise RequestError(f"{field}.dtype must be one of {', '.join(dtypes)}, got {name!r}")
+        raise RequestError(f"{field}.dtype must be one of {', '.join(dtypes)}, got {shown(name)}")
     if not (
         isinstance(shape, list)
+        and len(shape) <= MAX_DIMS
         and all(isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in shape)
     ):
-        raise RequestError(f"{field}.shape must be a list of sizes ≥ 0, got {shape!r}")
+        raise RequestError(
+            f"{field}.shape must be a list of sizes ≥ 0, at most {MAX_DIMS}, got {shown(shape)}"
+        )
     if not isinstance(data, str):
         raise RequestError(f"{field}.data must be a base64 string, got {type(data).__name__}")
+    if len(data) % 4:
+        raise RequestError(
+            f"{field}.data is not base64 (its length {len(data)} is not a multiple of 4)"
+        )
+    # the decoded size read off the text's length: checked before anything is decoded
+    size = len(data) // 4 * 3 - (len(data) - len(data.rstrip("=")))
+    expected = math.prod(shape) * np.dtype(DTYPES[name]).itemsize
+    if size != expected:
+        raise RequestError(
+            f"{field}.data holds {size} bytes; shape {shape} of {name} needs {expected}"
+        )
     try:
         raw = base64.b64decode(data, validate=True)
     except (binascii.Error, ValueError) as error:
         raise RequestError(f"{field}.data is not base64 ({error})") from None
-    itemsize = np.dtype(DTYPES[name]).itemsize
-    expected = math.prod(shape) * itemsize
-    if len(raw) != expected:
-        raise RequestError(
-            f"{field}.data holds {len(raw)} bytes; shape {shape} of {name} needs {expected}"
-        )
     return np.frombuffer(raw, dtype=DTYPES[name]).reshape(shape).astype(name)
 
 
@@ -105,8 +186,8 @@ def optional_number(body: dict[str, Any], field: str, low: float, high: float) -
     value = body.get(field)
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int | float) or not low <= value <= high:
-        raise RequestError(f"{field} must be a number in [{low:g}, {high:g}], got {value!r}")
+    if not is_number(value) or not low <= value <= high:
+        raise RequestError(f"{field} must be a number in [{low:g}, {high:g}], got {shown(value)}")
     return float(value)
 
 
@@ -116,7 +197,7 @@ def optional_integer(body: dict[str, Any], field: str, low: int, high: int) -> i
     if value is None:
         return None
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-        raise RequestError(f"{field} must be an integer in [{low}, {high}], got {value!r}")
+        raise RequestError(f"{field} must be an integer in [{low}, {high}], got {shown(value)}")
     return value
 
 
@@ -124,7 +205,7 @@ def optional_flag(body: dict[str, Any], field: str) -> bool:
     """``body[field]`` as a bool (absent: False)."""
     value = body.get(field, False)
     if not isinstance(value, bool):
-        raise RequestError(f"{field} must be true or false, got {value!r}")
+        raise RequestError(f"{field} must be true or false, got {shown(value)}")
     return value
 
 
@@ -132,5 +213,5 @@ def optional_choice(body: dict[str, Any], field: str, choices: tuple[str, ...]) 
     """``body[field]``, one of ``choices`` (absent: the first)."""
     value = body.get(field, choices[0])
     if value not in choices:
-        raise RequestError(f"{field} must be one of {', '.join(choices)}, got {value!r}")
+        raise RequestError(f"{field} must be one of {', '.join(choices)}, got {shown(value)}")
     return value

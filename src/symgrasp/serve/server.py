@@ -8,11 +8,18 @@ detector keeps per-call state (``timing``) and a second forward pass at the same
 only share the same cores, so serialising them costs no throughput and keeps each request's
 latency its own. A bad request is answered 400 with ``{"error": ...}`` naming the field, an
 unexpected failure 500, and the server goes on.
+
+No client holds it: each connection must deliver its request within `DEADLINE` of its opening
+and take its answer within `DEADLINE` of its sending, however it paces its bytes; connections
+beyond ``max_connections`` are answered 503 at once; a body's JSON values are counted before it
+is parsed (`symgrasp.serve.protocol.parse_request`); a client that hangs up costs a log line.
 """
 
 from __future__ import annotations
 
+import io
 import json
+import socket
 import sys
 import threading
 import time
@@ -30,6 +37,7 @@ from symgrasp.detect.files import intrinsic_from_json
 from symgrasp.perception import CameraIntrinsic, fit_table
 from symgrasp.perception.camera import is_rigid
 from symgrasp.perception.points import FRAMES
+from symgrasp.serve import MAX_CONNECTIONS
 from symgrasp.serve.protocol import (
     DETECT_PATH,
     HEALTH_PATH,
@@ -37,16 +45,21 @@ from symgrasp.serve.protocol import (
     PROTOCOL,
     RequestError,
     decode_array,
+    is_number,
     optional_choice,
     optional_flag,
     optional_integer,
     optional_number,
+    parse_request,
+    shown,
 )
 from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 
-REQUEST_TIMEOUT = 60.0
-"""[s] a client that sends nothing for this long is dropped (a stalled client never blocks
-the server's shutdown for longer)."""
+DEADLINE = 25.0
+"""[s] how long a client may take to send its whole request (from the connection's opening) and,
+apart, to take its whole answer (from its sending); past it the connection is dropped, however
+slowly its bytes trickle. A stop therefore waits at most 2 × DEADLINE for the requests in flight,
+plus the detections queued then."""
 
 FIELDS = {
     "depth", "depth_scale", "points", "intrinsic", "T_world_camera", "viewpoint", "frame",
@@ -90,7 +103,8 @@ def answer(
     unknown = sorted(set(body) - FIELDS)
     if unknown:
         raise RequestError(
-            f"unknown field {', '.join(unknown)}; a detect request holds {', '.join(sorted(FIELDS))}"
+            f"unknown field {', '.join(name[:40] for name in unknown[:3])}"
+            f"{' …' if len(unknown) > 3 else ''}; a detect request holds {', '.join(sorted(FIELDS))}"
         )
     if ("depth" in body) == ("points" in body):
         raise RequestError("give depth or points, exactly one")
@@ -135,7 +149,7 @@ def _depth_call(body: dict[str, Any], detector: GraspDetector) -> Parsed:
         raise RequestError(f"depth must be (H, W) or (V, H, W), got shape {depth.shape}")
     if "intrinsic" not in body:
         raise RequestError("intrinsic is missing: a depth request needs its camera's")
-    intrinsic = intrinsic_from_json(body["intrinsic"], depth.shape[-2:], "intrinsic")
+    intrinsic = _intrinsic(body["intrinsic"], depth.shape[-2:])
     T = _optional_array(body, "T_world_camera")
     for field in ("points", "viewpoint", "frame"):
         if field in body:
@@ -191,7 +205,7 @@ def _points_call(body: dict[str, Any], detector: GraspDetector) -> Parsed:
     intrinsic = None
     if "intrinsic" in body:
         shape = points.shape[:2] if points.ndim == 3 else None
-        intrinsic = intrinsic_from_json(body["intrinsic"], shape, "intrinsic")
+        intrinsic = _intrinsic(body["intrinsic"], shape)
     frame = optional_choice(body, "frame", FRAMES)
     for field in ("depth_scale", "fit_table", "around"):
         if field in body:
@@ -203,6 +217,21 @@ def _points_call(body: dict[str, Any], detector: GraspDetector) -> Parsed:
         )
 
     return call, None, {}
+
+
+def _intrinsic(value: Any, shape: tuple[int, int] | None) -> CameraIntrinsic:
+    """The request's ``intrinsic`` for images of ``shape`` (H, W), its numbers checked as
+    numbers first (`intrinsic_from_json` would read ``true`` as 1 and ``"500"`` as 500)."""
+    if isinstance(value, dict):
+        value = dict(value)
+        for key, number in value.items():
+            if key == "K":
+                value[key] = decode_array(number, "intrinsic.K")
+            elif not is_number(number):
+                raise RequestError(f"intrinsic.{key} must be a number, got {shown(number)}")
+    elif isinstance(value, list):
+        value = decode_array(value, "intrinsic")
+    return intrinsic_from_json(value, shape, "intrinsic")
 
 
 def _optional_array(body: dict[str, Any], field: str) -> np.ndarray | None:
@@ -218,13 +247,17 @@ def _shift(offset: np.ndarray) -> np.ndarray:
 class GraspServer(ThreadingHTTPServer):
     """An HTTP server answering `HEALTH_PATH` (GET) and `DETECT_PATH` (POST) with
     ``detector``, one request per connection, each on its own thread; `shutdown` stops it
-    and `server_close` waits for the requests in flight.
+    and `server_close` waits for the requests in flight (each bounded by ``deadline``).
 
     Args:
         address: ``(host, port)``; port 0 picks a free one (`url` says which).
         detector: the detector every request uses.
         model: the model's name, for the health answer.
         log: where one line per request goes (None: nowhere).
+        max_connections: connections served at once; one more is answered 503 at once,
+            unread.
+        deadline: [s] `DEADLINE`, how long a client may take to send its request and,
+            apart, to take its answer.
     """
 
     daemon_threads = False  # server_close joins the request threads: requests in flight end
@@ -236,11 +269,19 @@ class GraspServer(ThreadingHTTPServer):
         detector: GraspDetector,
         model: str,
         log: Any = sys.stderr,
+        max_connections: int = MAX_CONNECTIONS,
+        deadline: float = DEADLINE,
     ) -> None:
+        if not (isinstance(max_connections, int) and max_connections >= 1):
+            raise ValueError(f"max_connections must be an integer ≥ 1, got {max_connections!r}")
+        if not deadline > 0:
+            raise ValueError(f"deadline must be > 0 seconds, got {deadline!r}")
         super().__init__(address, _Handler)
         self.detector, self.model, self.log = detector, model, log
+        self.max_connections, self.deadline = max_connections, deadline
         self.lock = threading.Lock()
         self.answered = 0
+        self.connections = 0  # open, being served
         self._count = threading.Lock()
 
     @property
@@ -252,12 +293,97 @@ class GraspServer(ThreadingHTTPServer):
         with self._count:
             self.answered += 1
 
+    def note(self, line: str) -> None:
+        """``line`` to the log, if any."""
+        if self.log is not None:
+            print(line, file=self.log, flush=True)
+
+    def process_request(self, request: socket.socket, client_address: Any) -> None:
+        """Serve the connection on a thread of its own, or refuse it when `max_connections`
+        are served already."""
+        with self._count:
+            full = self.connections >= self.max_connections
+            self.connections += not full
+        if full:
+            self._refuse(request)
+        else:
+            super().process_request(request, client_address)
+
+    def process_request_thread(self, request: socket.socket, client_address: Any) -> None:
+        try:
+            super().process_request_thread(request, client_address)
+        finally:
+            with self._count:
+                self.connections -= 1
+
+    def _refuse(self, request: socket.socket) -> None:
+        """Answer 503 on the accepting thread, without reading the request or waiting for the
+        client: a fresh connection's send buffer takes the few bytes at once."""
+        status = HTTPStatus.SERVICE_UNAVAILABLE
+        message = f"the server serves {self.max_connections} connections already; try again"
+        data = json.dumps({"error": message}).encode()
+        head = (f"HTTP/1.0 {status.value} {status.phrase}\r\nContent-Type: application/json\r\n"
+                f"Content-Length: {len(data)}\r\nRetry-After: 1\r\n\r\n")  # fmt: skip
+        self.count()
+        self.note(f"- {status.value} {message}")
+        try:
+            request.setblocking(False)
+            request.send(head.encode() + data)
+            request.recv(2**16)  # what the client sent already: closed unread, it would reset
+        except OSError:  # nothing sent yet (BlockingIOError), or the client gone
+            pass
+        self.shutdown_request(request)
+
+
+class _DeadlineStream(io.RawIOBase):
+    """A connection's socket whose reads and writes fail (TimeoutError) once ``deadline``
+    (`time.monotonic`) has passed: a socket's own timeout restarts with every byte, and a
+    client sending one byte at a time would hold the connection for ever."""
+
+    def __init__(self, connection: socket.socket, deadline: float) -> None:
+        self.connection, self.deadline = connection, deadline
+
+    def readable(self) -> bool:
+        return True
+
+    def writable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: Any) -> int:
+        self._time_left()
+        return self.connection.recv_into(buffer)
+
+    def write(self, data: Any) -> int:
+        self._time_left()
+        self.connection.sendall(data)  # the timeout bounds the whole of it
+        return len(data)
+
+    def _time_left(self) -> None:
+        left = self.deadline - time.monotonic()
+        if left <= 0:
+            raise TimeoutError("the connection's deadline passed")
+        self.connection.settimeout(left)
+
 
 class _Handler(BaseHTTPRequestHandler):
     server: GraspServer
     protocol_version = "HTTP/1.0"  # one request per connection: nothing idles at shutdown
-    timeout = REQUEST_TIMEOUT
     server_version = f"symgrasp-serve/{PROTOCOL}"
+
+    def setup(self) -> None:
+        """The connection's streams, read until `DEADLINE` after its opening (a request's
+        line, headers and body) and written until `DEADLINE` after its answer starts."""
+        self.connection = self.request
+        self.stream = _DeadlineStream(self.connection, time.monotonic() + self.server.deadline)
+        self.rfile = io.BufferedReader(self.stream)
+        self.wfile = self.stream
+
+    def handle(self) -> None:
+        try:
+            super().handle()
+        except ConnectionError as error:  # BrokenPipe, ConnectionReset: the client left
+            request = f"{getattr(self, 'command', None) or ''} {getattr(self, 'path', '')}".strip()
+            self.server.note(f"{request or '-'} the client hung up ({type(error).__name__})")
 
     def do_GET(self) -> None:
         start = time.perf_counter()
@@ -273,12 +399,13 @@ class _Handler(BaseHTTPRequestHandler):
             return
         try:
             body = self._body()
+        except _BodyError as error:
+            self._reply(error.status, {"error": str(error)}, start)
+            return
+        try:
             reply = answer(self.server.detector, body, self.server.lock, start)
         except ValueError as error:  # RequestError, and the detector's argument errors
             self._reply(HTTPStatus.BAD_REQUEST, {"error": str(error)}, start)
-            return
-        except _BodyError as error:
-            self._reply(error.status, {"error": str(error)}, start)
             return
         except Exception as error:  # a bug or an exhausted device: say so, keep serving
             traceback.print_exc(file=sys.stderr)
@@ -288,29 +415,44 @@ class _Handler(BaseHTTPRequestHandler):
         self._reply(HTTPStatus.OK, reply, start, f"{len(reply['grasps'])} grasps")
 
     def _body(self) -> Any:
-        """The request's JSON body; `_BodyError` for a missing or oversized length, and
-        `RequestError` for bytes that are not JSON."""
+        """The request's JSON body; `_BodyError` for a missing, malformed or oversized length,
+        a body that does not arrive whole in time, and one that is not JSON or too large to
+        parse."""
         length = self.headers.get("Content-Length")
         if length is None:
             raise _BodyError(HTTPStatus.LENGTH_REQUIRED, "Content-Length is missing")
-        if not length.isdigit():
-            raise _BodyError(HTTPStatus.BAD_REQUEST, f"Content-Length is not a size: {length!r}")
-        if int(length) > MAX_BODY:
+        if not (length.isascii() and length.isdigit()):  # "²".isdigit(), "٣" reads as 3
+            raise _BodyError(
+                HTTPStatus.BAD_REQUEST,
+                f"Content-Length must be a size in bytes (digits 0-9), got {shown(length)}",
+            )
+        digits = length.lstrip("0") or "0"
+        size = int(digits) if len(digits) < 19 else MAX_BODY + 1  # int() refuses 4301 digits
+        if size > MAX_BODY:
             raise _BodyError(
                 HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
-                f"the request has {int(length)} bytes, over the {MAX_BODY} accepted",
+                f"the request's Content-Length {shown(digits)} is over the {MAX_BODY} bytes "
+                "accepted",
             )
+        data = bytearray()  # grown as bytes arrive, not allocated as claimed
         try:
-            data = self.rfile.read(int(length))
+            while len(data) < size and (chunk := self.rfile.read1(min(size - len(data), 2**20))):
+                data += chunk
         except TimeoutError:
             raise _BodyError(
                 HTTPStatus.REQUEST_TIMEOUT,
-                f"the request's {length} bytes did not arrive within {REQUEST_TIMEOUT:g} s",
+                f"the request's {size} bytes did not arrive within {self.server.deadline:g} s "
+                "of its connection",
             ) from None
+        if len(data) < size:
+            raise _BodyError(
+                HTTPStatus.BAD_REQUEST,
+                f"the request ended after {len(data)} of its {size} bytes (Content-Length)",
+            )
         try:
-            return json.loads(data)
-        except (UnicodeDecodeError, json.JSONDecodeError) as error:
-            raise RequestError(f"the request is not JSON: {error}") from None
+            return parse_request(data)
+        except RequestError as error:
+            raise _BodyError(HTTPStatus.BAD_REQUEST, str(error)) from None
 
     def _reply(
         self,
@@ -330,12 +472,11 @@ class _Handler(BaseHTTPRequestHandler):
         # request in the count and the log (after, a client's next request, answered by
         # another thread, could be logged first)
         self.server.count()
-        if self.server.log is not None:
-            took = "" if start is None else f" {1e3 * (time.perf_counter() - start):.1f} ms"
-            detail = note or payload.get("error", "")
-            request = f"{self.command} {getattr(self, 'path', '')}"  # unset: a bad request line
-            print(f"{request} {status.value}{took} {detail}".rstrip(),
-                  file=self.server.log, flush=True)  # fmt: skip
+        took = "" if start is None else f" {1e3 * (time.perf_counter() - start):.1f} ms"
+        detail = note or payload.get("error", "")
+        request = f"{self.command} {getattr(self, 'path', '')}"  # unset: a bad request line
+        self.server.note(f"{request} {status.value}{took} {detail}".rstrip())
+        self.stream.deadline = time.monotonic() + self.server.deadline
         self.send_response(status)
         self.send_header("Content-Type", "application/json")
         self.send_header("Content-Length", str(len(data)))
@@ -352,9 +493,14 @@ class _Handler(BaseHTTPRequestHandler):
     def log_request(self, code: int | str = "-", size: int | str = "-") -> None:
         """`_reply` logs each answer once, with its time."""
 
+    def log_message(self, format: str, *args: Any) -> None:
+        """http.server's own lines (a request line that did not arrive in time) as one line of
+        the server's log."""
+        self.server.note(f"- {format % args}")
+
 
 class _BodyError(Exception):
-    """A request body refused before it is read: its HTTP status and why."""
+    """A request body refused: its HTTP status and why."""
 
     def __init__(self, status: HTTPStatus, message: str) -> None:
         super().__init__(message)
