@@ -5,7 +5,7 @@
         [--quick [DIR]]
 
 Renders one 640×480 depth image of a 5-object household-test pile (seed 0) from the default
-camera, then times ``GraspDetector.detect`` on it, per stage (TSDF fusion, network, decoding)
+camera, then times ``GraspDetector.detect`` on it, per stage (TSDF fusion, network, decoding, cut)
 as the detector reports them, plus the whole call, for two detectors of the same model: the
 network run eagerly (the default) and as a TorchScript graph made for inference
 (``optimize=True``). The two alternate in blocks of ``--block`` calls, so that a change of the
@@ -46,7 +46,7 @@ from symgrasp.sim.world import pile_scene
 
 TARGET_MS = 15.0
 DEFAULT_OUT = "benchmarks/results/detect.json"
-STAGES = ("tsdf", "network", "decode", "total")
+STAGES = ("tsdf", "network", "decode", "cut", "width", "total")
 
 
 def main() -> None:

@@ -33,7 +33,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option
+from common import add_result_option, write_rounds_archive
 
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import (
@@ -130,18 +130,18 @@ def main() -> None:
     if args.write_card and args.quick:
         raise SystemExit("error: --write-card takes a full run's choice, not --quick's")
     parallel = parallel_from_args(args)
-    rows, chosen = [], {}
+    rows, chosen, gates = [], {}, {}
     for model, ((objects, scene), prefix) in MODELS.items():
         played = {}
         for name, options in CANDIDATES.items():
             print(f"{model}: {name}")
             choosing = _config(model, objects, scene, options, args)
             gate = _config(model, *GATE, options, args)
+            gate_folder = Path(args.out) / f"thin-{prefix.split('-')[0]}-{name}"
+            gates[gate_folder.name] = gate_folder
             played[name] = (
                 run_or_reuse(choosing, Path(args.out) / f"{prefix}-{name}", parallel),
-                run_or_reuse(
-                    gate, Path(args.out) / f"thin-{prefix.split('-')[0]}-{name}", parallel
-                ),
+                run_or_reuse(gate, gate_folder, parallel),
             )
         base_gate = played["base"][1]
         model_rows = [
@@ -160,6 +160,8 @@ def main() -> None:
     table = markdown(rows, chosen)
     print(table)
     command = command_line("PYTHONPATH=src")
+    # the choosing rounds are experiments/decoding.py's archive; the gate's are archived here
+    write_rounds_archive(Path(f"{args.result}_rounds.tar.gz"), gates)
     if args.write_card:
         cards = {
             model: {

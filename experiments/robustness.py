@@ -1,6 +1,6 @@
 """Detectors under the field's observations: depth noise, GIGA's side view, both, and VGN's six
 views, each paired with today's clean fixed view on the same rounds →
-experiments/results/robustness.{json,md} and docs/results.md (between its robustness markers).
+experiments/results/robustness.{json,md} and docs/reports/robustness.md (between its robustness markers).
 
     SYMGRASP_DATA=DIR PYTHONPATH=src python experiments/robustness.py [--out out/bench/robustness] \\
         [--baselines out/bench/table] [--models M ...] [--sets OBJECTS:SCENE ...] \\
@@ -444,7 +444,7 @@ def main() -> None:
                         "rounds archive unpacked (module doc), its models' files not needed")  # fmt: skip
     add_mode_options(parser, "play the conditions, write no result",
                      "play nothing: collate what is there, list what is missing")  # fmt: skip
-    parser.add_argument("--docs", type=Path, default=Path("docs/results.md"),
+    parser.add_argument("--docs", type=Path, default=Path("docs/reports/robustness.md"),
                         help="page whose text between the robustness-table markers is replaced "
                         "(default: %(default)s)")  # fmt: skip
     add_parallel_options(parser, "rounds")

@@ -161,3 +161,31 @@ def campaign_steps(*plans: str) -> dict[str, dict]:
     )  # fmt: skip
     assert shown.returncode == 0, shown.stderr
     return {s["name"]: s for s in map(json.loads, shown.stdout.splitlines())}
+
+
+HOG_S = 300
+"""Seconds a CPU hog spins at most: it ends on its own should its test's teardown not run."""
+
+
+@pytest.fixture
+def cpu_hog():
+    """A busy loop in another process for the test's length: the machine loaded, as a shared
+    one is (a round's floats must not depend on it). Yields the process; the test can check it
+    still spun at its end."""
+    spin = f"import time\nend = time.monotonic() + {HOG_S}\nwhile time.monotonic() < end:\n    pass"
+    hog = subprocess.Popen([sys.executable, "-c", spin])
+    try:
+        yield hog
+    finally:
+        hog.kill()
+        hog.wait()
+
+
+@pytest.fixture
+def caller_threads():
+    """``torch.set_num_threads`` for a test, this process's setting restored after it."""
+    import torch
+
+    before = torch.get_num_threads()
+    yield torch.set_num_threads
+    torch.set_num_threads(before)

@@ -22,6 +22,7 @@ import torch
 from PIL import Image
 
 from symgrasp import bingham
+from symgrasp.benchmark.runner import local_renderer
 from symgrasp.config import BenchmarkConfig, SceneConfig
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
@@ -147,11 +148,23 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     keyless = json.loads((folder / "manifest_keyless" / "manifest.json").read_text())
     del keyless["k_max"]
     (folder / "manifest_keyless" / "manifest.json").write_text(json.dumps(keyless))
+    _dataset(folder / "ids_text", files=(0, 1), scene_ids="0-1")  # hand-edited manifests
+    _dataset(folder / "ids_strings", files=(0, 1), scene_ids=["0", "1"])
+    _dataset(folder / "ids_twice", files=(0, 1), scene_ids=[0, 1, 1])
+    _dataset(folder / "k_max_word", files=(0,), k_max="eight")
     scene = SceneConfig()  # a dataset begun with the default configuration, no scene yet
+    config_word = {**dataclasses.asdict(scene), "k_max": "eight"}
+    _dataset(folder / "config_word", files=(0,), seed=0, config=config_word)
     (folder / "dataset" / "scenes").mkdir(parents=True)
     begun = {"gripper": scene.gripper, "object_set": scene.object_set, "k_max": scene.k_max,
              "scene_ids": [], "seed": 0, "config": dataclasses.asdict(scene)}  # fmt: skip
     (folder / "dataset" / "manifest.json").write_text(json.dumps(begun))
+    (folder / "bench_rendered").mkdir()  # a round rendered as no round played here would be
+    (folder / "bench_rendered" / "config.json").write_text(json.dumps(config))
+    other = "raycast" if local_renderer() == "gl" else "gl"
+    (folder / "bench_rendered" / "rounds.jsonl").write_text(
+        json.dumps({"seed": 0, "renderer": other}) + "\n"
+    )
     (folder / "bench_list").mkdir()
     (folder / "bench_list" / "config.json").write_text("[]")
     (folder / "bench_torn").mkdir()  # rounds.jsonl torn in the middle (hand-edited, merged)
@@ -162,14 +175,14 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     return folder
 
 
-def _dataset(folder, files, tsdf=(40, 40, 40)):
+def _dataset(folder, files, tsdf=(40, 40, 40), **manifest):
     """A dataset folder of scenes 0, 1, … whose files hold the scenes ``files`` (an empty
-    scene each: a TSDF of shape ``tsdf``, no valid voxel)."""
+    scene each: a TSDF of shape ``tsdf``, no valid voxel); ``manifest`` replaces fields of
+    its manifest."""
     (folder / "scenes").mkdir(parents=True)
-    manifest = {"gripper": "franka", "object_set": "blocks", "k_max": 8}
-    (folder / "manifest.json").write_text(
-        json.dumps({**manifest, "scene_ids": [*range(len(files))]})
-    )
+    made = {"gripper": "franka", "object_set": "blocks", "k_max": 8}
+    ids = [*range(len(files))]
+    (folder / "manifest.json").write_text(json.dumps({**made, "scene_ids": ids, **manifest}))
     for i, held in enumerate(files):
         np.savez_compressed(
             folder / "scenes" / f"scene_{i:06d}.npz", scene_id=np.int64(held),
@@ -386,7 +399,15 @@ FILES = {  # case: (argv of the `make_files` folder, text the one-line message n
     "detect a checkpoint with a tensor of another shape": (lambda d: detect_argv(d, model=d / "misshapen.pt"), "misshapen.pt's weights do not fit its network"),
     "bench a checkpoint with a tensor of another shape": (lambda d: ["bench", "declutter", "--model", str(d / "misshapen.pt"), "--out", str(d / "b")], "misshapen.pt's weights do not fit its network"),
     "bench --objects a folder with one broken object": (lambda d: ["bench", "declutter", "--objects", str(d / "one_broken"), "--out", str(d / "b")], "gone.obj"),
+    "train on a manifest whose scene_ids are a string": (lambda d: ["train", "--data", str(d / "ids_text"), "--out", str(d / "r")], "ids_text/manifest.json is not a valid dataset manifest: scene_ids must be a list of integers ≥ 0, got \"0-1\""),
+    "data inspect a manifest whose scene_ids are strings": (lambda d: ["data", "inspect", str(d / "ids_strings")], "ids_strings/manifest.json is not a valid dataset manifest: scene_ids must be a list of integers"),
+    "data inspect a manifest listing a scene twice": (lambda d: ["data", "inspect", str(d / "ids_twice")], "ids_twice/manifest.json is not a valid dataset manifest: scene_ids must name each scene once, got 1 more than once"),
+    "train on a manifest whose k_max is a word": (lambda d: ["train", "--data", str(d / "k_max_word"), "--out", str(d / "r")], "k_max_word/manifest.json is not a valid dataset manifest: k_max must be an integer ≥ 1, got \"eight\""),
+    "data relabel a manifest whose config's k_max is a word": (lambda d: ["data", "relabel", str(d / "config_word"), "--out", str(d / "g")], "config_word/manifest.json is not a valid dataset manifest: its config: k_max must be an integer"),
+    "bench --resume rounds of another renderer": (lambda d: ["bench", "declutter", "--out", str(d / "bench_rendered"), "--resume"], "the rounds played now would differ"),
 }  # fmt: skip
+"""Files whose contents are wrong (a checkpoint, a dataset, a benchmark folder, a depth image, a
+mesh): refused when the command reads them, with the library it reads them by, naming the file."""
 
 PLANNERS = {  # case: (argv of the `make_files` folder, played in it, text the message names)
     "detect --planner a module that raises": (lambda d: detect_argv(d, "--gripper", "franka", model="plugin_raising:plan"), "importing plugin_raising raised RuntimeError: no camera driver (plugin_raising.py:1)"),
@@ -401,9 +422,6 @@ PLANNERS = {  # case: (argv of the `make_files` folder, played in it, text the m
 """A user's planner (`PLUGINS`): imported, and its grasps checked, by `symgrasp.peers.plugin`,
 each refused naming the planner (and where its module failed), nothing written. Played with the
 `make_files` folder as the current folder, where the command line imports planners from."""
-"""Files whose contents are wrong (a checkpoint, a dataset, a benchmark folder, a depth image, a
-mesh): refused when the command reads them, with the library it reads them by, naming the file."""
-
 CLI = {**ARGUMENTS, **FILES, **PLANNERS}
 """Every command-line case (played in the `make_files` folder: `PLANNERS` import from it)."""
 
@@ -435,6 +453,9 @@ API = {
     "complex depth": (lambda d: d.detect(table_depth().astype(np.complex64), INTRINSIC, CAMERA), "complex64"),
     "tsdf NaN": (lambda d: d.detect_tsdf(np.full((40, 40, 40), np.nan)), "tsdf must be finite"),
     "tsdf 1e30": (lambda d: d.detect_tsdf(np.full((40, 40, 40), 1e30)), "within [-1, 1]"),
+    "tsdf a string": (lambda d: d.detect_tsdf("abc"), "tsdf must be a (40, 40, 40) array or tensor of numbers, got str"),
+    "intrinsic a dict": (lambda d: d.detect(table_depth(), {"fx": 50.0, "fy": 50.0, "cx": 32.0, "cy": 24.0}, CAMERA), "intrinsic must be a CameraIntrinsic or 3×3 matrix, got a dict"),
+    "depth (H, W, 3)": (lambda d: d.detect(np.full((48, 64, 3), 0.6), INTRINSIC, CAMERA), "depth of shape (48, 64, 3) looks like a colour image or an organised point cloud"),
     "bounds NaN": (lambda d: _construct(bounds=(np.full(3, np.nan), np.ones(3))), "bounds"),
     "bounds outside the workspace": (lambda d: _construct(bounds=(np.full(3, 5.0), np.full(3, 6.0))), "bounds"),
     "extrinsic not rigid": (lambda d: d.detect(np.full((48, 64), 0.6), np.diag([50.0, 50, 1]), 2 * np.eye(4)), "extrinsic"),

@@ -378,7 +378,8 @@ class TrainConfig:
     chunks of this many scenes whose gradients add up to the whole batch's: GroupNorm normalises
     every scene alone and each chunk's loss is weighted by its share of the batch's labelled
     voxels. Only speed and memory change, up to float rounding; small chunks stay in the CPU's
-    cache (docs/model.md: a batch of 16 in chunks of 2 steps ≈ 1.8× faster on 2 cores)."""
+    cache (docs/reports/training-speed.md: a batch of 16 in chunks of 2 steps ≈ 1.8× faster on 2
+    cores)."""
     lr: float = 1e-3
     """Adam learning rate (the peak of a schedule)."""
     seed: int = 0

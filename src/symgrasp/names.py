@@ -58,6 +58,11 @@ VIEWS = ("fixed", "side", "circle", "random")
 fixed camera, GIGA's side view, VGN's circle of views, or random views from the training
 distribution."""
 
+CUT_OBJECTS = ("flag", "remove", "ignore")
+"""What a detector does with the grasps whose hand meets depth points the workspace cube left
+out, on an object it cuts (`symgrasp.detect.limits`): flag them (`Grasp.cut`), remove them, or
+not look."""
+
 SCHEDULES = ("constant", "cosine", "onecycle")
 """Learning-rate schedules of training (`symgrasp.model.schedule`)."""
 
@@ -130,8 +135,8 @@ MEASURE_ALIASES = {"declutter": "declutter_sr_cr", "val_loss": "val_total"}
 DECLUTTER_MEASURES = ("declutter_sr_cr", "declutter_sr", "declutter_cr")
 """Of the declutter validation: success ratio plus clear ratio (what ``declutter`` selects by),
 the success ratio and the clear ratio. SR alone rewards a detector that hardly tries: the
-checkpoint that executes one grasp in 200 rounds and lifts it has SR 100 % (docs/model.md,
-"Model selection")."""
+checkpoint that executes one grasp in 200 rounds and lifts it has SR 100 %
+(docs/reports/model-selection.md, "Why SR + CR and not SR alone")."""
 
 
 def measure_direction(measure: str) -> int:

@@ -165,14 +165,18 @@ def test_distribution_command_reports_each_object(checkpoints, tmp_path):
               "--validity", "0", "--out", str(tmp_path)])  # fmt: skip
 
 
-def test_model_specs_are_label_equals_path():
-    args = build_parser().parse_args(["figures", "continuity", "--model", "bingham2d=a/b.pt"])
-    assert parse_model_specs(args.model) == {"bingham2d": "a/b.pt"}
+def test_model_specs_are_label_equals_path(tmp_path):
+    checkpoint = tmp_path / "b.pt"
+    checkpoint.touch()  # the parser checks that the file exists, not what it holds
+    args = build_parser().parse_args(
+        ["figures", "continuity", "--model", f"bingham2d={checkpoint}"]
+    )
+    assert parse_model_specs(args.model) == {"bingham2d": str(checkpoint)}
     assert parse_model_specs(["ours=x=1.pt", "rotmat6d=y.pt"]) == {
         "ours": "x=1.pt", "rotmat6d": "y.pt"
     }  # fmt: skip
     for bad in (["runs/best.pt"], ["=a.pt"], ["a=b.pt", "a=c.pt"]):
         with pytest.raises(ValueError, match="--model"):
             parse_model_specs(bad)
-    with pytest.raises(SystemExit, match="error: --model must be LABEL=PATH"):
-        main(["figures", "continuity", "--model", "best.pt"])
+    with pytest.raises(SystemExit):
+        main(["figures", "continuity", "--model", "best.pt"])  # refused by the parser

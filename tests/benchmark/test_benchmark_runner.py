@@ -253,15 +253,22 @@ def test_cli_writes_results_modes_and_pictures_and_guards_the_model(tmp_path, ca
 
 def test_cli_thresholds_reach_the_detector(tmp_path):
     from symgrasp.cli import main
+    from symgrasp.detect.pretrained import shipped_operating_point
 
     argv = ["bench", "declutter", "--rounds", "1", "--num-objects", "1", "--seed", "3"]
     main([*argv, "--no-confidence", "--validity", "0.3", "--out", str(tmp_path)])
     options = json.loads((tmp_path / "results.json").read_text())["config"]["options"]
-    assert dict(options) == {"confidence_threshold": 0.0, "validity_threshold": 0.3}
+    # the given options over the model card's operating point, recorded whole
+    card = shipped_operating_point(BenchmarkConfig.model)
+    assert dict(options) == {**card, "confidence_threshold": 0.0, "validity_threshold": 0.3}
     config = BenchmarkConfig(options=tuple(map(tuple, options)))
     runner._init_worker(config, tmp_path)
     detector = runner._WORKER["planner"]
     assert detector.validity_threshold == 0.3 and detector.confidence_threshold == 0.0
+    assert detector.validity_floor == card.get("validity_floor")
+    main([*argv, "--no-operating-point", "--fallbacks", "2", "--out", str(tmp_path / "plain")])
+    options = json.loads((tmp_path / "plain" / "results.json").read_text())["config"]["options"]
+    assert dict(options) == {"fallbacks": 2}
 
 
 def test_a_finished_benchmark_is_reused_and_another_configuration_is_refused(fake_rounds, tmp_path):

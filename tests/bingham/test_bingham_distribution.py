@@ -6,6 +6,7 @@ import math
 
 import pytest
 import torch
+from torch.distributions import Categorical, Distribution, Independent, MixtureSameFamily
 
 from symgrasp.bingham import (
     Bingham,
@@ -111,7 +112,7 @@ def test_any_accepted_matrix_gives_a_density_that_integrates_to_one(d):
     generator = torch.Generator().manual_seed(7)
     A = torch.randn(d, d, generator=generator, dtype=F64) * 3  # not symmetric
     assert not torch.equal(A, A.T)
-    dist = Bingham(A)
+    dist = Bingham(A, validate_args=False)  # torch's default validation would refuse it
     if d == 3:  # the lattice's quadrature: error far below the tolerance for this smooth density
         integral = dist.log_prob(fibonacci_sphere(200_000)).exp().mean() * 4 * math.pi
         assert integral.item() == pytest.approx(1.0, abs=1e-3)
@@ -344,3 +345,126 @@ def test_log_prob_consistent_with_normalizer():
     v = uniform_sphere(5, 4, 15)
     expected = torch.einsum("bi,bij,bj->b", v, A, v) - log_normalizer(torch.linalg.eigvalsh(A))
     torch.testing.assert_close(Bingham(A).log_prob(v), expected)
+
+
+# --- as a torch distribution -------------------------------------------------------------------
+
+
+@pytest.fixture
+def default_validation():
+    """torch's global default of `validate_args`, restored after the test."""
+    default = Distribution._validate_args
+    yield
+    Distribution.set_default_validate_args(default)
+
+
+def test_is_a_torch_distribution_with_shapes_support_and_constraints():
+    A = random_symmetric(10, 4, 5.0, 30).reshape(2, 5, 4, 4)
+    dist = Bingham(A)
+    assert isinstance(dist, Distribution) and not dist.has_rsample
+    assert dist.batch_shape == (2, 5) and dist.event_shape == (4,)
+    v = dist.sample((7,), generator=torch.Generator().manual_seed(31))
+    assert v.shape == (7, 2, 5, 4)
+    assert dist.support.event_dim == 1 and dist.support.check(v).all()
+    off = torch.tensor([[0.0, 0.0, 1.01], [0.0, torch.nan, 0.0], [0.6, 0.0, 0.8]])
+    assert dist.support.check(off).tolist() == [False, False, True]
+    assert dist.support.check(torch.tensor([0, 0, -1])).item()  # integers promoted
+    assert dist.arg_constraints["A"].check(dist.A).all()
+    with pytest.raises(NotImplementedError, match="`mean` is 0 for every A"):
+        dist.mean  # noqa: B018
+    with pytest.raises(NotImplementedError):
+        dist.rsample()
+
+
+def test_validate_args_follows_torchs_default(default_validation):
+    skew = torch.triu(torch.ones(3, 3))
+    nan = torch.full((3, 3), torch.nan)
+    Distribution.set_default_validate_args(True)
+    with pytest.raises(ValueError, match="`A` must be symmetric, got relative asymmetry 1"):
+        Bingham(skew)
+    with pytest.raises(ValueError, match=r"`A` must be finite: got \[\[nan, nan, nan\]"):
+        Bingham(nan)
+    unchecked = Bingham(skew, validate_args=False)
+    assert not unchecked._validate_args
+    torch.testing.assert_close(unchecked.A, (skew + skew.T) / 2)
+    assert torch.isnan(Bingham(nan, validate_args=False).confidence)  # NaN propagates
+
+    Distribution.set_default_validate_args(False)
+    assert not Bingham(skew)._validate_args
+    with pytest.raises(ValueError, match="`A` must be symmetric"):
+        Bingham(skew, validate_args=True)
+    with pytest.raises(ValueError, match="`v` must hold finite unit vectors"):
+        Bingham(skew).log_prob(torch.tensor([0.0, 0.0, 2.0]))  # values are checked either way
+
+
+def test_expand_repeats_the_distribution_without_copying():
+    A = random_symmetric(2, 3, 8.0, 32)
+    dist = Bingham(A, validate_args=False)
+    wide = dist.expand((4, 2))
+    assert wide.batch_shape == (4, 2) and wide.event_shape == (3,)
+    assert wide.A.data_ptr() == dist.A.data_ptr() and not wide._validate_args
+    v = uniform_sphere(8, 3, 33).reshape(4, 2, 3)
+    torch.testing.assert_close(wide.log_prob(v), Bingham(A.repeat(4, 1, 1, 1)).log_prob(v))
+    torch.testing.assert_close(wide.mode, dist.mode.expand(4, 2, 3))
+    assert wide.sample((5,), torch.Generator().manual_seed(34)).shape == (5, 4, 2, 3)
+    with pytest.raises(RuntimeError):
+        dist.expand((3,))  # torch's own error: 2 does not expand to 3
+
+
+def test_composes_with_independent_and_mixture():
+    """torch's `Independent` sums the log densities; `MixtureSameFamily` of two Binghams is a
+    density (its integral over the Fibonacci lattice is 1) whose samples split by the weights."""
+    A = random_symmetric(5, 3, 4.0, 35)
+    v = uniform_sphere(5, 3, 36)
+    joint = Independent(Bingham(A), 1)
+    assert joint.batch_shape == () and joint.event_shape == (5, 3)
+    torch.testing.assert_close(joint.log_prob(v), Bingham(A).log_prob(v).sum())
+
+    along_z = torch.diag(torch.tensor([-60.0, -60.0, 0.0], dtype=F64))
+    along_x = torch.diag(torch.tensor([0.0, -60.0, -60.0], dtype=F64))
+    weights = torch.tensor([0.3, 0.7], dtype=F64)
+    mixture = MixtureSameFamily(Categorical(weights), Bingham(torch.stack([along_z, along_x])))
+    lattice = fibonacci_sphere(200_000)
+    integral = mixture.log_prob(lattice).exp().mean() * 4 * math.pi
+    assert integral.item() == pytest.approx(1.0, abs=1e-4)
+    expected = torch.logsumexp(
+        torch.stack([Bingham(along_z).log_prob(v), Bingham(along_x).log_prob(v)]).T + weights.log(),
+        dim=-1,
+    )
+    torch.testing.assert_close(mixture.log_prob(v), expected)
+    n = 20_000
+    with torch.random.fork_rng():
+        torch.manual_seed(37)
+        samples = mixture.sample((n,))
+    near_z = (samples[:, 2].abs() > samples[:, 0].abs()).double().mean().item()
+    assert near_z == pytest.approx(0.3, abs=5 * math.sqrt(0.3 * 0.7 / n))  # five binomial SE
+    with pytest.raises(ValueError, match="support"):
+        mixture.log_prob(2 * v)  # torch's check of the sample against `support`
+
+
+@pytest.mark.parametrize("seed", [40, 41])
+def test_entropy_against_lattice_quadrature_on_s2(seed):
+    """−∫ p log p dS by the Fibonacci lattice, an oracle independent of the normaliser's
+    gradient, for rotated, shifted batches of moderate concentration."""
+    A = random_symmetric(4, 3, 6.0, seed) + 2.5 * torch.eye(3, dtype=F64)
+    dist = Bingham(A)
+    log_p = dist.log_prob(fibonacci_sphere(200_000)[:, None])  # [n, 4]
+    quadrature = -(log_p.exp() * log_p).mean(0) * 4 * math.pi
+    torch.testing.assert_close(dist.entropy(), quadrature, rtol=0, atol=1e-6)
+
+
+def test_entropy_in_the_concentrated_limit_and_on_s3():
+    """Concentrated on S²: two antipodal Gaussians of variances 1/(2κᵢ), entropy
+    log 2 + log(πe/√(κ₁κ₂)) up to O(1/κ); on S³ the Monte-Carlo −E[log p] of exact samples."""
+    kappa = torch.tensor([4e4, 1e4], dtype=F64)
+    dist = Bingham(torch.diag(torch.cat([-kappa, torch.zeros(1, dtype=F64)])))
+    limit = math.log(2) + math.log(math.pi * math.e / kappa.prod().sqrt().item())
+    assert dist.entropy().item() == pytest.approx(limit, abs=1e-3)
+
+    R = torch.linalg.qr(torch.randn(4, 4, dtype=F64, generator=torch.Generator().manual_seed(42)))[
+        0
+    ]
+    dist = Bingham(R @ torch.diag(torch.tensor([-20.0, -6.0, -1.0, 0.0], dtype=F64)) @ R.T)
+    log_p = dist.log_prob(dist.sample((100_000,), torch.Generator().manual_seed(43)))
+    standard_error = log_p.std().item() / math.sqrt(len(log_p))
+    assert dist.entropy().item() == pytest.approx(-log_p.mean().item(), abs=5 * standard_error)

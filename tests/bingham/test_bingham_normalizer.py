@@ -236,6 +236,24 @@ def test_bad_input():
         log_normalizer(torch.zeros(4), method="quadrature")
 
 
+@pytest.mark.parametrize("function", [log_normalizer, second_moments])
+def test_non_finite_eigenvalues_are_refused_naming_them(function):
+    """A NaN made every method return NaN, −inf a NaN gradient, silently (issue 66)."""
+    with pytest.raises(ValueError, match=r"`eigenvalues` must be finite: got \[nan, -1\.0, 0\.0\]"):
+        function(torch.tensor([torch.nan, -1.0, 0.0]))
+    batch = torch.zeros(3, 2, 4)
+    batch[1, 0, 2] = -torch.inf
+    batch[2, 1, 0] = torch.nan
+    with pytest.raises(
+        ValueError,
+        match=r"`eigenvalues` must be finite: 2 of 6 vectors hold NaN or inf, the first at "
+        r"batch index \(1, 0\) \(shape \(3, 2, 4\)\)",
+    ):
+        function(batch)
+    with pytest.raises(TypeError, match=r"`eigenvalues` must be a torch\.Tensor, got list"):
+        function([-1.0, 0.0, 0.0])
+
+
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
 @pytest.mark.parametrize(
     ("method", "d"), [("quadrature", 3), ("paper", 3), ("bessel", 4), ("paper", 4)]

@@ -256,7 +256,7 @@ def test_the_approach_check_keeps_the_grasps_the_benchmark_would_execute(empty_t
     checker = _detector(voxels, nms_radius=0, approach_check=True)
     checked = checker.detect(depth, intrinsic, T)
     assert len(checked) == 1 and np.array_equal(checked[0].pose, unchecked[1].pose)
-    assert set(checker.timing) == {"tsdf", "network", "decode", "approach"}
+    assert set(checker.timing) == {"tsdf", "network", "decode", "approach", "cut"}
     surface = checker.fuse(depth, intrinsic, T).point_cloud().numpy()
     assert abs(np.median(surface[:, 2]) - 0.05) < 0.002  # the table top is what it checks against
     chosen, rejected = first_free(unchecked, ROBOTIQ_2F85, surface)

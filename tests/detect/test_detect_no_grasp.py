@@ -14,6 +14,7 @@ from symgrasp.bad_input import CAMERA, FOOT, INTRINSIC, MODEL, table_depth
 from symgrasp.detect import GraspDetector, NoGraspWarning
 from symgrasp.detect.files import load_depth, save_png_depth
 from symgrasp.model.network import GraspNet, NetworkConfig
+from symgrasp.perception import CameraIntrinsic
 from symgrasp.sim import ROBOTIQ_2F85
 
 
@@ -126,3 +127,36 @@ def test_load_depth_reads_metres_and_16_bit_pngs_and_refuses_the_rest(tmp_path):
         Image.fromarray(values).save(tmp_path / name)
         with pytest.raises(ValueError, match=f"{name} is a PNG of mode .*picture of depth"):
             load_depth(tmp_path / name)
+
+
+def test_a_depth_image_with_colour_channels_is_refused_but_not_a_stack_of_views(detector):
+    """(H, W, 2–4) is one image with channels (no depth image is 2 to 4 pixels wide), refused
+    whatever the camera; (V, H, W) of 3 views of the same image fuses as that image."""
+    depth = table_depth()
+    for channels in (2, 3, 4):
+        for image in (np.repeat(depth[..., None], channels, -1), torch.zeros(48, 64, channels)):
+            with pytest.raises(ValueError, match=rf"\(48, 64, {channels}\) looks like a colour"):
+                detector.fuse(image, INTRINSIC, CAMERA)
+    one = detector.fuse(depth, INTRINSIC, CAMERA).grid()
+    three = detector.fuse(np.stack([depth] * 3), INTRINSIC, np.stack([CAMERA] * 3)).grid()
+    torch.testing.assert_close(three, one, rtol=0, atol=1e-6)  # the same image, averaged
+
+
+def test_an_intrinsic_is_a_camera_or_its_matrix_not_its_fields(detector):
+    fields = {"fx": INTRINSIC.fx, "fy": INTRINSIC.fy, "cx": INTRINSIC.cx, "cy": INTRINSIC.cy}
+    for given in (fields, "intrinsic.json"):
+        with pytest.raises(TypeError, match=f"intrinsic must be .* got a {type(given).__name__}"):
+            detector.fuse(table_depth(), given, CAMERA)
+    by_fields = detector.fuse(table_depth(), CameraIntrinsic(64, 48, **fields), CAMERA).grid()
+    by_matrix = detector.fuse(table_depth(), INTRINSIC.K, CAMERA).grid()
+    assert torch.equal(by_fields, by_matrix)
+
+
+def test_a_tsdf_is_numbers_in_any_container_but_not_text(detector):
+    tsdf = torch.ones(40, 40, 40)
+    for given in (tsdf.numpy(), tsdf.tolist()):
+        with pytest.warns(NoGraspWarning, match="TSDF shows nothing"):  # read as the tensor
+            assert detector.detect_tsdf(given) == []
+    for text in ("abc", [["a"]], None):
+        with pytest.raises(TypeError, match=r"tsdf must be a \(40, 40, 40\) array or tensor"):
+            detector.detect_tsdf(text)

@@ -1,19 +1,23 @@
 """The workspace found by itself (`symgrasp.perception.fit_table`): the table plane and the cube
 on it, recovered from depth images of simulated piles taken by tilted, shifted and rolled
-cameras, and from analytic scenes."""
+cameras, and from analytic scenes: planes, and boxes ray-cast here (a table above a floor, a
+grating, a heap of boxes with no table)."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
 
 from symgrasp.perception import (
     CameraIntrinsic,
+    TableWarning,
     add_depth_noise,
     fit_table,
     look_at,
     table_depth_scale,
 )
+from symgrasp.perception.table import MAX_SCALE_ERROR, _densest_window, table_scaled
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
@@ -68,7 +72,9 @@ def test_the_fitted_cube_stands_on_the_table_level_with_the_objects_inside(pile,
         depth = add_depth_noise(  # the field always, no scale error
             depth, seed=1, gamma_shape=1e12, sigma=noise, field_probability=1
         )
-    fit = fit_table(depth, SMALL)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TableWarning)  # a table in view: no doubt
+        fit = fit_table(depth, SMALL)
     T_world_workspace = _in_world(T, fit)
     tilt = math.degrees(math.acos(min(1.0, T_world_workspace[2, 2])))
     assert tilt < (0.1 if not noise else 1.0)
@@ -118,9 +124,10 @@ def test_around_chooses_the_centre_and_up_rejects_a_larger_wall():
     walled = fit_table(depth, SMALL)
     assert abs(T[:3, :3] @ walled.normal @ [1.0, 0.0, 0.0]) > 0.999  # the wall won
     up = T[:3, :3].T @ [0.0, 0.0, 1.0]  # the world's up in the camera frame
-    fit = fit_table(
-        depth, SMALL, up=up, around=T[:3, :3].T @ (np.array([0.1, 0.2, 0.3]) - T[:3, 3])
-    )
+    with pytest.warns(TableWarning, match=r"holds 18% .*\(no dominant plane\)"):  # mostly wall
+        fit = fit_table(
+            depth, SMALL, up=up, around=T[:3, :3].T @ (np.array([0.1, 0.2, 0.3]) - T[:3, 3])
+        )
     # within 1°: the wall's foot lies within the threshold of the table and tilts the refit
     assert (T[:3, :3] @ fit.normal)[2] > math.cos(math.radians(1.0))
     assert fit.centred_on == "around"
@@ -145,6 +152,180 @@ def test_the_same_seed_gives_the_same_fit_and_bad_input_is_refused(pile):
     for said, call in cases:
         with pytest.raises(ValueError, match=said):
             call()
+
+
+def _box(centre, half, yaw=0.0, R=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A box: its centre (3,) [m, world], rotation (3, 3) (``yaw`` [rad] about z unless ``R``)
+    and half sizes (3,) [m]."""
+    if R is None:
+        R = np.array(
+            [[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0], [0, 0, 1]]
+        )
+    return np.asarray(centre, dtype=float), np.asarray(R, dtype=float), np.asarray(half, float)
+
+
+def _boxes_depth(T: np.ndarray, boxes: list) -> np.ndarray:
+    """The depth SMALL sees from ``T`` of the nearest of ``boxes`` (`_box`), ray cast by the
+    slab method in each box's frame; 0 where a ray meets none."""
+    rays = SMALL.pixel_rays() @ T[:3, :3].T  # world directions, camera z = 1: t is the depth
+    depth = np.full(rays.shape[:2], np.inf)
+    for centre, R, half in boxes:
+        eye, along = R.T @ (T[:3, 3] - centre), rays @ R
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t1, t2 = (-half - eye) / along, (half - eye) / along
+        enter = np.nanmax(np.minimum(t1, t2), axis=-1)
+        leave = np.nanmin(np.maximum(t1, t2), axis=-1)
+        depth = np.where((enter <= leave) & (enter > 0) & (enter < depth), enter, depth)
+    return np.where(np.isfinite(depth), depth, 0.0)
+
+
+TOP = 0.75
+"""[m] a kitchen table's top above the floor, 1 m × 0.6 m on four legs."""
+FLOOR = [_box((0.0, 0.0, -0.5), (10.0, 10.0, 0.5))]
+TABLE = [_box((0.0, 0.0, TOP - 0.015), (0.5, 0.3, 0.015))] + [
+    _box((x, y, (TOP - 0.03) / 2), (0.025, 0.025, (TOP - 0.03) / 2))
+    for x in (-0.45, 0.45)
+    for y in (-0.25, 0.25)
+]
+OBJECTS = [  # the first 12 cm tall, its top 30 cm × 20 cm: a large plane above the table
+    _box((0.05, 0.02, TOP + 0.06), (0.15, 0.1, 0.06), 0.3),
+    _box((-0.12, -0.1, TOP + 0.04), (0.03, 0.05, 0.04), 1.0),
+    _box((-0.1, 0.12, TOP + 0.09), (0.03, 0.03, 0.09), 0.2),
+    _box((0.2, -0.12, TOP + 0.025), (0.04, 0.04, 0.025), 0.7),
+    _box((0.44, 0.05, TOP + 0.04), (0.03, 0.03, 0.04), 0.4),  # at the edge
+]
+
+
+def _around_the_table(azimuth, distance, elevation, offset) -> np.ndarray:
+    """``T_world_camera`` at ``distance`` [m] from a point ``offset`` (along, across) [m]
+    from the table's centre, ``elevation`` [rad] above the table, from ``azimuth`` [rad]."""
+    c, s = math.cos(azimuth), math.sin(azimuth)
+    target = np.array([offset[0] * c - offset[1] * s, offset[0] * s + offset[1] * c, TOP])
+    return look_at(
+        target - distance * np.array(
+            [math.cos(elevation) * c, math.cos(elevation) * s, -math.sin(elevation)]
+        ),
+        target,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("azimuth", [0.0, 1.2, 2.5, 3.6])
+@pytest.mark.parametrize(
+    ("distance", "elevation", "offset"),
+    [(1.0, 0.9, (0.0, 0.0)), (1.6, 0.6, (0.2, 0.0)), (1.3, 0.5, (0.35, 0.1))],
+)
+@pytest.mark.parametrize("told_up", [False, True])
+def test_the_table_is_chosen_above_a_larger_floor_and_below_a_large_box(
+    azimuth, distance, elevation, offset, told_up
+):
+    """A table with objects seen from 12 poses: the floor past its edges fills more of the
+    image than the table (the largest plane), the large box's top is a plane above it; the
+    fit is the table top (the oracle: the scene's own planes), the floor a competing plane, and
+    no doubt is raised."""
+    T = _around_the_table(azimuth, distance, elevation, offset)
+    depth = _boxes_depth(T, FLOOR + TABLE + OBJECTS)
+    up = T[:3, :3].T @ [0.0, 0.0, 1.0] if told_up else None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TableWarning)
+        fit = fit_table(depth, SMALL, up=up)
+    normal = T[:3, :3] @ fit.normal  # world frame
+    assert normal[2] > math.cos(math.radians(0.1))
+    assert T[2, 3] - fit.distance * normal[2] == pytest.approx(TOP, abs=0.001)
+    heights = [T[2, 3] - p.distance * (T[:3, :3] @ p.normal)[2] for p in fit.competing]
+    floor = fit.competing[int(np.argmin(np.abs(heights)))]
+    assert abs(min(heights, key=abs)) < 0.001 and floor.inliers > fit.inliers
+    assert fit.doubts == () and fit.below < 0.01 * fit.points
+    assert fit.centred_on == "cluster"
+    centre = T[:3, :3] @ fit.centre + T[:3, 3]
+    assert abs(centre[0]) < 0.5 and abs(centre[1]) < 0.3  # on the table top
+
+
+@pytest.mark.parametrize(
+    ("eye", "target"),
+    [((0.0, 0.0, 1.4), (0.55, 0.0, TOP)), ((0.3, 0.0, 1.4), (0.8, 0.0, 0.6))],
+)
+def test_a_table_seen_at_its_edge_is_the_table_with_an_object_in_the_cube(eye, target):
+    """The table's edge across the image, the floor beyond it most of the rest (84 % of the
+    points in the second view, the table 15 %): the table is chosen without doubt (the share
+    counts the points off the floor) and the cube holds an object's centre."""
+    T = look_at(np.array(eye), np.array(target))
+    depth = _boxes_depth(T, FLOOR + TABLE + OBJECTS)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TableWarning)
+        fit = fit_table(depth, SMALL)
+    assert T[2, 3] - fit.distance * (T[:3, :3] @ fit.normal)[2] == pytest.approx(TOP, abs=0.001)
+    centre = T @ fit.T_camera_workspace @ np.r_[CENTRE, 1.0]
+    assert any((np.abs(box[0][:2] - centre[:2]) < WORKSPACE_SIZE / 2).all() for box in OBJECTS)
+
+
+def _rotation(rng: np.random.Generator) -> np.ndarray:
+    """A uniformly random rotation (3, 3): a random unit quaternion's."""
+    w, x, y, z = (q := rng.normal(size=4)) / np.linalg.norm(q)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])  # fmt: skip
+
+
+def _heap(seed: int) -> list:
+    """60 boxes of 3–10 cm, turned at random, over a 40 × 40 × 30 cm region above z = 0.55 m
+    and nothing under them: no table in view."""
+    rng = np.random.default_rng(seed)
+    return [
+        _box(rng.uniform([-0.2, -0.2, 0.55], [0.2, 0.2, 0.85]), rng.uniform(0.015, 0.05, 3),
+             R=_rotation(rng))
+        for _ in range(60)
+    ]  # fmt: skip
+
+
+HEAP_VIEWS = {"side": (0.0, -0.4, 1.4), "oblique": (0.3, 0.2, 1.3)}
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("view", HEAP_VIEWS)
+@pytest.mark.parametrize("told_up", [False, True])
+def test_no_table_in_view_is_refused_or_doubted_aloud(seed, view, told_up):
+    """A heap of boxes and no table: whatever plane is fitted holds far less than a table
+    would (6–17 % of the points) and fit_table warns in one line, saying so; with ``up`` it
+    may instead find no plane level enough and refuse."""
+    T = look_at(np.array(HEAP_VIEWS[view]), np.array([0.0, 0.0, 0.7]))
+    up = T[:3, :3].T @ [0.0, 0.0, 1.0] if told_up else None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            fit = fit_table(_boxes_depth(T, _heap(seed)), SMALL, up=up)
+        except ValueError as error:
+            assert told_up and "no plane candidate within 10° of up" in str(error)
+            return
+    (warning,) = [w for w in caught if w.category is TableWarning]
+    assert "no dominant plane" in str(warning.message) and "\n" not in str(warning.message)
+    assert fit.share < 0.2 and fit.doubts
+
+
+def test_a_grating_with_the_floor_seen_through_it_is_doubted():
+    """A tabletop of 2 cm slats 2 cm apart in a frame: the floor is seen through it, over the
+    plane's extent, which no table allows."""
+    slats = [_box((x, 0.0, TOP - 0.015), (0.01, 0.3, 0.015)) for x in np.arange(-0.48, 0.5, 0.04)]
+    frame = [_box((0.0, y, TOP - 0.015), (0.5, 0.02, 0.015)) for y in (-0.3, 0.3)]
+    T = _around_the_table(0.5, 1.0, 1.1, (0.0, 0.0))
+    with pytest.warns(TableWarning, match="seen through it"):
+        fit = fit_table(_boxes_depth(T, FLOOR + slats + frame), SMALL)
+    assert T[2, 3] - fit.distance * (T[:3, :3] @ fit.normal)[2] == pytest.approx(TOP, abs=0.001)
+    assert fit.below > 0.1 * fit.points
+
+
+def test_a_steep_table_against_up_is_refused():
+    """``up`` 15° off the table's normal (a wrong extrinsic): no plane within the default
+    10° tolerance, refused in one line; with the tolerance widened, the table."""
+    T = _around_the_table(0.0, 1.0, 0.9, (0.0, 0.0))
+    depth = _boxes_depth(T, FLOOR + TABLE + OBJECTS)
+    tilt = math.radians(15)
+    up = T[:3, :3].T @ [math.sin(tilt), 0.0, math.cos(tilt)]
+    with pytest.raises(ValueError, match="no plane candidate within 10° of up"):
+        fit_table(depth, SMALL, up=up)
+    fit = fit_table(depth, SMALL, up=up, max_tilt=math.radians(20))
+    assert (T[:3, :3] @ fit.normal)[2] > math.cos(math.radians(0.1))
 
 
 def _plane_depth(T_world_camera, intrinsic, z) -> np.ndarray:
@@ -193,3 +374,42 @@ def test_a_table_not_where_the_world_frame_says_or_not_seen_is_refused():
         table_depth_scale(np.zeros_like(elsewhere), SMALL, T, TABLE_HEIGHT)
     with pytest.raises(ValueError, match="shape"):
         table_depth_scale(elsewhere[:10], SMALL, T, TABLE_HEIGHT)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_depth_scale_with_no_table_in_view_is_refused_not_read_off_the_objects(seed):
+    """A heap of boxes and no table, the table said to be 5 cm below the heap's densest
+    surface: a scale within MAX_SCALE_ERROR would be read off the boxes (the oracle: the
+    densest 1 cm window of heights, sorted and counted here), but the window holds under 15 % of
+    the pixels, no table's share, and the image is refused, in table_scaled as well."""
+    T = look_at(np.array(HEAP_VIEWS["side"]), np.array([0.0, 0.0, 0.7]))
+    depth = _boxes_depth(T, _heap(seed))
+    seen = depth > 0
+    below = np.sort(-(depth[seen][:, None] * SMALL.pixel_rays()[seen]) @ T[2, :3])
+    inside = np.searchsorted(below, below + 0.01, side="right") - np.arange(len(below))
+    densest = below[int(np.argmax(inside))]  # [m] below the camera along up
+    table_z = T[2, 3] - densest - 0.05
+    assert abs(densest / (T[2, 3] - table_z) - 1) < MAX_SCALE_ERROR
+    assert inside.max() < 0.15 * len(below)
+    with pytest.raises(ValueError, match=r"holds \d+% of the seen pixels, under MIN_TABLE_SHARE"):
+        table_depth_scale(depth, SMALL, T, table_z)
+    with pytest.raises(ValueError, match="MIN_TABLE_SHARE"):
+        table_scaled(depth[None], SMALL, T[None], table_z)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_densest_window_is_the_one_sorting_and_counting_every_window_finds(seed):
+    """`table_depth_scale` counts only the few thousand heights near the densest window;
+    the oracle sorts them all and counts every window (the first of the densest, as ties go),
+    on heights with a table peak, objects, far outliers and ties (heights rounded to 0.1 mm),
+    to the bit."""
+    rng = np.random.default_rng(seed)
+    heights = np.r_[rng.normal(0.6, 0.003, 3000), rng.uniform(0.3, 0.6, 2000), [30.0, -2.0]]
+    if seed % 2:
+        heights = np.round(heights, 4)
+    rng.shuffle(heights)
+    for band in (0.01, 0.001, 1e-9):
+        ordered = np.sort(heights)
+        inside = np.searchsorted(ordered, ordered + band, side="right") - np.arange(len(ordered))
+        start = int(np.argmax(inside))
+        assert _densest_window(heights, band) == (ordered[start], inside[start])

@@ -1,4 +1,4 @@
-"""The Bingham distribution on S² and S³ in the style of ``torch.distributions``.
+"""The Bingham distribution on S² and S³, a ``torch.distributions.Distribution``.
 
     B(A)(v) = exp(vᵀAv) / C(λ(A)),   v ∈ S^{d−1},  A ∈ Sym_d        (Ko et al. 2024, Sec. 3.1)
 
@@ -11,17 +11,14 @@ from __future__ import annotations
 
 import math
 from functools import cached_property
+from typing import ClassVar
 
 import torch
 from torch.autograd.function import once_differentiable
+from torch.distributions import Distribution, constraints
 
 from symgrasp.bingham.eigen import eigh3
-from symgrasp.bingham.normalizer import (
-    _log_c_and_moments,
-    log_normalizer,
-    resolve_method,
-    second_moments,
-)
+from symgrasp.bingham.normalizer import _log_c_and_moments, log_normalizer, resolve_method
 from symgrasp.bingham.sampling import sample_in_eigenbasis
 from symgrasp.bingham.validation import (
     check_count,
@@ -29,6 +26,7 @@ from symgrasp.bingham.validation import (
     check_finite,
     check_matrix,
     check_unit_vectors,
+    unit_vector,
 )
 
 Tensor = torch.Tensor
@@ -110,40 +108,56 @@ def nll(A: Tensor, v: Tensor, method: str = "auto", validate_args: bool = False)
     return _LogNormalizerOfMatrix.apply(A, resolve_method(method, A.shape[-1])) - quadratic
 
 
-class Bingham:
-    """Bingham distribution with parameter matrix A.
+class Bingham(Distribution):
+    """Bingham distribution with parameter matrix A, a ``torch.distributions.Distribution``.
+
+    Its support is the unit sphere (`validation.unit_vector`); A is its one parameter
+    (``arg_constraints``: symmetric). It composes with torch's tools (``Independent``,
+    ``MixtureSameFamily``, ``expand``); it has no reparametrised sample (``has_rsample`` is
+    False: the ACG rejection sampler is not differentiable) and no useful `mean`.
 
     Args:
         A: ``[*batch_shape, d, d]``, d = 3 (S²) or 4 (S³), used by its symmetric part
-            (A + Aᵀ)/2 (refused unless symmetric with ``validate_args``); integer and bool
-            tensors are promoted to the default float dtype.
-        validate_args: check symmetry and finiteness of A here and in `log_prob` (off by
-            default: a NaN in A gives NaN results, except in `sample`, which always refuses
-            it; shapes and the unit norm of values passed to `log_prob` are always checked).
+            (A + Aᵀ)/2; integer and bool tensors are promoted to the default float dtype.
+        validate_args: torch's convention: None follows
+            ``Distribution.set_default_validate_args`` (on by default, off under ``python -O``).
+            When on, a non-symmetric (relative 1e-5) or non-finite A is refused here. When off,
+            a NaN in A gives NaN results, except in `sample`, which always refuses it. Shapes and
+            the unit norm of values passed to `log_prob` are always checked.
         method: normaliser method used by `log_prob` and `entropy`, see `log_normalizer`.
     """
 
-    def __init__(self, A: Tensor, validate_args: bool = False, method: str = "auto") -> None:
-        A = check_matrix(A, "A", symmetric=validate_args)
-        if validate_args:
+    arg_constraints: ClassVar[dict[str, constraints.Constraint]] = {"A": constraints.symmetric}
+    support = unit_vector
+    has_rsample = False
+
+    def __init__(self, A: Tensor, validate_args: bool | None = None, method: str = "auto") -> None:
+        validate = Distribution._validate_args if validate_args is None else validate_args
+        A = check_matrix(A, "A", symmetric=validate)
+        if validate:
             check_finite(A, "A")
         resolve_method(method, A.shape[-1])
         self.A = A
         self.method = method
-        self.validate_args = validate_args
+        # A is checked above with messages naming it; torch's check of `arg_constraints` would
+        # only read the symmetrised A again.
+        super().__init__(A.shape[:-2], A.shape[-1:], validate_args=False)
+        self._validate_args = validate
+
+    def expand(self, batch_shape: torch.Size | tuple[int, ...], _instance=None) -> Bingham:
+        """The same distribution repeated over ``batch_shape`` (A expanded, not copied)."""
+        new = self._get_checked_instance(Bingham, _instance)
+        batch_shape = torch.Size(batch_shape)
+        new.A = self.A.expand(batch_shape + self.A.shape[-2:])
+        new.method = self.method
+        super(Bingham, new).__init__(batch_shape, self.event_shape, validate_args=False)
+        new._validate_args = self._validate_args
+        return new
 
     @property
     def dim(self) -> int:
         """d, the ambient dimension (3 for S², 4 for S³)."""
         return self.A.shape[-1]
-
-    @property
-    def batch_shape(self) -> torch.Size:
-        return self.A.shape[:-2]
-
-    @property
-    def event_shape(self) -> torch.Size:
-        return self.A.shape[-1:]
 
     @cached_property
     def _eigh(self) -> tuple[Tensor, Tensor]:
@@ -175,15 +189,28 @@ class Bingham:
         lam = self.eigenvalues
         return (lam[..., -1:] - lam).sum(-1)
 
+    @property
+    def mean(self) -> Tensor:
+        """Undefined here: B(A)(v) = B(A)(−v), so E[v] = 0 whatever A, which says nothing about
+        it. Raises NotImplementedError, as torch's distributions do for a moment they lack."""
+        raise NotImplementedError(
+            "Bingham: `mean` is 0 for every A (the density is antipodally symmetric); use `mode`, "
+            "or the second moments `second_moments(eigenvalues)` along `eigenvectors`"
+        )
+
     def log_prob(self, v: Tensor) -> Tensor:
-        """``[...]`` log density of unit vectors ``v [..., d]`` (surface measure)."""
-        return -nll(self.A, v, self.method, self.validate_args)
+        """``[...]`` log density of unit vectors ``v [..., d]`` (surface measure); v's batch
+        dimensions broadcast with `batch_shape`. ``v`` is refused unless unit (`support`) and
+        shaped so, whatever ``validate_args``."""
+        return -nll(self.A, v, self.method)
 
     def entropy(self) -> Tensor:
-        """``[...]`` differential entropy log C − Σᵢ λᵢ E[vᵢ²] (not differentiable)."""
+        """``[...]`` differential entropy in nats (surface measure), −E[log p(v)] =
+        log C − Σᵢ λᵢ E[vᵢ²]: one evaluation of the normaliser and its gradient, exact to the
+        normaliser's accuracy; not differentiable (its gradient needs the Hessian of log C)."""
         lam = self.eigenvalues.detach().to(torch.float64)
-        log_c = log_normalizer(lam, self.method)
-        return (log_c - (lam * second_moments(lam, self.method)).sum(-1)).to(self.A.dtype)
+        log_c, moments = _log_c_and_moments(lam, resolve_method(self.method, self.dim))
+        return (log_c - (lam * moments).sum(-1)).to(self.A.dtype)
 
     def sample(
         self,

@@ -55,7 +55,7 @@ import numpy as np
 import torch
 from torch.autograd.function import once_differentiable
 
-from symgrasp.bingham.validation import as_floating
+from symgrasp.bingham.validation import as_floating, check_finite
 
 Tensor = torch.Tensor
 
@@ -256,6 +256,20 @@ def resolve_method(method: str, d: int) -> str:
     return concrete
 
 
+def _checked(eigenvalues: Tensor, method: str, caller: str) -> tuple[Tensor, str]:
+    """``eigenvalues [..., 3 | 4]`` as floating point and the concrete method, or an error
+    naming ``caller`` and the argument."""
+    eigenvalues = as_floating(eigenvalues, "eigenvalues")
+    if eigenvalues.ndim == 0 or eigenvalues.shape[-1] not in (3, 4):
+        raise ValueError(
+            f"{caller}: `eigenvalues` must have trailing size 3 (S²) or 4 (S³), "
+            f"got shape {tuple(eigenvalues.shape)}"
+        )
+    concrete = resolve_method(method, eigenvalues.shape[-1])
+    check_finite(eigenvalues, "eigenvalues", event_dim=1)
+    return eigenvalues, concrete
+
+
 def log_normalizer(eigenvalues: Tensor, method: str = "auto") -> Tensor:
     """log C(λ) of the Bingham distribution on S² (``[..., 3]``) or S³ (``[..., 4]``).
 
@@ -265,29 +279,20 @@ def log_normalizer(eigenvalues: Tensor, method: str = "auto") -> Tensor:
     eigenvalues with the analytic gradient ∂ log C/∂λᵢ = E[vᵢ²].
 
     Args:
-        eigenvalues: ``[..., 3]`` or ``[..., 4]``, finite, real.
+        eigenvalues: ``[..., 3]`` or ``[..., 4]``, real; refused unless finite (every method
+            would return NaN for a NaN, and a NaN gradient for an inf).
         method: ``"auto"`` (``"quadrature"`` on S², ``"bessel"`` on S³), ``"quadrature"``,
             ``"paper"`` or ``"bessel"``; see the module docstring.
 
     Returns:
         ``[...]`` log C.
     """
-    if eigenvalues.ndim == 0 or eigenvalues.shape[-1] not in (3, 4):
-        raise ValueError(
-            "log_normalizer: `eigenvalues` must have trailing size 3 (S²) or 4 (S³), "
-            f"got shape {tuple(eigenvalues.shape)}"
-        )
-    concrete = resolve_method(method, eigenvalues.shape[-1])
-    return _LogNormalizer.apply(as_floating(eigenvalues, "eigenvalues"), concrete)
+    eigenvalues, concrete = _checked(eigenvalues, method, "log_normalizer")
+    return _LogNormalizer.apply(eigenvalues, concrete)
 
 
 def second_moments(eigenvalues: Tensor, method: str = "auto") -> Tensor:
-    """E[vᵢ²] along each eigenvector, ``[..., d]``: the gradient of log C, in float64."""
-    if eigenvalues.ndim == 0 or eigenvalues.shape[-1] not in (3, 4):
-        raise ValueError(
-            "second_moments: `eigenvalues` must have trailing size 3 or 4, "
-            f"got shape {tuple(eigenvalues.shape)}"
-        )
-    return _log_c_and_moments(eigenvalues.detach(), resolve_method(method, eigenvalues.shape[-1]))[
-        1
-    ]
+    """E[vᵢ²] along each eigenvector, ``[..., d]``: the gradient of log C, in float64; the
+    arguments as in `log_normalizer`."""
+    eigenvalues, concrete = _checked(eigenvalues, method, "second_moments")
+    return _log_c_and_moments(eigenvalues.detach(), concrete)[1]

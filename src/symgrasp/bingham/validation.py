@@ -13,7 +13,10 @@ rows and finding the first one happens only when it fails.
 - Anything but a tensor is refused (`TypeError`: `torch.as_tensor` it first), and so are
   complex tensors; so are batch shapes that do not broadcast, vectors that are not unit, and a
   non-finite ``A`` where NaN cannot simply propagate (the sampler would never accept a
-  candidate) or when ``validate_args`` asks (`ValueError`).
+  candidate) or when ``validate_args`` asks, and non-finite eigenvalues given to
+  `log_normalizer` (`ValueError`).
+- `unit_vector` is the support of a Bingham distribution as a ``torch.distributions``
+  constraint, the same test `check_unit_vectors` applies.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import math
 import numbers
 
 import torch
+from torch.distributions import constraints
 
 Tensor = torch.Tensor
 
@@ -37,6 +41,22 @@ _UNIT_TOLERANCE_FLOOR = 1e-5
 def unit_tolerance(dtype: torch.dtype) -> float:
     """The largest |‖v‖ − 1| accepted as a unit vector stored in ``dtype``."""
     return max(math.sqrt(torch.finfo(dtype).eps), _UNIT_TOLERANCE_FLOOR)
+
+
+class _UnitVector(constraints.Constraint):
+    """Unit vectors along the last dimension, |‖v‖ − 1| ≤ `unit_tolerance` of their dtype: the
+    sphere S^{d−1}, which ``torch.distributions.constraints`` does not define."""
+
+    event_dim = 1
+
+    def check(self, value: Tensor) -> Tensor:
+        """``[...]`` True where ``value [..., d]`` is a finite unit vector."""
+        value = as_floating(value, "value")
+        norm = torch.linalg.vector_norm(value, dim=-1)
+        return (norm - 1).abs() <= unit_tolerance(value.dtype)  # False for NaN
+
+
+unit_vector = _UnitVector()
 
 
 def check_tensor(t: Tensor, name: str) -> None:
@@ -90,17 +110,19 @@ def check_count(value: int, name: str, lo: int = 0) -> int:
     return int(value)
 
 
-def check_finite(A: Tensor, name: str) -> None:
-    """Refuse NaN or inf anywhere in the matrices ``A [..., d, d]``."""
-    if torch.isfinite(A).all():
+def check_finite(t: Tensor, name: str, event_dim: int = 2) -> None:
+    """Refuse NaN or inf anywhere in ``t``: matrices ``[..., d, d]`` (``event_dim`` 2) or
+    vectors ``[..., d]`` (``event_dim`` 1)."""
+    if torch.isfinite(t).all():
         return
-    bad = ~torch.isfinite(A).flatten(-2).all(-1)
+    bad = ~torch.isfinite(t).flatten(-event_dim).all(-1)
     if bad.ndim:
         count, first = _offenders(bad)
-        detail = f"{count} matrices hold NaN or inf, the first at batch index {first}"
+        kind = "matrices" if event_dim == 2 else "vectors"
+        detail = f"{count} {kind} hold NaN or inf, the first at batch index {first}"
     else:
-        detail = "got NaN or inf"
-    raise ValueError(f"`{name}` must be finite: {detail} (shape {tuple(A.shape)})")
+        detail = f"got {t.tolist()}"
+    raise ValueError(f"`{name}` must be finite: {detail} (shape {tuple(t.shape)})")
 
 
 def check_unit_vectors(v: Tensor, d: int, name: str) -> Tensor:
@@ -109,16 +131,15 @@ def check_unit_vectors(v: Tensor, d: int, name: str) -> Tensor:
     if v.ndim == 0 or v.shape[-1] != d:
         raise ValueError(f"`{name}` must be [..., {d}], got shape {tuple(v.shape)}")
     v = as_floating(v, name)
-    tolerance = unit_tolerance(v.dtype)
-    norm = torch.linalg.vector_norm(v, dim=-1)
-    within = (norm - 1).abs() <= tolerance  # False for NaN, so non-finite vectors fail too
+    within = unit_vector.check(v)
     if within.all():
         return v
     count, first = _offenders(~within)
     detail = f"{count} are not, the first at batch index {first} with" if within.ndim else "got"
     raise ValueError(
-        f"`{name}` must hold finite unit vectors (|‖v‖ − 1| ≤ {tolerance:.2g} in {v.dtype}): "
-        f"{detail} ‖v‖ = {norm[first].item():.6g} (shape {tuple(v.shape)})"
+        f"`{name}` must hold finite unit vectors (|‖v‖ − 1| ≤ {unit_tolerance(v.dtype):.2g} in "
+        f"{v.dtype}): {detail} ‖v‖ = {torch.linalg.vector_norm(v[first]).item():.6g} "
+        f"(shape {tuple(v.shape)})"
     )
 
 

@@ -22,7 +22,7 @@ from symgrasp.cli.options import (
     parse_model,
     parse_planner,
 )
-from symgrasp.names import planner_kind
+from symgrasp.names import CUT_OBJECTS, planner_kind
 
 
 def add(subparsers: argparse._SubParsersAction) -> None:
@@ -89,6 +89,43 @@ def _add_detect(subparsers: argparse._SubParsersAction) -> None:
         default=0.001,
         help="metres per unit of a 16-bit --depth .png, the sensor's depth scale (default: "
         "0.001, millimetres)",
+    )
+    parser.add_argument(
+        "--fit-table",
+        action="store_true",
+        help="with --depth: find the table in the image and place the workspace on it "
+        "(symgrasp.perception.fit_table); the grasps then in the frame of --extrinsic, whose +z "
+        "is taken for up, or in the camera's frame without it (docs/detect.md)",
+    )
+    scene = parser.add_mutually_exclusive_group()
+    scene.add_argument(
+        "--whole-table",
+        action="store_true",
+        help="with --depth: detect over the whole table, one workspace per group of objects on "
+        "it (the table at --workspace-origin's z + 5 cm, or the fitted one with --fit-table), "
+        "the grasps merged and ranked together (docs/detect.md)",
+    )
+    scene.add_argument(
+        "--mask",
+        type=input_file,
+        help="with --depth: only the object of this mask, a .npy of booleans (or 0/1) or a .png "
+        "(non-zero: the object) the size of the depth image; the workspace centred on it",
+    )
+    scene.add_argument(
+        "--pixel",
+        type=integer(0, 10**6),
+        nargs=2,
+        metavar=("U", "V"),
+        help="with --depth: only the object seen at pixel (column U, row V); the workspace "
+        "centred on it",
+    )
+    scene.add_argument(
+        "--box",
+        type=integer(0, 10**6),
+        nargs=4,
+        metavar=("U0", "V0", "U1", "V1"),
+        help="with --depth: only the largest object inside this pixel box (corners inclusive); "
+        "the workspace centred on it",
     )
     parser.add_argument("--out", type=output_folder_path, required=True, help="output folder")
     add_detector_options(parser, planners=True)
@@ -177,6 +214,15 @@ def add_detector_options(parser: argparse.ArgumentParser, planners: bool = False
         "it executes the first of them (loads MuJoCo for the hand's boxes; docs/detect.md)",
     )
     parser.add_argument(
+        "--cut-objects",
+        choices=CUT_OBJECTS,
+        default="flag",
+        help="what to do with the grasps whose hand, approaching or closed, meets depth points "
+        "above the workspace's top or past its sides, on an object the cube cuts: flag them "
+        '("cut": true, the default), remove them, or ignore them; a warning says how many '
+        "(docs/detect.md, 'Objects the cube cuts')",
+    )
+    parser.add_argument(
         "--optimize",
         action="store_true",
         help="run the network as a TorchScript graph made for inference: ≈ 0.45× the forward "
@@ -203,6 +249,7 @@ def load_detector(args: argparse.Namespace):  # -> GraspDetector (imported here,
         table_scale=args.table_scale,
         depth_scale=args.depth_scale,
         approach_check=args.approach_check,
+        cut_objects=args.cut_objects,
         optimize=args.optimize,
     )
 
@@ -210,8 +257,17 @@ def load_detector(args: argparse.Namespace):  # -> GraspDetector (imported here,
 def _run_detect(args: argparse.Namespace) -> None:
     from symgrasp.folders import PICTURES, output_folder
 
-    if args.depth is not None and (args.intrinsic is None or args.extrinsic is None):
-        raise ValueError("--depth needs --intrinsic and --extrinsic (its camera and pose)")
+    if args.depth is not None and (
+        args.intrinsic is None or (args.extrinsic is None and not args.fit_table)
+    ):
+        raise ValueError("--depth needs --intrinsic and --extrinsic (its camera and pose) or "
+                         "--fit-table")  # fmt: skip
+    on_table = {**_scene_flags(args), "--fit-table": args.fit_table}
+    asked = [flag for flag, used in on_table.items() if used]
+    if asked and args.depth is None:
+        raise ValueError(f"{asked[0]} goes with --depth, not with --points")
+    if asked and planner_kind(args.model) != "model":
+        raise ValueError(f"{asked[0]} needs a symgrasp model, not --model {args.model}")
     if args.points is not None and args.extrinsic is None and args.viewpoint is None:
         raise ValueError("--points needs --extrinsic or --viewpoint: the rays the TSDF fuses "
                          "start at the camera")  # fmt: skip
@@ -238,6 +294,9 @@ def _detect(args: argparse.Namespace) -> None:
     from symgrasp.perception import depth_to_points, points_view
 
     planner = _planner(args)
+    if args.fit_table or any(_scene_flags(args).values()):
+        _detect_on_table(args, planner)
+        return
     origin = getattr(planner, "origin", (0.0, 0.0, 0.0))
     extrinsic = None if args.extrinsic is None else load_extrinsic(args.extrinsic)
     cloud = None
@@ -275,6 +334,89 @@ def _detect(args: argparse.Namespace) -> None:
     print(f"{found}; " + ", ".join(str(p) for p in paths.values()))
 
 
+def _scene_flags(args: argparse.Namespace) -> dict[str, bool]:
+    return {
+        "--whole-table": args.whole_table,
+        "--mask": args.mask is not None,
+        "--pixel": args.pixel is not None,
+        "--box": args.box is not None,
+    }
+
+
+def _detect_on_table(args: argparse.Namespace, detector) -> None:
+    """`_detect` with --fit-table, --whole-table, --mask, --pixel or --box: the grasps of
+    `symgrasp.detect.scene` (or of the detector's cube on the fitted table) in the frame of
+    --extrinsic (with --fit-table and none: the camera's), drawn over the image's points."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from symgrasp.detect.files import load_depth, load_extrinsic, load_intrinsic, write_detection
+    from symgrasp.detect.scene import detect_object, detect_table
+    from symgrasp.perception import depth_to_points, fit_table
+
+    depth = load_depth(args.depth, args.png_scale)
+    intrinsic = load_intrinsic(args.intrinsic, depth.shape)
+    T_frame_camera = np.eye(4) if args.extrinsic is None else load_extrinsic(args.extrinsic)
+    T_frame_world = np.eye(4)  # the detector's world in the answer's frame
+    T_world_camera = T_frame_camera
+    if args.fit_table:
+        up = None if args.extrinsic is None else T_frame_camera[:3, :3].T @ [0.0, 0.0, 1.0]
+        fit = fit_table(depth, intrinsic, up=up)
+        shift = np.eye(4)
+        shift[:3, 3] = detector.origin
+        T_world_camera = shift @ fit.T_workspace_camera  # the fitted cube at the origin
+        T_frame_world = T_frame_camera @ np.linalg.inv(T_world_camera)
+    with warnings.catch_warnings(record=True) as caught:  # one line each, as errors are
+        warnings.simplefilter("always")
+        if args.whole_table:
+            grasps = detect_table(detector, depth, intrinsic, T_world_camera).grasps
+        elif args.fit_table and not any(_scene_flags(args).values()):
+            grasps = detector.detect(depth, intrinsic, T_world_camera)
+        else:
+            selection = {"pixel": args.pixel, "box": args.box}
+            selection = {k: tuple(v) for k, v in selection.items() if v is not None}
+            if args.mask is not None:
+                selection["mask"] = _load_mask(args.mask)
+            grasps = detect_object(detector, depth, intrinsic, T_world_camera, **selection).grasps
+    for warning in caught:
+        print(f"warning: {warning.message}", file=sys.stderr)
+    grasps = [grasp.transformed(T_frame_world) for grasp in grasps[: args.top_k]]
+    volume = _fused(detector, depth, intrinsic, T_world_camera, detector.origin)
+    points = depth_to_points(depth, intrinsic, T_frame_camera, crop=False)
+    # not the detector: its grasps are not all in this one volume's frame and grid, whose
+    # closing-axis samples the pictures would draw
+    drawn = SimpleNamespace(
+        name=detector.name, version=detector.version, representation=detector.representation,
+        gripper=detector.gripper, timing=detector.timing,
+    )  # fmt: skip
+    paths = write_detection(args.out, drawn, volume, grasps, points)
+    found = f"{len(grasps)} grasps" if grasps else "no grasp found (the scene is drawn)"
+    print(f"{found}; " + ", ".join(str(p) for p in paths.values()))
+
+
+def _load_mask(path: str):  # -> np.ndarray (H, W)
+    """The object mask of a ``.npy`` (booleans or 0/1: `detect_object` checks) or a ``.png``
+    (non-zero: the object); ValueError naming the file otherwise."""
+    from pathlib import Path
+
+    import numpy as np
+    from PIL import Image
+
+    suffix = Path(path).suffix
+    try:
+        if suffix == ".npy":
+            return np.load(path, allow_pickle=False)
+        if suffix == ".png":
+            image = np.asarray(Image.open(path))
+            if image.ndim == 2:
+                return image != 0
+            raise ValueError(f"a mask .png has one channel, got shape {image.shape}")
+    except (OSError, ValueError, EOFError) as error:
+        raise ValueError(f"--mask: cannot read a mask from {path} ({error})") from None
+    raise ValueError(f"--mask must be a .npy or .png file, got {path}")
+
+
 def _check_planner_options(args: argparse.Namespace) -> None:
     """Refuse the options that do not apply to the planner ``--model`` names (before any
     heavy import)."""
@@ -303,6 +445,7 @@ def _check_planner_options(args: argparse.Namespace) -> None:
         "--table-scale": args.table_scale,
         "--depth-scale": args.depth_scale is not None,
         "--approach-check": args.approach_check,
+        "--cut-objects": args.cut_objects != "flag",
         "--optimize": args.optimize,
     }
     if kind == "plugin":

@@ -15,14 +15,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from symgrasp.atomic import read_json, write_atomic
+from symgrasp.atomic import write_atomic
 from symgrasp.data.dataset import (
-    MANIFEST_KEYS,
     GraspDataset,
     ManifestMismatch,
     check_scene_file,
     dataset_hash,
     load_scene,
+    read_manifest,
     scene_path,
 )
 from symgrasp.data.generate import DATASET, config_from_dict
@@ -72,8 +72,8 @@ def manifest_mismatches(root: str | Path) -> list[str]:
     it differs from the recorded one. Empty for a dataset as generated. `GraspDataset` refuses
     the first of these it meets; this lists them all (≈ 0.6 ms per scene, 5 s for 8 000)."""
     root = Path(root)
-    manifest = read_json(root / "manifest.json", "dataset manifest", dict, MANIFEST_KEYS)
-    listed = [int(i) for i in manifest["scene_ids"]]
+    manifest = read_manifest(root / "manifest.json")
+    listed = manifest["scene_ids"]
     on_disk = {p.name for p in (root / "scenes").glob("scene_*.npz")}
     problems = [
         f"{root / 'scenes' / name}: not in the manifest"
@@ -91,7 +91,7 @@ def manifest_mismatches(root: str | Path) -> list[str]:
         seen.setdefault(digest, path)
         try:
             with zipfile.ZipFile(path) as z:
-                check_scene_file(z, path, scene_id, int(manifest["k_max"]))
+                check_scene_file(z, path, scene_id, manifest["k_max"])
         except (OSError, ValueError, zipfile.BadZipFile) as err:
             problems.append(str(err) if str(path) in str(err) else f"{path}: {err}")
     recorded = manifest.get("dataset_hash")
@@ -173,7 +173,7 @@ def dataset_card(root: str | Path, validate: int = 0, seed: int = 0) -> dict[str
         },
         "rotations_dropped_beyond_k_max": dropped,
     }
-    cfg = config_from_dict(config) if config else None
+    cfg = config_from_dict(config, root / "manifest.json") if config else None
     card["label_coverage"] = label_coverage(root, cfg, data.gripper, kept_per_object)
     if validate > 0 and len(data):
         ids = [int(p.stem.split("_")[1]) for p in data.paths]

@@ -17,8 +17,10 @@ the grid. Gravity stays along −z, so scores are unchanged.
 from __future__ import annotations
 
 import hashlib
+import json
 import warnings
 import zipfile
+from collections import Counter
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -67,6 +69,37 @@ def dataset_hash(root: str | Path, scene_ids: Iterable[int]) -> str:
         h.update(str(i).encode())
         h.update(hashlib.sha256(scene_path(root, i).read_bytes()).digest())
     return h.hexdigest()[:16]
+
+
+def read_manifest(path: str | Path) -> dict:
+    """The dataset manifest ``path`` (`read_json`, with `MANIFEST_KEYS`) when its
+    ``scene_ids`` are distinct integers ≥ 0 and its ``k_max`` an integer ≥ 1; ValueError
+    naming the file and the field otherwise: a hand-edited list would read as an unfinished
+    dataset (a string's characters) or one whose files changed (an id twice)."""
+    manifest = read_json(path, "dataset manifest", dict, MANIFEST_KEYS)
+    ids, k_max = manifest["scene_ids"], manifest["k_max"]
+    if not (isinstance(ids, list) and all(_is_count(i, 0) for i in ids)):
+        raise ValueError(
+            f"{path} is not a valid dataset manifest: scene_ids must be a list of integers "
+            f"≥ 0, got {json.dumps(ids)[:40]}"
+        )
+    repeated = sorted(i for i, n in Counter(ids).items() if n > 1)
+    if repeated:
+        raise ValueError(
+            f"{path} is not a valid dataset manifest: scene_ids must name each scene once, got "
+            f"{', '.join(map(str, repeated[:5]))}{', …' * (len(repeated) > 5)} more than once"
+        )
+    if not _is_count(k_max, 1):
+        raise ValueError(
+            f"{path} is not a valid dataset manifest: k_max must be an integer ≥ 1, got "
+            f"{json.dumps(k_max)[:40]}"
+        )
+    return manifest
+
+
+def _is_count(value: object, lo: int) -> bool:
+    """Whether ``value`` is a JSON integer (not a bool) ≥ ``lo``."""
+    return isinstance(value, int) and not isinstance(value, bool) and value >= lo
 
 
 class ManifestMismatch(ValueError):
@@ -240,7 +273,7 @@ class GraspDataset(Dataset):
         manifest = self.root / "manifest.json"
         if not manifest.exists():
             raise ValueError(f"root must be a dataset folder with manifest.json, got {root}")
-        self.manifest: dict = read_json(manifest, "dataset manifest", dict, MANIFEST_KEYS)
+        self.manifest: dict = read_manifest(manifest)
         on_disk = len(list((self.root / "scenes").glob("scene_*.npz")))
         if on_disk > len(self.manifest["scene_ids"]):
             raise ValueError(
@@ -250,7 +283,7 @@ class GraspDataset(Dataset):
             )
         self.gripper: GripperSpec = get_gripper(self.manifest["gripper"])  # old: a name
         self.object_set: str = self.manifest["object_set"]
-        self.k_max: int = int(self.manifest["k_max"])
+        self.k_max: int = self.manifest["k_max"]
         self.augment, self.seed = augment, seed
         self.paths: list[Path] = []
         self.scene_ids: list[int] = []  # of the items, in the order of paths
@@ -264,7 +297,7 @@ class GraspDataset(Dataset):
                 with zipfile.ZipFile(path) as z:
                     bad = None if actual is not None and actual == recorded else z.testzip()
                     if bad is None:
-                        check_scene_file(z, path, int(scene_id), self.k_max)
+                        check_scene_file(z, path, scene_id, self.k_max)
                 if bad is not None:
                     raise zipfile.BadZipFile(f"bad CRC in {bad}")
             except (OSError, zipfile.BadZipFile) as err:
@@ -279,7 +312,7 @@ class GraspDataset(Dataset):
                     f"{root}` lists every mismatch"
                 ) from None
             self.paths.append(path)
-            self.scene_ids.append(int(scene_id))
+            self.scene_ids.append(scene_id)
         if actual is not None and actual != recorded and not self.skipped:
             raise ManifestMismatch(
                 f"{self.root} does not match its manifest: dataset hash {recorded} recorded, "

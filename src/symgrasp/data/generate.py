@@ -43,15 +43,22 @@ from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 
-def config_from_dict(d: dict[str, Any]) -> SceneConfig:
-    """The :class:`SceneConfig` saved in a manifest."""
-    d = dict(d)
-    db = d.pop("database")
-    db["offset"] = tuple(db["offset"])
-    for key in ("kinds", "camera_distance", "camera_polar", "label_spread"):
-        if key in d:  # a manifest from before a field was added: its default
-            d[key] = tuple(d[key])
-    return SceneConfig(**d, database=DatabaseConfig(**db))
+def config_from_dict(d: dict[str, Any], path: str | Path | None = None) -> SceneConfig:
+    """The :class:`SceneConfig` saved in the manifest ``path``; ValueError naming that file
+    and the field when ``d`` is not one (a hand-edited ``"k_max": "eight"``)."""
+    try:
+        d = dict(d)
+        db = d.pop("database")
+        db["offset"] = tuple(db["offset"])
+        for key in ("kinds", "camera_distance", "camera_polar", "label_spread"):
+            if key in d:  # a manifest from before a field was added: its default
+                d[key] = tuple(d[key])
+        return SceneConfig(**d, database=DatabaseConfig(**db))
+    except (KeyError, TypeError, ValueError) as err:
+        what = f"it lacks {err}" if isinstance(err, KeyError) else err
+        raise ValueError(
+            f"{path or 'a manifest'} is not a valid dataset manifest: its config: {what}"
+        ) from None
 
 
 def dataset_manifest(

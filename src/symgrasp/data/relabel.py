@@ -35,7 +35,7 @@ from tqdm import tqdm
 
 from symgrasp.atomic import check_json, read_json, write_atomic
 from symgrasp.config import SceneConfig
-from symgrasp.data.dataset import load_scene, scene_path
+from symgrasp.data.dataset import load_scene, read_manifest, scene_path
 from symgrasp.data.generate import DATASET, config_from_dict, dataset_manifest, scenes_to_write
 from symgrasp.data.labels import voxelise
 from symgrasp.data.scenes import (
@@ -85,8 +85,8 @@ def _source(src: Path, spread: tuple[float, ...]) -> dict[str, Any]:
     path = src / "manifest.json"
     if not path.is_file():
         raise ValueError(f"src must be a dataset folder with manifest.json, got {src}")
-    manifest = read_json(path, "dataset manifest", dict, ("scene_ids",))
-    if "config" in manifest and config_from_dict(manifest["config"]).label_spread == spread:
+    manifest = read_manifest(path)
+    if "config" in manifest and config_from_dict(manifest["config"], path).label_spread == spread:
         what = (
             "a label spread of " + " ".join(f"{v:g}" for v in spread)
             if any(spread)
@@ -156,7 +156,7 @@ def relabel(
         made = dataset_manifest(cfg, hand, source["seed"], ids, root, source["generated_with"])
         return {**made, "derived_from": derived}
 
-    ids = [int(i) for i in source["scene_ids"]]
+    ids = source["scene_ids"]
     write_atomic(manifest_path, lambda f: json.dump(manifest([]), f, indent=1), mode="w")
     _link_databases(src / "db", root / "db")
     for i in tqdm(scenes_to_write(root, ids, resume), desc="relabel", unit="scene"):

@@ -10,7 +10,7 @@ Following the paper (Appx. C), with a batch from `symgrasp.data.dataset.collate_
   with ``ValidityLoss(ignore_band=d)``, the invalid voxels within Chebyshev distance d of a
   valid voxel of their scene (`ignored_voxels`) are left out of the sum: a voxel beside a
   labelled grasp often holds a grasp that was not sampled, and teaching it as invalid is
-  teaching noise (docs/data.md, "False negatives");
+  teaching noise (docs/reports/label-density.md, "False negatives");
 - **score**: squared error of the gravity-rejection score at the valid voxels, mean over them
   (elsewhere the label is 0 by convention, not a measurement; the validity head covers it);
 - **rotation**: ``representation.loss(pred, rotations, rotation_mask)`` (Eq. 8 for

@@ -47,7 +47,7 @@ BINGHAM_BOUND = 20.0
 MEMORY_FORMAT = torch.channels_last_3d
 """Layout of the weights and activations. oneDNN's 3D convolutions run channels-last natively:
 in the default layout every convolution reorders its input and output, and a CPU training step
-took 1.6× as long (`benchmarks/model.py`, docs/model.md)."""
+took 1.6× as long (`benchmarks/model.py`, docs/reports/training-speed.md)."""
 
 
 class GraspOutput(NamedTuple):
@@ -69,7 +69,8 @@ class PointwiseConv3d(nn.Conv3d):
     oneDNN for its reference kernel (``slow_conv3d``: an unfold and layout copies each way),
     which is how a training step runs where jobs share a machine one core each. As a product
     over channels, a step of 16 real scenes in micro-batches of 2 took 1.65 s against 2.01
-    (one thread beside another training job, `benchmarks/model.py`, docs/model.md). Inference
+    (one thread beside another training job, `benchmarks/model.py`,
+    docs/reports/training-speed.md). Inference
     graphs (`symgrasp.model.torchscript.optimize`) run it as oneDNN's convolution, like the
     others.
     """

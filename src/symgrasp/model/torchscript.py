@@ -8,7 +8,7 @@ the network whose every convolution calls oneDNN's (`torch.mkldnn_convolution`) 
 channels-last tensors, traced and frozen: on the 2-core CPU its forward pass takes ≈ 0.4× the
 eager time, where `torch.jit.optimize_for_inference` reached ≈ 0.6× (it keeps oneDNN's own
 tensor layout between convolutions and converts back and forth around every GroupNorm, and
-upsamples in the default layout; `benchmarks/detect.py`, docs/detect.md). Off the CPU the
+upsamples in the default layout; `benchmarks/detect.py`, docs/reports/latency.md). Off the CPU the
 frozen graph is fused by `torch.jit.optimize_for_inference`. Outputs differ from eager by float
 rounding only (≈ 1e-5 here; tests allow 1e-4).
 

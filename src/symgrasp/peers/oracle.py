@@ -15,8 +15,9 @@ The cost is the databases: every object a round draws is a new one (a mesh set's
 scaled per draw, `symgrasp.objects.sets.VGN_SCALE`), so they are `OnDemandDatabase`s kept in
 memory: closed at once, each grasp scored only along the directions a state reads and only once
 it survives the collision check, the same scores `build_database` gives, bit for bit
-(docs/data.md, "Scoring what is read"); ``grasps`` sets the price of a round. The defaults are
-the databases the shipped models were trained on (`symgrasp.config.TRAINING_DATABASE`).
+(docs/reports/grasp-databases.md, "Scoring what is read"); ``grasps`` sets the price of a round.
+The defaults are the databases the shipped models were trained on
+(`symgrasp.config.TRAINING_DATABASE`).
 """
 
 from __future__ import annotations

@@ -14,13 +14,14 @@ from symgrasp.perception.camera import (
 )
 from symgrasp.perception.noise import add_depth_noise, noisy_depth
 from symgrasp.perception.points import fill_holes, points_view
-from symgrasp.perception.table import TableFit, fit_table, table_depth_scale
+from symgrasp.perception.table import TableFit, TableWarning, fit_table, table_depth_scale
 from symgrasp.perception.tsdf import TSDFVolume, surface_points
 
 __all__ = [
     "CameraIntrinsic",
     "TSDFVolume",
     "TableFit",
+    "TableWarning",
     "add_depth_noise",
     "default_extrinsic",
     "depth_to_points",

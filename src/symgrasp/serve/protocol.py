@@ -14,6 +14,7 @@ import itertools
 import json
 import math
 import reprlib
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -36,10 +37,14 @@ before it is built."""
 DTYPES = {"float32": "<f4", "float64": "<f8", "uint16": "<u2"}
 """The element types an encoded array may have (little-endian, whatever the machine)."""
 
+SCHEMA = Path(__file__).with_name("schema.json")
+"""The JSON Schema (draft 2020-12) of the request, the answer, the health answer and the errors,
+shipped with the package: its ``$defs`` ``request``, ``answer``, ``health``, ``error``."""
+
 
 __all__ = [
     "DEFAULT_PORT", "DETECT_PATH", "DTYPES", "HEALTH_PATH", "MAX_BODY", "MAX_DIMS", "MAX_VALUES",
-    "PROTOCOL", "RequestError", "decode_array", "encode_array", "parse_request",
+    "PROTOCOL", "SCHEMA", "RequestError", "decode_array", "encode_array", "parse_request",
 ]  # fmt: skip
 
 

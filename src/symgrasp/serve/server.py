@@ -17,6 +17,7 @@ is parsed (`symgrasp.serve.protocol.parse_request`); a client that hangs up cost
 
 from __future__ import annotations
 
+import functools
 import io
 import json
 import socket
@@ -34,6 +35,7 @@ import numpy as np
 
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.detect.files import intrinsic_from_json
+from symgrasp.detect.scene import SceneDetection, detect_object, detect_table
 from symgrasp.perception import CameraIntrinsic, fit_table
 from symgrasp.perception.camera import is_rigid
 from symgrasp.perception.points import FRAMES
@@ -63,7 +65,7 @@ plus the detections queued then."""
 
 FIELDS = {
     "depth", "depth_scale", "points", "intrinsic", "T_world_camera", "viewpoint", "frame",
-    "fit_table", "around", "top_k",
+    "fit_table", "around", "top_k", "whole_table", "mask", "pixel", "box",
 }  # fmt: skip
 """The fields a detect request may hold; any other is refused (a misspelt option would
 otherwise be ignored silently)."""
@@ -92,11 +94,13 @@ def answer(
     lock: threading.Lock | None = None,
     start: float | None = None,
 ) -> dict[str, Any]:
-    """The answer to a detect request ``body`` (parsed JSON): the grasps best first, the
-    detector's stage timing and the server's (from ``start``, `time.perf_counter` when the
-    request arrived; default now), the warnings it gave, and with ``fit_table`` the fitted
-    workspace's pose. `RequestError` (or ValueError from the detector, which names its
-    argument) for a request that cannot be answered. ``lock``: held around the detection."""
+    """The answer to a detect request ``body`` (parsed JSON): the grasps best first (each with
+    its flange pose and opening width, `Grasp.record`), the warnings it gave, the timing [ms]
+    of the table fit (``fit_table``, with ``fit_table``), of the detector's stages and of the
+    server's whole answer (``server``, from ``start``, `time.perf_counter` when the request
+    arrived; default now), and with ``fit_table`` the fitted workspace's pose. `RequestError`
+    (or ValueError from the detector, which names its argument) for a request that cannot be
+    answered. ``lock``: held around the detection."""
     start = time.perf_counter() if start is None else start
     if not isinstance(body, dict):
         raise RequestError(f"the request must be a JSON object, got {type(body).__name__}")
@@ -110,7 +114,7 @@ def answer(
         raise RequestError("give depth or points, exactly one")
     top_k = optional_integer(body, "top_k", 1, 10**6)
     parse = _depth_call if "depth" in body else _points_call
-    call, T_frame_world, extra = parse(body, detector)
+    call, T_frame_world, extra, stages = parse(body, detector)
     # catch_warnings changes the process's filters: inside the lock, one request at a time
     with lock or threading.Lock(), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -121,7 +125,7 @@ def answer(
     return {
         "grasps": [grasp.record() for grasp in grasps[:top_k]],
         "warnings": [str(warning.message) for warning in caught],
-        "timing_ms": {**timing, "server": 1e3 * (time.perf_counter() - start)},
+        "timing_ms": {**stages, **timing, "server": 1e3 * (time.perf_counter() - start)},
         **extra,
     }
 
@@ -129,9 +133,10 @@ def answer(
 Call = Callable[[], list[Grasp]]
 """A detection, ready to run under the lock."""
 
-Parsed = tuple[Call, np.ndarray | None, dict[str, Any]]
+Parsed = tuple[Call, np.ndarray | None, dict[str, Any], dict[str, float]]
 """A request's detection, the pose taking its grasps to the request's frame (None: they are in
-it), and what else the answer holds."""
+it), what else the answer holds, and the stages run while the request was read ([ms] by name:
+``fit_table``)."""
 
 
 def _depth_call(body: dict[str, Any], detector: GraspDetector) -> Parsed:
@@ -154,13 +159,74 @@ def _depth_call(body: dict[str, Any], detector: GraspDetector) -> Parsed:
     for field in ("points", "viewpoint", "frame"):
         if field in body:
             raise RequestError(f"{field} goes with points, not with depth")
+    scene = _scene(body, depth.shape)
     if optional_flag(body, "fit_table"):
-        return _table_call(body, detector, depth, intrinsic, T)
+        return _table_call(body, detector, depth, intrinsic, T, scene)
     if "around" in body:
         raise RequestError("around goes with fit_table")
     if T is None:
         raise RequestError("T_world_camera is missing (or ask for fit_table)")
-    return (lambda: detector.detect(depth, intrinsic, T)), None, {}
+    extra: dict[str, Any] = {}
+    return _detection(scene, detector, depth, intrinsic, T, None, extra), None, extra, {}
+
+
+Scene = Callable[..., SceneDetection]
+"""`detect_table`, or `detect_object` with its selection: called as ``(detector, depth,
+intrinsic, T_world_camera)``."""
+
+
+def _scene(body: dict[str, Any], shape: tuple[int, ...]) -> Scene | None:
+    """The scene detection the request's ``whole_table``, ``mask``, ``pixel`` or ``box`` (at
+    most one) asks of depth images of ``shape``, or None; their values' ranges are
+    `detect_object`'s to check (ValueError naming the field)."""
+    whole = optional_flag(body, "whole_table")
+    given = [field for field in ("mask", "pixel", "box") if body.get(field) is not None]
+    if whole + len(given) > 1:
+        asked = (["whole_table"] if whole else []) + given
+        raise RequestError(f"give at most one of whole_table, mask, pixel and box, got {asked}")
+    if whole:
+        return detect_table
+    if not given:
+        return None
+    field = given[0]
+    if len(shape) == 3 and shape[0] != 1:
+        raise RequestError(f"{field} selects in one depth image, got {shape[0]}")
+    if field == "mask":
+        mask = decode_array(body["mask"], "mask", ("float32", "float64", "uint16"))
+        return functools.partial(detect_object, mask=mask)
+    value, count = body[field], {"pixel": 2, "box": 4}[field]
+    if not (
+        isinstance(value, list)
+        and len(value) == count
+        and all(isinstance(x, int) and not isinstance(x, bool) for x in value)
+    ):
+        names = "(u, v)" if count == 2 else "(u0, v0, u1, v1)"
+        raise RequestError(f"{field} must be {count} integer pixels {names}, got {shown(value)}")
+    return functools.partial(detect_object, **{field: tuple(value)})
+
+
+def _detection(
+    scene: Scene | None,
+    detector: GraspDetector,
+    depth: np.ndarray,
+    intrinsic: CameraIntrinsic,
+    T_world_camera: np.ndarray,
+    T_frame_world: np.ndarray | None,
+    extra: dict[str, Any],
+) -> Call:
+    """The detection a depth request asks for: ``detector.detect``, or the ``scene``'s (`_scene`),
+    which adds its cubes' poses in the answer's frame (``T_frame_world`` of the world's; None:
+    the same) to ``extra`` as ``workspaces``, once it has run."""
+    if scene is None:
+        return lambda: detector.detect(depth, intrinsic, T_world_camera)
+
+    def call() -> list[Grasp]:
+        found = scene(detector, depth, intrinsic, T_world_camera)
+        T = np.eye(4) if T_frame_world is None else T_frame_world
+        extra["workspaces"] = [(T @ _shift(origin)).tolist() for origin in found.origins]
+        return found.grasps
+
+    return call
 
 
 def _table_call(
@@ -169,9 +235,11 @@ def _table_call(
     depth: np.ndarray,
     intrinsic: CameraIntrinsic,
     T: np.ndarray | None,
+    scene: Scene | None,
 ) -> Parsed:
-    """The detection on the table fitted in ``depth`` (one view), its grasps taken to the
-    frame of ``T`` (``T_world_camera``, whose +z is taken for up), else to the camera's."""
+    """The detection (``scene``'s, if any: `_detection`) on the table fitted in ``depth`` (one
+    view), its grasps taken to the frame of ``T`` (``T_world_camera``, whose +z is taken for
+    up), else to the camera's."""
     if depth.ndim == 3 and len(depth) != 1:
         raise RequestError(f"fit_table takes one depth image, got {len(depth)}")
     if T is not None and (T.shape != (4, 4) or not is_rigid(T)):
@@ -187,14 +255,19 @@ def _table_call(
         around = (point - T_frame_camera[:3, 3]) @ T_frame_camera[:3, :3]
     image = np.nan_to_num(depth.reshape(depth.shape[-2:]), nan=0.0, posinf=0.0, neginf=0.0)
     up = None if T is None else T[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+    fit_start = time.perf_counter()
     fit = fit_table(image, intrinsic, around=around, up=up)
+    fit_ms = 1e3 * (time.perf_counter() - fit_start)
     # the detector's world is the fitted cube moved to its workspace origin
     T_world_camera = _shift(detector.origin) @ fit.T_workspace_camera
     T_frame_workspace = T_frame_camera @ fit.T_camera_workspace
+    T_frame_world = T_frame_workspace @ _shift(-detector.origin)
+    extra = {"T_world_workspace": T_frame_workspace.tolist(), "table_centred_on": fit.centred_on}
     return (
-        lambda: detector.detect(depth, intrinsic, T_world_camera),
-        T_frame_workspace @ _shift(-detector.origin),
-        {"T_world_workspace": T_frame_workspace.tolist(), "table_centred_on": fit.centred_on},
+        _detection(scene, detector, depth, intrinsic, T_world_camera, T_frame_world, extra),
+        T_frame_world,
+        extra,
+        {"fit_table": fit_ms},
     )
 
 
@@ -207,7 +280,7 @@ def _points_call(body: dict[str, Any], detector: GraspDetector) -> Parsed:
         shape = points.shape[:2] if points.ndim == 3 else None
         intrinsic = _intrinsic(body["intrinsic"], shape)
     frame = optional_choice(body, "frame", FRAMES)
-    for field in ("depth_scale", "fit_table", "around"):
+    for field in ("depth_scale", "fit_table", "around", "whole_table", "mask", "pixel", "box"):
         if field in body:
             raise RequestError(f"{field} goes with depth, not with points")
 
@@ -216,7 +289,7 @@ def _points_call(body: dict[str, Any], detector: GraspDetector) -> Parsed:
             points, T, viewpoint=viewpoint, intrinsic=intrinsic, frame=frame
         )
 
-    return call, None, {}
+    return call, None, {}, {}
 
 
 def _intrinsic(value: Any, shape: tuple[int, int] | None) -> CameraIntrinsic:

@@ -337,7 +337,8 @@ class World:
         The start is where MuJoCo last computed the positions (the current state after
         `restore`, as for `hand_pose`). A few operations on 3-vectors per step, read from
         MuJoCo's own buffers: a force ramp costs little more than its MuJoCo steps, where one
-        through `apply_force`, `step` and `hand_pose` spent more in Python (docs/data.md).
+        through `apply_force`, `step` and `hand_pose` spent more in Python
+        (docs/reports/grasp-databases.md).
         """
         self._require_hand()
         if not 0 <= index < len(self.objects):
