@@ -16,7 +16,9 @@ import sys
 from pathlib import Path
 from typing import NoReturn
 
+import numpy as np
 import pytest
+import torch
 
 from symgrasp.objects.folder import DATA_ENV, VGN_ROOT
 
@@ -189,3 +191,50 @@ def caller_threads():
     before = torch.get_num_threads()
     yield torch.set_num_threads
     torch.set_num_threads(before)
+
+
+def grasp_rotation(approach, closing) -> np.ndarray:
+    """The grasp frame [e_x e_y e_z] (3, 3) of an ``approach`` e_x and a ``closing`` axis e_z
+    (each normalised; they must be orthogonal)."""
+    e_x = np.asarray(approach, float) / np.linalg.norm(approach)
+    e_z = np.asarray(closing, float) / np.linalg.norm(closing)
+    return np.c_[e_x, np.cross(e_z, e_x), e_z]
+
+
+def bingham2d_channels(Rot: np.ndarray, gaps=(20.0, 10.0)) -> np.ndarray:
+    """The 9 ``bingham2d`` channels whose Bingham mode is ``Rot``'s e_z, with eigenvalue gaps
+    ``gaps`` towards e_x and e_y, and whose approach is ``Rot``'s e_x."""
+    from symgrasp.bingham import sym_to_triu
+
+    A = Rot @ np.diag([-gaps[0], -gaps[1], 0.0]) @ Rot.T
+    return np.r_[sym_to_triu(torch.tensor(A)).numpy(), Rot[:, 0]]
+
+
+class FixedNet(torch.nn.Module):
+    """A stand-in network that returns prescribed volumes, whatever the TSDF: at each voxel of
+    ``voxels`` ``{(i, j, k): (score, validity probability, channels)}``, nothing valid
+    elsewhere (validity logit ``background_validity``)."""
+
+    def __init__(self, representation: str, voxels: dict, background_validity: float = -9.0):
+        from symgrasp import rotation
+
+        super().__init__()
+        r = 40
+        self.representation = rotation.get(representation)
+        self.score = torch.zeros(1, r, r, r)
+        self.validity = torch.full((1, r, r, r), background_validity)
+        self.rot = torch.zeros(1, self.representation.channels, r, r, r)
+        for (i, j, k), (score, validity, channels) in voxels.items():
+            self.score[0, i, j, k] = score
+            self.validity[0, i, j, k] = torch.logit(torch.tensor(validity))
+            self.rot[0, :, i, j, k] = torch.as_tensor(channels)
+
+    def forward(self, tsdf):
+        from symgrasp.model.network import GraspOutput
+
+        b = tsdf.shape[0]
+        return GraspOutput(
+            self.score.expand(b, -1, -1, -1),
+            self.validity.expand(b, -1, -1, -1),
+            self.rot.expand(b, -1, -1, -1, -1),
+        )

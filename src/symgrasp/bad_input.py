@@ -343,9 +343,9 @@ second (tests/test_bad_input.py plays them with those imports blocked)."""
 FILES = {  # case: (argv of the `make_files` folder, text the one-line message names)
     "bench into an existing benchmark": (lambda d: ["bench", "declutter", "--out", str(d / "bench")], "--resume"),
     "bench --resume a config.json that is []": (lambda d: ["bench", "declutter", "--out", str(d / "bench_list"), "--resume"], "config.json is not a valid benchmark configuration: expected a JSON object"),
-    "bench --resume a rounds.jsonl torn in the middle": (lambda d: ["bench", "declutter", "--out", str(d / "bench_torn"), "--resume"], "rounds.jsonl line 2 is not a valid round record"),
-    "bench --resume of another configuration": (lambda d: ["bench", "declutter", "--out", str(d / "bench"), "--resume", "--rounds", "3"], "rounds differ"),
-    "bench --resume with another depth noise": (lambda d: ["bench", "declutter", "--out", str(d / "bench"), "--resume", "--noise", "dex"], "noise differ"),
+    "bench --resume a rounds.jsonl torn in the middle": (lambda d: ["bench", "declutter", "--out", str(d / "bench_torn"), "--resume", "--no-operating-point"], "rounds.jsonl line 2 is not a valid round record"),
+    "bench --resume of another configuration": (lambda d: ["bench", "declutter", "--out", str(d / "bench"), "--resume", "--rounds", "3", "--no-operating-point"], "rounds differ"),
+    "bench --resume with another depth noise": (lambda d: ["bench", "declutter", "--out", str(d / "bench"), "--resume", "--noise", "dex", "--no-operating-point"], "noise differ"),
     "bench --out a folder of the user's results.md": (lambda d: ["bench", "declutter", "--out", str(d / "mine")], "holds files that are not a benchmark (model.sha256, results.md)"),
     "train --out unrelated files": (lambda d: ["train", "--data", str(d), "--out", str(d / "unrelated")], "not a training run (notes.txt)"),
     "demo --out unrelated files": (lambda d: ["demo", "--out", str(d / "unrelated")], "not pictures"),
@@ -404,7 +404,7 @@ FILES = {  # case: (argv of the `make_files` folder, text the one-line message n
     "data inspect a manifest listing a scene twice": (lambda d: ["data", "inspect", str(d / "ids_twice")], "ids_twice/manifest.json is not a valid dataset manifest: scene_ids must name each scene once, got 1 more than once"),
     "train on a manifest whose k_max is a word": (lambda d: ["train", "--data", str(d / "k_max_word"), "--out", str(d / "r")], "k_max_word/manifest.json is not a valid dataset manifest: k_max must be an integer ≥ 1, got \"eight\""),
     "data relabel a manifest whose config's k_max is a word": (lambda d: ["data", "relabel", str(d / "config_word"), "--out", str(d / "g")], "config_word/manifest.json is not a valid dataset manifest: its config: k_max must be an integer"),
-    "bench --resume rounds of another renderer": (lambda d: ["bench", "declutter", "--out", str(d / "bench_rendered"), "--resume"], "the rounds played now would differ"),
+    "bench --resume rounds of another renderer": (lambda d: ["bench", "declutter", "--out", str(d / "bench_rendered"), "--resume", "--no-operating-point"], "the rounds played now would differ"),
 }  # fmt: skip
 """Files whose contents are wrong (a checkpoint, a dataset, a benchmark folder, a depth image, a
 mesh): refused when the command reads them, with the library it reads them by, naming the file."""

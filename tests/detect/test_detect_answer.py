@@ -175,7 +175,10 @@ def _boxes(count, seed=0):
 
 
 def test_the_detectors_opening_clears_rendered_boxes():
-    detector = GraspDetector.from_pretrained("bingham2d-robotiq-2f85", device="cpu")
+    # the grasps above the validity threshold, the study's (the card's forced ones come closer)
+    detector = GraspDetector.from_pretrained(
+        "bingham2d-robotiq-2f85", device="cpu", operating_point=False
+    )
     clearances, widths = _box_clearances(detector, _boxes(4))
     assert len(clearances) >= 3
     assert clearances.min() >= 0.003  # the true box, unseen back included, clears each finger

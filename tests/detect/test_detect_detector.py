@@ -3,14 +3,12 @@
 import numpy as np
 import pytest
 import torch
-from torch import nn
+from conftest import FixedNet, bingham2d_channels, grasp_rotation
 
-from symgrasp import rotation
-from symgrasp.bingham import sym_to_triu
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.detect.pretrained import export_model
 from symgrasp.model.checkpoint import save_checkpoint
-from symgrasp.model.network import GraspNet, GraspOutput, NetworkConfig
+from symgrasp.model.network import GraspNet, NetworkConfig
 from symgrasp.model.ranking import local_maxima
 from symgrasp.perception import CameraIntrinsic
 from symgrasp.perception.camera import default_extrinsic
@@ -21,40 +19,7 @@ R = 40
 VOXEL = 0.3 / R
 
 
-def _rotation(approach, closing) -> np.ndarray:
-    e_x = np.asarray(approach, float) / np.linalg.norm(approach)
-    e_z = np.asarray(closing, float) / np.linalg.norm(closing)
-    return np.c_[e_x, np.cross(e_z, e_x), e_z]
-
-
-def _bingham2d(Rot: np.ndarray, gaps=(20.0, 10.0)) -> np.ndarray:
-    """The 9 channels whose Bingham mode is Rot's e_z with eigenvalue gaps ``gaps``."""
-    A = Rot @ np.diag([-gaps[0], -gaps[1], 0.0]) @ Rot.T
-    return np.r_[sym_to_triu(torch.tensor(A)).numpy(), Rot[:, 0]]
-
-
-class FixedNet(nn.Module):
-    """A stand-in network that returns prescribed volumes, whatever the TSDF."""
-
-    def __init__(self, representation: str, voxels: dict, background_validity: float = -9.0):
-        super().__init__()
-        self.representation = rotation.get(representation)
-        c = self.representation.channels
-        self.score = torch.zeros(1, R, R, R)
-        self.validity = torch.full((1, R, R, R), background_validity)
-        self.rot = torch.zeros(1, c, R, R, R)
-        for (i, j, k), (score, validity, channels) in voxels.items():
-            self.score[0, i, j, k] = score
-            self.validity[0, i, j, k] = torch.logit(torch.tensor(validity))
-            self.rot[0, :, i, j, k] = torch.as_tensor(channels)
-
-    def forward(self, tsdf):
-        b = tsdf.shape[0]
-        return GraspOutput(
-            self.score.expand(b, -1, -1, -1),
-            self.validity.expand(b, -1, -1, -1),
-            self.rot.expand(b, -1, -1, -1, -1),
-        )
+_rotation, _bingham2d = grasp_rotation, bingham2d_channels
 
 
 ROT_A = _rotation([0, 0, -1], [1, 0, 0])
@@ -189,7 +154,7 @@ def test_detect_fuses_depth_and_an_empty_table_gives_no_grasps(empty_table_depth
     noisy[10:20] = np.inf
     noisy[20:30] = 0.0
     assert detector.detect(noisy, intrinsic, T) == []
-    assert set(detector.timing) == {"tsdf", "network", "decode"}
+    assert set(detector.timing) == {"tsdf", "network", "decode", "width"}
     # the table top (z = 0.05 m) is seen: the TSDF changes sign between z-voxels 6 and 7
     tsdf = detector.fuse(depth, intrinsic.K, T).grid()
     assert tsdf[20, 20, 4] < 0 < tsdf[20, 20, 9]
@@ -256,7 +221,7 @@ def test_the_approach_check_keeps_the_grasps_the_benchmark_would_execute(empty_t
     checker = _detector(voxels, nms_radius=0, approach_check=True)
     checked = checker.detect(depth, intrinsic, T)
     assert len(checked) == 1 and np.array_equal(checked[0].pose, unchecked[1].pose)
-    assert set(checker.timing) == {"tsdf", "network", "decode", "approach", "cut"}
+    assert set(checker.timing) == {"tsdf", "network", "decode", "approach", "cut", "width"}
     surface = checker.fuse(depth, intrinsic, T).point_cloud().numpy()
     assert abs(np.median(surface[:, 2]) - 0.05) < 0.002  # the table top is what it checks against
     chosen, rejected = first_free(unchecked, ROBOTIQ_2F85, surface)

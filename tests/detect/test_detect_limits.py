@@ -7,11 +7,8 @@ import warnings
 
 import numpy as np
 import pytest
-import torch
-from torch import nn
+from conftest import FixedNet, bingham2d_channels, grasp_rotation
 
-from symgrasp import rotation
-from symgrasp.bingham import sym_to_triu
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.detect.limits import (
     CELL,
@@ -23,7 +20,6 @@ from symgrasp.detect.limits import (
     mark_cut,
     raised_points,
 )
-from symgrasp.model.network import GraspOutput
 from symgrasp.perception import CameraIntrinsic, default_extrinsic, depth_to_points
 from symgrasp.sim import FRANKA, ROBOTIQ_2F85, World
 from symgrasp.sim.collision import hand_collides
@@ -37,10 +33,7 @@ HANDS = [FRANKA, ROBOTIQ_2F85]
 CLEARANCE = 0.001  # the approach check's, SURFACE_CLEARANCE
 
 
-def _rotation(approach, closing) -> np.ndarray:
-    e_x, e_z = np.asarray(approach, float), np.asarray(closing, float)
-    return np.c_[e_x, np.cross(e_z, e_x), e_z]
-
+_rotation = grasp_rotation
 
 DOWN_X = _rotation([0, 0, -1], [1, 0, 0])  # straight down, closing along world x
 DOWN_Y = _rotation([0, 0, -1], [0, 1, 0])
@@ -53,31 +46,14 @@ def _pose(Rot, position) -> np.ndarray:
     return T
 
 
-class PlacedNet(nn.Module):
+def PlacedNet(voxels: dict) -> FixedNet:
     """A stand-in ``bingham2d`` network: at each voxel of ``voxels`` ``{(i, j, k): (score,
     rotation)}`` a valid grasp of that score whose Bingham mode is the rotation's closing axis;
     nothing elsewhere, whatever the TSDF."""
-
-    def __init__(self, voxels: dict):
-        super().__init__()
-        self.representation = rotation.get("bingham2d")
-        self.score = torch.zeros(1, R, R, R)
-        self.validity = torch.full((1, R, R, R), -9.0)
-        self.rot = torch.zeros(1, self.representation.channels, R, R, R)
-        for (i, j, k), (score, Rot) in voxels.items():
-            A = Rot @ np.diag([-20.0, -10.0, 0.0]) @ Rot.T
-            self.score[0, i, j, k], self.validity[0, i, j, k] = score, 4.0
-            self.rot[0, :, i, j, k] = torch.as_tensor(
-                np.r_[sym_to_triu(torch.tensor(A)).numpy(), Rot[:, 0]]
-            )
-
-    def forward(self, tsdf):
-        b = tsdf.shape[0]
-        return GraspOutput(
-            self.score.expand(b, -1, -1, -1),
-            self.validity.expand(b, -1, -1, -1),
-            self.rot.expand(b, -1, -1, -1, -1),
-        )
+    return FixedNet(
+        "bingham2d",
+        {v: (score, 0.98, bingham2d_channels(Rot)) for v, (score, Rot) in voxels.items()},
+    )
 
 
 def _detector(voxels, gripper, **options) -> GraspDetector:
@@ -221,11 +197,13 @@ def test_a_shipped_model_keeps_no_grasp_at_a_cut(cut_scene):
     at a cut."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        flagged = GraspDetector.from_pretrained("bingham2d-robotiq-2f85", device="cpu").detect(
+        # the library's defaults: the grasps this scene was checked with, above the threshold
+        shipped = {"device": "cpu", "operating_point": False}
+        flagged = GraspDetector.from_pretrained("bingham2d-robotiq-2f85", **shipped).detect(
             *cut_scene
         )
         remover = GraspDetector.from_pretrained(
-            "bingham2d-robotiq-2f85", device="cpu", cut_objects="remove"
+            "bingham2d-robotiq-2f85", cut_objects="remove", **shipped
         )
         kept = remover.detect(*cut_scene)
     cut = [g for g in flagged if g.cut]

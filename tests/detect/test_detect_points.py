@@ -56,7 +56,7 @@ def test_a_cloud_with_its_cameras_intrinsic_gives_the_depth_images_grasps(detect
         assert [g.voxel for g in got] == [g.voxel for g in expected]
         assert np.allclose([g.pose for g in got], [g.pose for g in expected], atol=1e-5)
         assert np.allclose([g.score for g in got], [g.score for g in expected], atol=1e-4)
-    assert set(detector.timing) == {"tsdf", "network", "decode", "cut"}
+    assert set(detector.timing) == {"tsdf", "network", "decode", "cut", "width"}
 
 
 @pytest.mark.parametrize("how", ["pose", "viewpoint", "an eighth of the points"])

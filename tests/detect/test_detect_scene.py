@@ -7,14 +7,10 @@ import warnings
 
 import numpy as np
 import pytest
-import torch
-from torch import nn
+from conftest import FixedNet, bingham2d_channels
 
-from symgrasp import rotation
-from symgrasp.bingham import sym_to_triu
 from symgrasp.detect import GraspDetector, NoGraspWarning
 from symgrasp.detect.scene import MERGE_RADIUS, detect_object, detect_table, hand_margin
-from symgrasp.model.network import GraspOutput
 from symgrasp.perception import CameraIntrinsic, fit_table, look_at
 from symgrasp.sim import ROBOTIQ_2F85, World
 from symgrasp.sim.objects import flat_box
@@ -88,37 +84,15 @@ GRASP_Z = int((TABLE_HEIGHT + HEIGHT - 0.01) / VOXEL_SIZE)  # the TCP 1 cm below
 CENTRE = (R // 2, R // 2, GRASP_Z)
 
 
-def _channels(Rot: np.ndarray) -> torch.Tensor:
-    A = Rot @ np.diag([-20.0, -10.0, 0.0]) @ Rot.T
-    return torch.as_tensor(np.r_[sym_to_triu(torch.tensor(A)).numpy(), Rot[:, 0]])
-
-
-class FixedNet(nn.Module):
-    """Prescribed outputs whatever the TSDF (tests/detect/test_detect_detector.py's): a grasp at
-    each voxel of ``voxels`` {(i, j, k): score}, top-down, closing along world x."""
-
-    def __init__(self, voxels: dict):
-        super().__init__()
-        self.representation = rotation.get("bingham2d")
-        self.score = torch.zeros(1, R, R, R)
-        self.validity = torch.full((1, R, R, R), -9.0)
-        self.rot = torch.zeros(1, self.representation.channels, R, R, R)
-        for voxel, score in voxels.items():
-            self.score[(0, *voxel)] = score
-            self.validity[(0, *voxel)] = 3.0
-            self.rot[(0, slice(None), *voxel)] = _channels(TOP_DOWN)
-
-    def forward(self, tsdf):
-        b = tsdf.shape[0]
-        return GraspOutput(
-            self.score.expand(b, -1, -1, -1),
-            self.validity.expand(b, -1, -1, -1),
-            self.rot.expand(b, -1, -1, -1, -1),
-        )
+def _same_grasps_net(voxels: dict) -> FixedNet:
+    """A grasp at each voxel of ``voxels`` {(i, j, k): score}, top-down, closing along world x,
+    whatever the TSDF."""
+    channels = bingham2d_channels(TOP_DOWN)
+    return FixedNet("bingham2d", {v: (score, 0.95, channels) for v, score in voxels.items()})
 
 
 def _fixed(voxels: dict, **options) -> GraspDetector:
-    return GraspDetector(FixedNet(voxels), ROBOTIQ_2F85, device="cpu", **options)
+    return GraspDetector(_same_grasps_net(voxels), ROBOTIQ_2F85, device="cpu", **options)
 
 
 def test_one_cube_per_group_of_objects_each_grasp_on_its_objects(depth):
@@ -303,7 +277,10 @@ def test_an_object_is_selected_in_one_image_and_merge_radius_is_checked(depth):
 
 @pytest.fixture(scope="module")
 def shipped():
-    return GraspDetector.from_pretrained("bingham2d-robotiq-2f85", device="cpu")
+    # the library's defaults: the grasps these scenes were checked with, above the threshold
+    return GraspDetector.from_pretrained(
+        "bingham2d-robotiq-2f85", device="cpu", operating_point=False
+    )
 
 
 def test_the_whole_table_finds_objects_that_no_one_cube_holds(shipped, depth):
@@ -328,7 +305,10 @@ def test_the_object_asked_for_gets_grasps_on_it_alone(shipped, depth):
     for grasp in found.grasps:
         assert _off(grasp.position, "C") <= VOXEL_SIZE and _nearest(grasp.position) == "C"
     cube = GraspDetector.from_pretrained(
-        "bingham2d-robotiq-2f85", device="cpu", workspace_origin=tuple(found.origins[0])
+        "bingham2d-robotiq-2f85",
+        device="cpu",
+        workspace_origin=tuple(found.origins[0]),
+        operating_point=False,
     )
     assert "D" in {_nearest(g.position) for g in cube.detect(depth, K, CAMERA)}
 
@@ -363,6 +343,7 @@ def _cli(files, out: str, *extra: str) -> list:
             "detect",
             *(str(files / a) if a.endswith(("npy", "json", "png")) else a for a in inputs),
             *extra,
+            "--no-operating-point",  # as the `shipped` fixture
             "--out",
             str(files / out),
         ]

@@ -115,7 +115,9 @@ def test_the_decoding_docs_detect_md_gives_reproduces_the_detectors_grasps(tsdf,
     eigenvalue of A = triu(a), e_x the approach channels, Gram–Schmidt keeping e_x. The
     detector's grasps at those voxels are the same frames up to the flip (e_y, e_z → −e_y, −e_z).
     """
-    detector = GraspDetector.from_pretrained(MODEL, device="cpu", nms_radius=0)
+    detector = GraspDetector.from_pretrained(
+        MODEL, device="cpu", nms_radius=0, operating_point=False
+    )
     grasps = detector.detect_tsdf(tsdf)
     out = exported["frozen"]
     probability = 1 / (1 + np.exp(-out["validity"][0]))

@@ -221,6 +221,26 @@ def test_small_holes_are_filled_and_large_ones_refused(tmp_path, decomposer):
     assert decomposer == [], "refused before any decomposition"
 
 
+def test_a_closed_file_that_merging_would_open_is_read_as_stored(tmp_path, decomposer):
+    """Two 2 cm cubes touching along an edge, each with its own vertices: closed as stored,
+    while merging the vertices puts four faces on the shared edge (not watertight)."""
+    side = 0.02
+    cubes = [trimesh.creation.box((side,) * 3) for _ in range(2)]
+    cubes[0].apply_translation((side / 2, side / 2, side / 2))
+    cubes[1].apply_translation((-side / 2, -side / 2, side / 2))
+    path = tmp_path / "convex.obj"
+    trimesh.util.concatenate(cubes).export(path)
+    assert not trimesh.load(path, force="mesh", process=True).is_watertight  # the pinch made
+    assert mesh_module.read_mesh(path).mesh.is_watertight
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no holes "filled", no units guessed aloud
+        obj = load_mesh(path)
+    assert obj.mass == pytest.approx(DEFAULT_DENSITY * 2 * side**3)
+    assert len(decomposer) == 1, "two cubes on an edge are concave: cut into parts"
+    stl = _box(tmp_path / "box.stl")  # an STL's triangle soup is still joined
+    assert mesh_module.read_mesh(stl).mesh.is_watertight
+
+
 def test_empty_folders_and_other_files_are_named(tmp_path):
     with pytest.raises(ValueError, match=r"holds no \.urdf file, nor any \.obj, \.stl or \.ply mesh"):  # fmt: skip
         resolve(tmp_path)

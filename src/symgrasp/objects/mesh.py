@@ -12,6 +12,11 @@ A bare mesh gives a shape and nothing else; the rest is assumed, and said:
 - **collision**: a convex mesh (hull volume within `CONVEX_TOLERANCE` of its volume) is one
   part, its hull; any other is cut into convex parts once (`symgrasp.objects.decomposition`).
 
+Vertices at one position are merged (an STL stores each triangle's own, an OBJ splits them at
+texture seams), except in a file that is closed as stored and that merging would open (seen
+in GraspNet-1Billion-style ``convex.obj`` models): two solids touching along an edge share it
+once merged, four faces on one edge, which is not watertight.
+
 A file that is not a readable mesh, holds no triangles or spans no volume is refused with a
 ValueError naming it. So is a mesh that is not watertight, unless its holes are single
 triangles or quads (filled, with a warning naming it): it has no inside to weigh, and CoACD
@@ -89,19 +94,23 @@ class BareMesh:
 
 def read_mesh(path: str | Path, mesh_unit: str = "auto") -> BareMesh:
     """The triangles of the mesh file ``path`` and its units (``mesh_unit``, or guessed from its
-    size: module doc; `load_mesh` says so). Raises ValueError naming the file when it is not a
-    mesh trimesh reads or holds no triangles."""
+    size: module doc; `load_mesh` says so). Vertices at one position are merged unless that
+    opens a file that is closed as stored (module doc). Raises ValueError naming the file when
+    it is not a mesh trimesh reads or holds no triangles."""
     import trimesh
 
     path = Path(path)
     if mesh_unit not in MESH_UNITS:
         raise ValueError(f"mesh_unit must be one of {MESH_UNITS}, got {mesh_unit!r}")
     try:
-        mesh = trimesh.load(path, force="mesh", process=True, skip_materials=True)
+        stored = trimesh.load(path, force="mesh", process=False, skip_materials=True)
     except Exception as error:  # trimesh's loaders raise many kinds on a foreign file
         raise ValueError(f"{path} is not a mesh trimesh can read: {error}") from None
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+    if not isinstance(stored, trimesh.Trimesh) or len(stored.faces) == 0:
         raise ValueError(f"{path} holds no triangles: not an OBJ, STL or PLY mesh")
+    mesh = stored.copy().process()  # an STL's triangle soup, an OBJ's UV seams: joined
+    if not mesh.is_watertight and stored.is_watertight:
+        mesh = stored  # merging pinched a closed file (solids touching at an edge or vertex)
     if len(mesh.faces) > LARGE_MESH_FACES:
         warnings.warn(
             f"{path}: {len(mesh.faces):,} faces: making it an object takes about "
