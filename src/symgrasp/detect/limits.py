@@ -103,7 +103,8 @@ def raised_points(
         rise = R[2, 0] * u[None, :] + R[2, 1] * v[:, None] + R[2, 2]  # world z per metre of depth
         rows, cols = np.nonzero((depth > 0) & (depth * rise + t[2] > floor))
         d = depth[rows, cols].astype(float)
-        found.append(np.stack([u[cols] * d, v[rows] * d, d], axis=1) @ R.T + t)
+        # einsum, not @: a BLAS call leaves OpenBLAS' threads spinning beside the next network
+        found.append(np.einsum("nj,ij->ni", np.stack([u[cols] * d, v[rows] * d, d], axis=1), R) + t)
     return np.concatenate(found)
 
 
@@ -150,7 +151,7 @@ def cut_grasps(
     # the closed hand: the points a k-d tree finds in the ball around each closing box, tested
     centre, half = closing_box(gripper)
     half = half + clearance
-    middle = tcp[todo] + T[todo, :3, :3] @ centre
+    middle = tcp[todo] + np.einsum("nij,j->ni", T[todo, :3, :3], centre)
     near = cKDTree(cloud).query_ball_point(middle, float(np.linalg.norm(half)), return_sorted=False)
     count = np.fromiter(map(len, near), dtype=np.int64, count=len(near))
     grasp = np.repeat(todo, count)

@@ -89,7 +89,8 @@ def with_widths(
         near = cKDTree(points).query_ball_point(np.array([g.position for g in grasps]), reach)
     measured = []
     for grasp, index in zip(grasps, near, strict=True):
-        local = (points[index] - grasp.position) @ grasp.pose[:3, :3]
+        # einsum, not @: a BLAS call leaves OpenBLAS' threads spinning beside the next network
+        local = np.einsum("nj,ji->ni", points[index] - grasp.position, grasp.pose[:3, :3])
         between = np.all((local >= lo) & (local <= hi), axis=1)
         z, z_seen = local[between, 2], local[between & is_seen[index], 2]
         opening = gripper.max_width
