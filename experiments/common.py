@@ -138,6 +138,25 @@ def add_table1_options(parser: argparse.ArgumentParser, baselines: str = "") -> 
                         help="objects per round (default: 5)")  # fmt: skip
 
 
+def add_decoding_options(parser: argparse.ArgumentParser, result: str, what: str) -> None:
+    """The options `decoding.py` and `operating_points.py` share: ``--rounds`` per ``what``,
+    ``--seed``, ``--num-objects``, the executor (2 workers by default), ``--out`` (the per-cell
+    folders both read, ``out/decoding``) and ``--result`` (``result``)."""
+    from symgrasp.parallel.options import add_parallel_options
+
+    parser.add_argument("--rounds", type=int, default=200,
+                        help=f"rounds per {what} (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--seed", type=int, default=3_000_000,
+                        help="seed of round 0 (default: %(default)s)")  # fmt: skip
+    parser.add_argument("--num-objects", type=int, default=5,
+                        help="objects per round (default: %(default)s)")  # fmt: skip
+    add_parallel_options(parser, "rounds")
+    parser.set_defaults(workers=2)
+    parser.add_argument("--out", default="out/decoding",
+                        help="per-cell benchmark folders (default: %(default)s)")  # fmt: skip
+    add_result_option(parser, result)
+
+
 def add_round_options(parser: argparse.ArgumentParser, seed: int, rounds: int, what: str) -> None:
     """``--objects``, ``--seed``, ``--rounds`` and ``--num-objects`` of the training-object
     rounds a campaign's collation reads (``what`` names them in the help): the declutter

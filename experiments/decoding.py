@@ -41,7 +41,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option, wilson, write_rounds_archive
+from common import add_decoding_options, wilson, write_rounds_archive
 
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import (
@@ -53,7 +53,7 @@ from symgrasp.benchmark.runner import (
 from symgrasp.benchmark.seeds import common_rounds, seed_contrast
 from symgrasp.config import DEFAULT_VALIDITY
 from symgrasp.detect.pretrained import OPERATING_POINT_KEYS
-from symgrasp.parallel.options import add_parallel_options, parallel_from_args
+from symgrasp.parallel.options import parallel_from_args
 from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 FALLBACKS = 8
@@ -174,15 +174,7 @@ def markdown(cells: list[dict], control: dict[str, list[float]] | None) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--rounds", type=int, default=200, help="rounds per arm (default: 200)")
-    parser.add_argument(
-        "--seed", type=int, default=3_000_000, help="seed of round 0 (default: 3000000)"
-    )
-    parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
-    add_parallel_options(parser, "rounds")
-    parser.set_defaults(workers=2)
-    parser.add_argument("--out", default="out/decoding", help="per-arm benchmark folders")
-    add_result_option(parser, "decoding")
+    add_decoding_options(parser, "decoding", "arm")
     args = parse_args(
         parser,
         outputs=("out", "result"),

@@ -33,7 +33,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from common import add_result_option, write_rounds_archive
+from common import add_decoding_options, write_rounds_archive
 
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import (
@@ -45,7 +45,7 @@ from symgrasp.benchmark.runner import (
 )
 from symgrasp.benchmark.seeds import common_rounds
 from symgrasp.detect.pretrained import OPERATING_POINT_KEYS, shipped_path
-from symgrasp.parallel.options import add_parallel_options, parallel_from_args
+from symgrasp.parallel.options import parallel_from_args
 from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 MODELS = {  # model: (its choosing rounds' objects and scene, the decoding.py arm prefix)
@@ -102,25 +102,13 @@ def markdown(rows: list[dict], chosen: dict[str, str]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--rounds", type=int, default=200, help="rounds per cell (default: 200)")
-    parser.add_argument(
-        "--seed", type=int, default=3_000_000, help="seed of round 0 (default: 3000000)"
-    )
-    parser.add_argument("--num-objects", type=int, default=5, help="objects per round (default: 5)")
-    add_parallel_options(parser, "rounds")
-    parser.set_defaults(workers=2)
-    parser.add_argument(
-        "--out",
-        default="out/decoding",
-        help="per-cell benchmark folders (experiments/decoding.py's)",
-    )
+    add_decoding_options(parser, "operating_points", "cell")
     parser.add_argument(
         "--write-card",
         action="store_true",
         help="write the chosen operating points into the shipped models' cards "
         "(src/symgrasp/detect/models/operating_points.json)",
     )
-    add_result_option(parser, "operating_points")
     args = parse_args(
         parser,
         outputs=("out", "result"),
