@@ -3,15 +3,17 @@
 naming the field when malformed."""
 
 import json
+import threading
 
 import numpy as np
 import pytest
 
 from symgrasp.detect import GraspDetector
 from symgrasp.detect.scene import detect_object, detect_table
-from symgrasp.perception import CameraIntrinsic, look_at
+from symgrasp.perception import CameraIntrinsic, TableWarning, fit_table, look_at
+from symgrasp.serve.client import POSES, GraspClient, ServerError
 from symgrasp.serve.protocol import encode_array
-from symgrasp.serve.server import answer
+from symgrasp.serve.server import GraspServer, answer
 from symgrasp.sim import World
 from symgrasp.sim.objects import flat_box
 from symgrasp.sim.render import make_renderer
@@ -28,13 +30,17 @@ def detector():
     return GraspDetector.from_pretrained("bingham2d-robotiq-2f85", device="cpu")
 
 
-@pytest.fixture(scope="module")
-def depth():
+def depth_of_boxes() -> np.ndarray:
     objects = [flat_box(SIZE, "box", name) for name in BOXES]
     poses = np.tile(np.eye(4), (len(objects), 1, 1))
     poses[:, :2, 3] = list(BOXES.values())
     poses[:, 2, 3] = TABLE_HEIGHT
     return make_renderer(K).render(World(objects, poses), CAMERA)
+
+
+@pytest.fixture(scope="module")
+def depth():
+    return depth_of_boxes()
 
 
 def _left_mask(depth) -> np.ndarray:
@@ -146,3 +152,52 @@ def test_scene_fields_go_with_one_depth_image(detector, depth):
     ):
         with pytest.raises(ValueError, match=f"{field} goes with depth, not with points"):
             answer(detector, {**points, field: value})
+
+
+def test_the_table_fits_doubt_reaches_the_answer(detector):
+    """A wall 6 cm in front of the camera's foot hides most of the table: the plane fitted holds
+    13 % of the points, under `MIN_TABLE_SHARE`; the answer says so in its warnings, as
+    `fit_table` says it to the process (`TableFit.warning`, one message)."""
+    wall = flat_box((2.0, 0.02, 1.6), "box", "wall")
+    pose = np.eye(4)
+    pose[:3, 3] = (0.15, -0.14, TABLE_HEIGHT)
+    walled = make_renderer(K).render(World([wall], pose[None]), CAMERA)
+    with pytest.warns(TableWarning) as caught:
+        fit = fit_table(walled, K, up=CAMERA[:3, :3].T @ [0.0, 0.0, 1.0])
+    assert fit.doubts and str(caught[0].message) == fit.warning
+    with pytest.warns(TableWarning):
+        reply = answer(detector, _body(walled, fit_table=True))
+    assert fit.warning in reply["warnings"] and "no dominant plane" in fit.warning
+    clear = answer(detector, _body(depth_of_boxes(), fit_table=True))
+    assert not any(message.startswith("fit_table:") for message in clear["warnings"])
+
+
+def test_the_client_asks_for_the_whole_table_and_an_object(detector, depth):
+    """`GraspClient.detect`'s ``whole_table``, ``mask``, ``pixel`` and ``box`` over loopback
+    answer as `answer` does here: the same grasps (poses as arrays) and cube poses."""
+    server = GraspServer(("127.0.0.1", 0), detector, "stand-in", log=None)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        client = GraspClient(server.url)
+        mask = _left_mask(depth)
+        v, u = np.argwhere(mask).mean(0).round().astype(int)
+        asked = {
+            "whole_table": ({"whole_table": True}, {"whole_table": True}),
+            "mask": ({"mask": mask}, {"mask": encode_array(mask.astype(np.uint16))}),
+            "pixel": ({"pixel": (u, v)}, {"pixel": [int(u), int(v)]}),
+            "box": ({"box": (u - 5, v - 5, u + 5, v + 5)}, {"box": [int(u - 5), int(v - 5), int(u + 5), int(v + 5)]}),
+        }  # fmt: skip
+        for name, (arguments, fields) in asked.items():
+            got = client.detect(depth, K.K, CAMERA, **arguments)
+            expected = answer(detector, _body(depth, **fields))
+            assert got.grasps, name
+            for grasp, record in zip(got.grasps, expected["grasps"], strict=True):
+                assert all(isinstance(grasp[key], np.ndarray) for key in POSES)
+                assert {**grasp, **{key: grasp[key].tolist() for key in POSES}} == record
+            assert [T.tolist() for T in got.workspaces] == expected["workspaces"]
+        with pytest.raises(ServerError, match="at most one of whole_table, mask, pixel and box"):
+            client.detect(depth, K.K, CAMERA, whole_table=True, pixel=(u, v))
+    finally:
+        server.shutdown()
+        server.server_close()

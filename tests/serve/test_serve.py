@@ -22,7 +22,7 @@ from symgrasp.detect import GraspDetector
 from symgrasp.perception import default_extrinsic, depth_to_points, fit_table
 from symgrasp.perception.camera import CameraIntrinsic
 from symgrasp.serve import DETECT_PATH, HEALTH_PATH, PROTOCOL
-from symgrasp.serve.client import GraspClient, ServerError
+from symgrasp.serve.client import POSES, GraspClient, ServerError
 from symgrasp.serve.protocol import RequestError, decode_array, encode_array
 from symgrasp.serve.server import GraspServer
 from symgrasp.sim.objects import object_set
@@ -62,7 +62,9 @@ def _records(grasps) -> list:
 
 
 def _served(detection) -> list:
-    return [{**g, "T_world_tcp": g["T_world_tcp"].tolist()} for g in detection.grasps]
+    """The client's grasps as the server's records: every pose an array, back to lists."""
+    assert all(isinstance(g[key], np.ndarray) for g in detection.grasps for key in POSES)
+    return [{**g, **{key: g[key].tolist() for key in POSES}} for g in detection.grasps]
 
 
 def test_arrays_travel_exactly_in_both_encodings():

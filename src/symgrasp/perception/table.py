@@ -163,6 +163,13 @@ class TableFit:
         return self.inliers / self.points
 
     @property
+    def warning(self) -> str:
+        """The `TableWarning`'s message `fit_table` gave for ``doubts``; empty when none."""
+        return (
+            "fit_table: " + "; ".join(self.doubts) + ": is a table in view?" if self.doubts else ""
+        )
+
+    @property
     def T_workspace_camera(self) -> np.ndarray:
         """The camera's pose in the workspace frame: the ``T_world_camera`` to give
         `GraspDetector.detect` (workspace origin 0), whose grasps are then in that frame."""
@@ -244,15 +251,14 @@ def fit_table(
             f"{below / len(points):.0%} of the seen points are seen through it, more than "
             f"{MIN_HEIGHT * 100:g} cm below it (MAX_BELOW_SHARE = {MAX_BELOW_SHARE:.0%})"
         )
-    if doubts:
-        warnings.warn(
-            "fit_table: " + "; ".join(doubts) + ": is a table in view?", TableWarning, stacklevel=2
-        )
-    return TableFit(
+    fit = TableFit(
         normal, distance, centre, centred_on, table.inliers, len(points),
         _workspace_pose(normal, centre), tuple(p for p in planes if p is not table), below,
         tuple(doubts),
     )  # fmt: skip
+    if fit.doubts:
+        warnings.warn(fit.warning, TableWarning, stacklevel=2)
+    return fit
 
 
 def _planes(

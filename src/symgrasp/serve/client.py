@@ -9,6 +9,7 @@ import it in its own environment::
     answer = client.detect(depth, K, T_world_camera)        # depth (H, W) [m], K (3, 3)
     best = answer.grasps[0]
     best["T_world_tcp"], best["score"], best["confidence"]   # (4, 4) array, floats
+    best["T_world_flange"], best["opening_width"]              # where the robot's flange goes
 """
 
 from __future__ import annotations
@@ -22,6 +23,9 @@ from typing import Any
 import numpy as np
 
 from symgrasp.serve.protocol import DEFAULT_PORT, DETECT_PATH, HEALTH_PATH, encode_array
+
+POSES = ("T_world_tcp", "T_world_flange")
+"""The poses of a grasp record, read as (4, 4) arrays."""
 
 
 class ServerError(RuntimeError):
@@ -38,20 +42,25 @@ class Detection:
     """A detect answer.
 
     Attributes:
-        grasps: best first, each ``{"T_world_tcp": (4, 4) array [m], "score", "validity",
-            "confidence" (None for point estimates), "voxel"}``.
+        grasps: best first, each the server's grasp record (docs/serve.md) with its poses
+            ``T_world_tcp`` and ``T_world_flange`` as (4, 4) arrays [m]: ``"score"``,
+            ``"validity"``, ``"confidence"`` (None for point estimates), ``"voxel"``,
+            ``"opening_width"`` and ``"object_width"`` [m], ``"cut"``, ``"fallback"``.
         warnings: the detector's warnings, e.g. why no grasp was found.
         timing_ms: milliseconds per stage (``tsdf``, ``network``, ``decode``) and ``server``,
             from the request's arrival (its body read, decoded, waiting for the lock,
             detected) to its answer.
         T_world_workspace: with ``fit_table``, the fitted workspace cube's pose (4, 4), else
             None.
+        workspaces: with ``whole_table``, ``mask``, ``pixel`` or ``box``, the poses (4, 4) of
+            the cubes detected in, else empty.
     """
 
     grasps: list[dict[str, Any]]
     warnings: list[str] = field(default_factory=list)
     timing_ms: dict[str, float] = field(default_factory=dict)
     T_world_workspace: np.ndarray | None = None
+    workspaces: list[np.ndarray] = field(default_factory=list)
 
 
 class GraspClient:
@@ -81,21 +90,35 @@ class GraspClient:
         depth_scale: float | None = None,
         fit_table: bool = False,
         around: np.ndarray | None = None,
+        whole_table: bool = False,
+        mask: np.ndarray | None = None,
+        pixel: tuple[int, int] | None = None,
+        box: tuple[int, int, int, int] | None = None,
         top_k: int | None = None,
     ) -> Detection:
         """Grasps in depth image(s) ``depth`` (H, W) or (V, H, W): metres, or uint16 with
         ``depth_scale`` [m per unit]; ``intrinsic`` a 3×3 matrix, ``{"fx", "fy", "cx",
-        "cy"}`` or a `CameraIntrinsic`; ``T_world_camera`` (4, 4) or (V, 4, 4). ``fit_table``: find the table and
-        place the workspace on it (one image): grasps in the frame of ``T_world_camera``
-        (whose +z is up), or in the camera's when it is None; ``around`` (3,) [m, that frame]
-        centres the workspace. ``top_k``: at most this many grasps."""
+        "cy"}`` or a `CameraIntrinsic`; ``T_world_camera`` (4, 4) or (V, 4, 4).
+        ``fit_table``: find the table and place the workspace on it (one image): grasps in the
+        frame of ``T_world_camera`` (whose +z is up), or in the camera's when it is None;
+        ``around`` (3,) [m, that frame] centres the workspace. At most one of: ``whole_table``
+        (every object group on the table, `symgrasp.detect.detect_table`), ``mask`` (H, W)
+        (nonzero: the object's pixels), ``pixel`` (u, v) or ``box`` (u0, v0, u1, v1) (the
+        object asked for, `symgrasp.detect.detect_object`). ``top_k``: at most this many
+        grasps."""
         depth = np.asarray(depth)
         body: dict[str, Any] = {"depth": self._array(depth), "intrinsic": _intrinsic(intrinsic)}
+        if mask is not None:
+            body["mask"] = self._array((np.asarray(mask) != 0).astype(np.uint16))
+        for name, pixels in (("pixel", pixel), ("box", box)):
+            if pixels is not None:  # integers, as the protocol has them
+                body[name] = [int(value) for value in pixels]
         optional = {
             "T_world_camera": T_world_camera,
             "depth_scale": depth_scale,
             "fit_table": fit_table or None,
             "around": around,
+            "whole_table": whole_table or None,
             "top_k": top_k,
         }
         return self._detect(body, optional)
@@ -130,10 +153,17 @@ class GraspClient:
                 continue
             body[name] = self._array(np.asarray(value, dtype=float)) if _is_array(value) else value
         reply = self._request(DETECT_PATH, body)
-        grasps = [{**g, "T_world_tcp": np.array(g["T_world_tcp"])} for g in reply["grasps"]]
+        grasps = [
+            {**g, **{key: np.array(g[key]) for key in POSES if g.get(key) is not None}}
+            for g in reply["grasps"]
+        ]
         pose = reply.get("T_world_workspace")
         return Detection(
-            grasps, reply["warnings"], reply["timing_ms"], None if pose is None else np.array(pose)
+            grasps,
+            reply["warnings"],
+            reply["timing_ms"],
+            None if pose is None else np.array(pose),
+            [np.array(T) for T in reply.get("workspaces", [])],
         )
 
     def _array(self, array: np.ndarray) -> Any:

@@ -29,7 +29,7 @@ import warnings
 from collections.abc import Callable
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -114,29 +114,39 @@ def answer(
         raise RequestError("give depth or points, exactly one")
     top_k = optional_integer(body, "top_k", 1, 10**6)
     parse = _depth_call if "depth" in body else _points_call
-    call, T_frame_world, extra, stages = parse(body, detector)
+    parsed = parse(body, detector)
     # catch_warnings changes the process's filters: inside the lock, one request at a time
     with lock or threading.Lock(), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        grasps = call()
+        grasps = parsed.call()
         timing = dict(detector.timing)
-    if T_frame_world is not None:
-        grasps = [grasp.transformed(T_frame_world) for grasp in grasps]
+    if parsed.T_frame_world is not None:
+        grasps = [grasp.transformed(parsed.T_frame_world) for grasp in grasps]
     return {
         "grasps": [grasp.record() for grasp in grasps[:top_k]],
-        "warnings": [str(warning.message) for warning in caught],
-        "timing_ms": {**stages, **timing, "server": 1e3 * (time.perf_counter() - start)},
-        **extra,
+        "warnings": [*parsed.warnings, *(str(warning.message) for warning in caught)],
+        "timing_ms": {**parsed.stages, **timing, "server": 1e3 * (time.perf_counter() - start)},
+        **parsed.extra,
     }
 
 
 Call = Callable[[], list[Grasp]]
 """A detection, ready to run under the lock."""
 
-Parsed = tuple[Call, np.ndarray | None, dict[str, Any], dict[str, float]]
-"""A request's detection, the pose taking its grasps to the request's frame (None: they are in
-it), what else the answer holds, and the stages run while the request was read ([ms] by name:
-``fit_table``)."""
+
+class Parsed(NamedTuple):
+    """A request read: its detection, ready to run under the lock."""
+
+    call: Call
+    T_frame_world: np.ndarray | None
+    """The pose taking its grasps to the request's frame (None: they are in it)."""
+    extra: dict[str, Any]
+    """What else the answer holds."""
+    stages: dict[str, float]
+    """The stages run while the request was read, [ms] by name (``fit_table``)."""
+    warnings: tuple[str, ...] = ()
+    """What those stages doubted (the table fit's `TableWarning`), for the answer's warnings:
+    their own warnings go to the process, whose filters only the lock's holder may change."""
 
 
 def _depth_call(body: dict[str, Any], detector: GraspDetector) -> Parsed:
@@ -167,7 +177,7 @@ def _depth_call(body: dict[str, Any], detector: GraspDetector) -> Parsed:
     if T is None:
         raise RequestError("T_world_camera is missing (or ask for fit_table)")
     extra: dict[str, Any] = {}
-    return _detection(scene, detector, depth, intrinsic, T, None, extra), None, extra, {}
+    return Parsed(_detection(scene, detector, depth, intrinsic, T, None, extra), None, extra, {})
 
 
 Scene = Callable[..., SceneDetection]
@@ -263,11 +273,12 @@ def _table_call(
     T_frame_workspace = T_frame_camera @ fit.T_camera_workspace
     T_frame_world = T_frame_workspace @ _shift(-detector.origin)
     extra = {"T_world_workspace": T_frame_workspace.tolist(), "table_centred_on": fit.centred_on}
-    return (
+    return Parsed(
         _detection(scene, detector, depth, intrinsic, T_world_camera, T_frame_world, extra),
         T_frame_world,
         extra,
         {"fit_table": fit_ms},
+        (fit.warning,) if fit.doubts else (),
     )
 
 
@@ -289,7 +300,7 @@ def _points_call(body: dict[str, Any], detector: GraspDetector) -> Parsed:
             points, T, viewpoint=viewpoint, intrinsic=intrinsic, frame=frame
         )
 
-    return call, None, {}, {}
+    return Parsed(call, None, {}, {})
 
 
 def _intrinsic(value: Any, shape: tuple[int, int] | None) -> CameraIntrinsic:
