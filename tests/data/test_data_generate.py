@@ -132,3 +132,15 @@ def test_the_manifest_holds_the_whole_gripper_spec_and_an_old_name_still_reads(d
     shutil.copytree(dataset, old)
     (old / "manifest.json").write_text(json.dumps({**manifest, "gripper": "franka"}))
     assert GraspDataset(old).gripper == FRANKA  # datasets made before spec files hold a name
+
+
+def test_generation_in_this_process_leaves_torchs_threads_as_they_were(tmp_path):
+    """The in-process executor runs the tasks here: each on one torch thread, the caller's own
+    restored after it (it used to keep 1 for good, slowing a training started next)."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(3)
+    try:
+        _generate(tmp_path / "one", "--scenes", "1")
+        assert torch.get_num_threads() == 3
+    finally:
+        torch.set_num_threads(before)

@@ -9,7 +9,7 @@ import pytest
 
 from symgrasp.cli import main
 from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
-from symgrasp.parallel import Failure, Job, TasksFailed, open_executor
+from symgrasp.parallel import Failure, Job, TasksFailed, open_executor, torch_threads
 from symgrasp.parallel.base import bounded
 
 
@@ -96,3 +96,13 @@ def test_the_cli_reports_failed_tasks_in_one_line(tmp_path, monkeypatch, capsys)
     with pytest.raises(SystemExit, match=r"^error: 4 of 4 scenes failed .*--resume") as exit_:
         main(["data", "generate", *TINY, "--out", str(tmp_path)])
     assert len(str(exit_.value.code).splitlines()) == 1
+
+
+def test_torch_threads_holds_a_task_to_its_threads_and_restores_the_callers():
+    import torch
+
+    before = torch.get_num_threads()
+    with pytest.raises(ZeroDivisionError), torch_threads(1):
+        assert torch.get_num_threads() == 1
+        1 / 0  # noqa: B018 (a task that raises restores them too)
+    assert torch.get_num_threads() == before

@@ -37,7 +37,7 @@ from symgrasp.data.dataset import dataset_hash, load_scene, scene_path
 from symgrasp.data.grasp_db import GraspDatabase, build_database, database_path, read_cached
 from symgrasp.data.scenes import ScenePool, make_scene_record, scene_pool
 from symgrasp.folders import Outputs, writes_folder
-from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor
+from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor, torch_threads
 from symgrasp.parallel.base import versions
 from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
@@ -91,25 +91,30 @@ def dataset_manifest(
 
 _WORKER: dict[str, Any] = {}
 
+TASK_THREADS = 1
+"""Torch threads of each task: one core per task (fusion threads would oversubscribe the
+workers); the caller's own restored after each (`torch_threads`)."""
+
 
 def _setup(
     cfg: SceneConfig, hand: GripperSpec, seed: int, databases: list[GraspDatabase] | None
 ) -> None:
-    import torch
-
-    torch.set_num_threads(1)  # one core per task: fusion threads would oversubscribe
     _WORKER.update(cfg=cfg, hand=hand, pool=scene_pool(cfg), seed=seed, databases=databases)
 
 
 def _database_task(k: int) -> GraspDatabase:
     cfg: SceneConfig = _WORKER["cfg"]
-    return build_database(_WORKER["pool"].objects[k], _WORKER["hand"], cfg.database, seed=k)
+    with torch_threads(TASK_THREADS):
+        return build_database(_WORKER["pool"].objects[k], _WORKER["hand"], cfg.database, seed=k)
 
 
 def _scene_task(scene_id: int) -> bytes:
     """Scene ``scene_id`` as the bytes of its compressed file (written by the caller)."""
     w = _WORKER
-    record = make_scene_record(scene_id, w["cfg"], w["hand"], w["pool"], w["databases"], w["seed"])
+    with torch_threads(TASK_THREADS):
+        record = make_scene_record(
+            scene_id, w["cfg"], w["hand"], w["pool"], w["databases"], w["seed"]
+        )
     buffer = io.BytesIO()
     np.savez_compressed(buffer, **record)
     return buffer.getvalue()

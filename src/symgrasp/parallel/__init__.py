@@ -11,7 +11,7 @@ for.
 """
 
 from symgrasp.config import ParallelConfig
-from symgrasp.parallel.base import Executor, Failure, Job, TasksFailed
+from symgrasp.parallel.base import Executor, Failure, Job, TasksFailed, torch_threads
 
 
 def open_executor(parallel: ParallelConfig) -> Executor:
@@ -33,4 +33,12 @@ def open_executor(parallel: ParallelConfig) -> Executor:
     return ProcessPool(parallel.workers) if (parallel.workers or 1) > 1 else InProcess()
 
 
-__all__ = ["Executor", "Failure", "Job", "ParallelConfig", "TasksFailed", "open_executor"]
+__all__ = [
+    "Executor",
+    "Failure",
+    "Job",
+    "ParallelConfig",
+    "TasksFailed",
+    "open_executor",
+    "torch_threads",
+]

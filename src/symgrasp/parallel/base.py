@@ -9,6 +9,7 @@ import traceback
 import zlib
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Hashable, Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from importlib.metadata import version
 from typing import Any
@@ -30,6 +31,22 @@ def versions() -> dict[str, str]:
         "symgrasp": symgrasp.__version__,
         **{name: version(name) for name in PACKAGES},
     }
+
+
+@contextmanager
+def torch_threads(threads: int) -> Iterator[None]:
+    """Torch's intra-op threads set to ``threads`` meanwhile, then restored: a task's floats
+    then do not depend on the machine's cores, and a task run in the caller's process (the
+    in-process executor) leaves the caller's threads as they were. torch is imported here, on
+    use: the package imports no torch."""
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
 
 
 @dataclass(frozen=True)
