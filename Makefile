@@ -27,6 +27,7 @@ $(TEST_STAMP): $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/symgrasp demo
 
+# pytest runs its testpaths (pyproject.toml): the library's tests, then the lab's, experiments/tests
 test: $(TEST_STAMP)
 	$(PY) -m ruff check src tests benchmarks experiments
 	$(PY) -m pytest -m "not slow" -q
@@ -42,6 +43,7 @@ format: $(TEST_STAMP)
 	$(PY) -m ruff format src tests benchmarks experiments
 	$(PY) -m ruff check --fix src tests benchmarks experiments
 
+# each writes its result under out/ (`python benchmarks/NAME.py --publish` into benchmarks/results/)
 bench: $(STAMP)
 	$(PY) benchmarks/bingham.py
 	$(PY) benchmarks/rotation.py
@@ -49,9 +51,11 @@ bench: $(STAMP)
 	$(PY) benchmarks/data.py
 	$(PY) benchmarks/model.py
 	$(PY) benchmarks/detect.py
+	$(PY) benchmarks/detect_table.py
 	$(PY) benchmarks/serve.py
 	$(PY) benchmarks/grasp_db.py || [ $$? -eq 66 ]  # 66: VGN's meshes not fetched
 	$(PY) benchmarks/scene_labels.py || [ $$? -eq 66 ]
+	$(PY) benchmarks/objects.py || [ $$? -eq 66 ]
 
 clean:
 	rm -rf $(VENV) build dist src/*.egg-info .pytest_cache .ruff_cache

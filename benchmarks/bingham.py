@@ -19,14 +19,15 @@ import statistics
 import time
 from pathlib import Path
 
+import lab  # noqa: F401  (puts the checkout's root on sys.path, for experiments.scripts)
 import numpy as np
 import torch
 from tqdm import tqdm
 
+from experiments.scripts import command_line, machine, parse_args, run_main
 from symgrasp.bingham import Bingham, eigh3, log_normalizer, nll, triu_to_sym
 from symgrasp.bingham.normalizer import _S2_NODES, _S2_WINDOW, _gauss_legendre, _s2_quadrature
 from symgrasp.bingham.reference import log_normalizer_mpmath
-from symgrasp.scripts import command_line, machine, parse_args, run_main
 
 RESULTS = Path(__file__).parent / "results" / "bingham.json"
 METHODS = {3: ["quadrature", "paper"], 4: ["bessel", "paper"]}

@@ -29,14 +29,15 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
+import lab  # noqa: F401  (puts the checkout's root on sys.path, for experiments.scripts)
 import torch
 
+from experiments.scripts import command_line, machine, parse_args, run_main
 from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
 from symgrasp.data.card import dataset_card
 from symgrasp.data.generate import generate
 from symgrasp.data.grasp_db import cached_database
 from symgrasp.data.scenes import scene_pool
-from symgrasp.scripts import command_line, machine, parse_args, run_main
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.sim.render import make_renderer
 

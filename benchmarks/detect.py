@@ -34,12 +34,13 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
+import lab  # noqa: F401  (puts the checkout's root on sys.path, for experiments.scripts)
 import numpy as np
 
+from experiments.scripts import command_line, machine, output_path, parse_args, run_main
 from symgrasp.detect import GraspDetector
 from symgrasp.detect.pretrained import OPERATING_POINT_KEYS
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
-from symgrasp.scripts import command_line, machine, parse_args, run_main
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
@@ -69,8 +70,9 @@ def main() -> None:
     )
     parser.add_argument(
         "--out",
-        default=DEFAULT_OUT,
-        help=f"result file (default: {DEFAULT_OUT}, or detect-DEVICE.json beside it off the CPU)",
+        default=None,
+        help=f"result file (default: {DEFAULT_OUT}, with -DEVICE off the CPU, -table, -approach "
+        "and -fallbacksN in its name for those options)",
     )
     parser.add_argument(
         "--approach-check",
@@ -89,12 +91,12 @@ def main() -> None:
     )
     args = parse_args(parser, outputs=("out",), quick={"repeats": 2, "block": 1})
     on_cpu = args.device == "cpu"
-    out = Path(args.out)
-    if str(out) == DEFAULT_OUT:
+    if args.out is None:  # the published name says what the options change
         suffix = ("" if on_cpu else f"-{args.device}") + ("-table" if args.table_scale else "")
         suffix += "-approach" if args.approach_check else ""
         suffix += "" if args.fallbacks is None else f"-fallbacks{args.fallbacks}"
-        out = out.with_name(f"detect{suffix}.json")
+        args.out = output_path(Path(DEFAULT_OUT).with_name(f"detect{suffix}.json"), args)
+    out = Path(args.out)
 
     options = {"device": args.device, "table_scale": args.table_scale,
                "approach_check": args.approach_check}  # fmt: skip

@@ -37,16 +37,17 @@ import dataclasses
 import os
 import time
 
+import lab  # noqa: F401  (puts the checkout's root on sys.path, for experiments.scripts)
 import mujoco
 import numpy as np
 
+from experiments.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.config import DatabaseConfig
 from symgrasp.data import grasp_db
 from symgrasp.data.grasp_db import GraspDatabase, build_database
 from symgrasp.names import GRIPPERS
 from symgrasp.objects.sets import resolve
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import stepwise_pull_out_forces
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.sim.objects import ObjectSpec, Part

@@ -30,10 +30,12 @@ import statistics
 import time
 from pathlib import Path
 
+import lab  # noqa: F401  (puts the checkout's root on sys.path, for experiments.scripts)
 import torch
 import torch.nn.functional as F
 from torch import nn
 
+from experiments.scripts import best_seconds, command_line, machine, parse_args, run_main
 from symgrasp import rotation
 from symgrasp.model import (
     GraspNet,
@@ -48,7 +50,6 @@ from symgrasp.model.loss import at_voxels
 from symgrasp.model.network import PointwiseConv3d
 from symgrasp.model.synthetic import SyntheticGraspDataset, collate_scenes
 from symgrasp.model.train import accumulate_gradient, collate_chunks
-from symgrasp.scripts import best_seconds, command_line, machine, parse_args, run_main
 
 RESULTS = Path(__file__).parent / "results" / "model.json"
 

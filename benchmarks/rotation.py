@@ -16,11 +16,19 @@ import json
 import os
 from pathlib import Path
 
+import lab  # noqa: F401  (puts the checkout's root on sys.path, for experiments.scripts)
 import torch
 
+from experiments.scripts import (
+    best_seconds,
+    command_line,
+    from_checkout,
+    machine,
+    parse_args,
+    run_main,
+)
 from symgrasp import rotation
 from symgrasp.bingham import eigh3, log_normalizer, triu_to_sym
-from symgrasp.scripts import best_seconds, command_line, machine, parse_args, run_main
 
 RESULTS = Path(__file__).parent / "results" / "rotation.json"
 
@@ -130,7 +138,7 @@ def main() -> None:
         "benchmark": "rotation representations: loss + backward and decode throughput",
         "command": command_line(""),
         "environment": {
-            key: value
+            key: from_checkout(value)
             for key, value in os.environ.items()
             if key.startswith(("MALLOC_", "OMP_", "MKL_")) or key == "PYTHONPATH"
         },

@@ -33,8 +33,10 @@ import argparse
 import os
 import time
 
+import lab  # noqa: F401  (puts the checkout's root on sys.path, for experiments.scripts)
 import numpy as np
 
+from experiments.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.config import TRAINING_DATABASE, DatabaseConfig, SceneConfig
 from symgrasp.data import grasp_db
@@ -42,7 +44,6 @@ from symgrasp.data.grasp_db import OnDemandDatabase, build_database
 from symgrasp.data.scenes import scene_grasps
 from symgrasp.names import GRIPPERS
 from symgrasp.objects.sets import make_scene, resolve
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import stepwise_pull_out_forces
 from symgrasp.sim.grippers import get_gripper
 

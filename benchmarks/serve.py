@@ -23,21 +23,19 @@ import statistics
 import subprocess
 import sys
 import time
-from pathlib import Path
 
+import lab  # noqa: F401  (puts the checkout's root on sys.path, for experiments.scripts)
 import numpy as np
 import torch
 
+from experiments.scripts import ROOT, command_line, parse_args, run_main, write_result
 from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.detect import GraspDetector
 from symgrasp.perception import CameraIntrinsic, default_extrinsic, depth_to_points
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.serve.client import GraspClient
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def median_interval(values: list[float], seed: int = 0) -> tuple[float, float]:

@@ -23,13 +23,14 @@ from collections.abc import Callable
 from datetime import datetime, timezone
 from pathlib import Path
 
+import lab  # noqa: F401  (puts the checkout's root on sys.path, for experiments.scripts)
 import numpy as np
 
+from experiments.scripts import command_line, machine, parse_args, run_main
 from symgrasp.objects.folder import MissingData
-from symgrasp.objects.sets import resolve
+from symgrasp.objects.sets import make_scene, resolve
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, default_extrinsic
-from symgrasp.scripts import command_line, machine, parse_args, run_main
-from symgrasp.sim import World, execute_grasp, get_gripper, make_scene
+from symgrasp.sim import World, execute_grasp, get_gripper
 from symgrasp.sim.execute import top_grasp
 from symgrasp.sim.objects import ObjectSpec, Part
 from symgrasp.sim.render import GLRenderer, RaycastRenderer, gl_available

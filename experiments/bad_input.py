@@ -2,11 +2,12 @@
 
     PYTHONPATH=src python experiments/bad_input.py [--timeout 120] [--quick [DIR]]
 
-Plays every command-line case of `symgrasp.bad_input` (which ``tests/test_bad_input.py`` runs
-in-process) as a real ``symgrasp`` process with a time limit, calls every API case, and sorts each
-outcome the way the probes that found these defects did: a *clear error* (non-zero exit, one
-line that names the argument or file, no traceback), a *traceback*, an *unclear* message (one
-that does not name what was wrong), a *silent* run (exit 0) or a *hang* (the time limit).
+Plays every command-line case of the library's bad-input tables (tests/bad_input_cases.py, which
+``tests/test_bad_input.py`` runs in-process) as a real ``symgrasp`` process with a time limit, calls
+every API case, and sorts each outcome the way the probes that found these defects did: a *clear
+error* (non-zero exit, one line that names the argument or file, no traceback), a *traceback*, an
+*unclear* message (one that does not name what was wrong), a *silent* run (exit 0) or a *hang* (the
+time limit).
 The valid inputs that give no grasp for a visible cause (the tables ``WARNED_*``) are played
 too: a *clear warning* (exit 0 and one ``warning:`` line naming the cause; a `NoGraspWarning`)
 is what they should end with, a run without one is *silent*.
@@ -17,6 +18,7 @@ The seconds of each case show whether it was checked before any work started: a 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
 import subprocess
 import sys
@@ -26,20 +28,13 @@ import warnings
 from pathlib import Path
 
 from common import add_result_option
+from scripts import ROOT, command_line, parse_args, run_main, write_result
 
-from symgrasp.bad_input import (
-    API,
-    ARGUMENTS,
-    FILES,
-    MODEL,
-    PLANNERS,
-    WARNED_API,
-    WARNED_CLI,
-    make_files,
-)
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
+CASES = ROOT / "tests" / "bad_input_cases.py"
+"""The library's bad-input tables, written once beside the test that guarantees them and read
+here from there."""
 
-WIDE_JAW = Path(__file__).resolve().parents[1] / "tests" / "wide-jaw.toml"
+WIDE_JAW = ROOT / "tests" / "wide-jaw.toml"
 """The tests' made-up 110 mm jaw, a spec file whose lines the bad gripper specs replace: read
 here as data, the one file, so the cases play alike in the test and here."""
 
@@ -115,15 +110,18 @@ def main() -> None:
 
     from symgrasp.detect import GraspDetector
 
-    detector = GraspDetector.from_pretrained(MODEL, device="cpu")
+    spec = importlib.util.spec_from_file_location("bad_input_cases", CASES)
+    cases = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(cases)
+    detector = GraspDetector.from_pretrained(cases.MODEL, device="cpu")
     limit = args.cases or None
     cells = []
     with tempfile.TemporaryDirectory() as folder:
-        files = make_files(Path(folder), WIDE_JAW)
-        for kind, table, warned in (("command line, arguments", ARGUMENTS, False),
-                                     ("command line, files", FILES, False),
-                                     ("command line, planners", PLANNERS, False),
-                                     ("command line, no grasp", WARNED_CLI, True)):  # fmt: skip
+        files = cases.make_files(Path(folder), WIDE_JAW)
+        for kind, table, warned in (("command line, arguments", cases.ARGUMENTS, False),
+                                     ("command line, files", cases.FILES, False),
+                                     ("command line, planners", cases.PLANNERS, False),
+                                     ("command line, no grasp", cases.WARNED_CLI, True)):  # fmt: skip
             for case, (argv, named) in list(table.items())[:limit]:
                 outcome, seconds, message = command_line_case(
                     argv(files), named, args.timeout, files, warned
@@ -131,7 +129,8 @@ def main() -> None:
                 cells.append({"kind": kind, "case": case, "outcome": outcome,
                               "seconds": round(seconds, 2), "message": message})  # fmt: skip
                 print(f"{outcome:13s} {seconds:6.2f} s  symgrasp {case}", flush=True)
-        for kind, table, warned in (("API", API, False), ("API, no grasp", WARNED_API, True)):
+        for kind, table, warned in (("API", cases.API, False),
+                                     ("API, no grasp", cases.WARNED_API, True)):  # fmt: skip
             for case, (call, named) in list(table.items())[:limit]:
                 outcome, seconds, message = api_case(call, named, detector, warned)
                 cells.append({"kind": kind, "case": case, "outcome": outcome,

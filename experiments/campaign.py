@@ -101,10 +101,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from scripts import ROOT as REPOSITORY
+from scripts import command_line, parse_args, run_main, write_result
+
 from symgrasp.arguments import number
 from symgrasp.atomic import read_json, write_atomic
 from symgrasp.digest import file_sha256
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 try:
     import tomllib
@@ -112,7 +114,6 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
 POLL_SECONDS = 1.0
-REPOSITORY = Path(__file__).resolve().parents[1]
 INDEX = "index.json"
 """A bank's index: each step's record and where each of its kept files is."""
 ARCHIVE = ".tar.xz"

@@ -1,4 +1,4 @@
-"""What the experiments share beyond `symgrasp.scripts`: where their results go, the shipped
+"""What the experiments share beyond `scripts`: where their results go, the shipped
 model that stands in for every training run in ``--quick`` mode, the order their tables list
 the hands in, which validation scenes a checkpoint is looked at on, the Wilson interval of a rate,
 a grasp database's prefix, the Table 1 rounds a shipped model replays, an archive of rounds,
@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from symgrasp.sim.world import World
 
 RESULTS = Path("experiments/results")
-"""Where an experiment's result goes by default (`add_result_option`)."""
+"""Where an experiment's result is published (`add_result_option`)."""
 
 PAPER_HAND = "robotiq-2f85"
 """The hand of the paper's Table 1 (Ko et al. 2024): first in every table."""
@@ -62,8 +62,8 @@ def prefix(db: GraspDatabase, n: int) -> GraspDatabase:
 
 
 def add_result_option(parser: argparse.ArgumentParser, name: str) -> None:
-    """``--result STEM``, where `symgrasp.scripts.write_result` writes, by default
-    ``experiments/results/NAME``."""
+    """``--result STEM``, where `scripts.write_result` writes: by default
+    ``experiments/results/NAME`` with ``--publish``, else under out/ (`scripts.output_path`)."""
     default = str(RESULTS / name)
     parser.add_argument(
         "--result",
@@ -219,7 +219,7 @@ def table1_rounds(
 ) -> tuple[list[dict[str, Any]] | None, Path]:
     """Rounds ``first_seed`` … ``first_seed + rounds − 1`` of the Table 1 cell of ``model`` (a
     shipped model, which replays its training run's cell round for round, or a training run's
-    checkpoint; tests/benchmark/test_benchmark_shipped_replay.py) in ``baselines``: the cell of
+    checkpoint; experiments/tests/test_shipped_replay.py) in ``baselines``: the cell of
     its hand, representation and training seed (`symgrasp.benchmark.cells`, from
     ``first_seed``), e.g. Table 1's rounds unpacked from ``results/declutter_rounds.tar.gz``, and
     the cell's folder (`cell_rounds`)."""

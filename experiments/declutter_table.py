@@ -57,7 +57,6 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import shutil
 import statistics
 from collections import Counter
 from pathlib import Path
@@ -72,6 +71,7 @@ from common import (
     update_page,
     write_rounds_archive,
 )
+from scripts import command_line, output_path, parse_args, run_main, write_result
 
 from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.compare import percent_change
@@ -83,7 +83,6 @@ from symgrasp.cli.options import approach_check
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 from symgrasp.rotation import get as get_representation
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 PREFIXES = {"robotiq-2f85": "final", "franka": "final-franka"}
 """The run folders' prefix per gripper (experiments/campaigns/*.toml)."""
@@ -517,18 +516,19 @@ def main() -> None:
         quick={"rounds": 1, "num_objects": 1, "workers": 1, "seeds": [0, 1],
                "grippers": ["robotiq-2f85"], "field_gripper": "robotiq-2f85",
                "objects": ["household-test"], "field": [("household-test", "packed")]},
-        also=f"{SHIPPED} for every run, a copy of the page",
+        also=f"{SHIPPED} for every run", pages=("docs",),
     )  # fmt: skip
-    if args.quick:  # the page's copy, so that its markers are still checked
-        shutil.copyfile(parser.get_default("docs"), args.docs)
     if args.first_seed < 0:
         parser.error(f"--first-seed: expected a round seed ≥ 0, got {args.first_seed}")
-    table1 = [f"--{dest}" for dest in ("figure", "archive", "docs")
-              if getattr(args, dest) == parser.get_default(dest)]  # fmt: skip
-    other = Path(args.result).resolve() != Path(parser.get_default("result")).resolve()
-    if other and table1 and not args.play_only:
-        parser.error(f"--result {args.result} is not Table 1's, but {', '.join(table1)} "
-                     "would write over Table 1's committed files: name them too")  # fmt: skip
+
+    def table1(dest: str) -> Path:  # where this run writes Table 1's file
+        return output_path(parser.get_default(dest), args).resolve()
+
+    left = [f"--{dest}" for dest in ("figure", "archive", "docs")
+            if Path(getattr(args, dest)).resolve() == table1(dest)]  # fmt: skip
+    if Path(args.result).resolve() != table1("result") and left and not args.play_only:
+        parser.error(f"--result {args.result} is not Table 1's, but {', '.join(left)} "
+                     "would write over Table 1's files: name them too")  # fmt: skip
     for dest in OUTPUTS:  # another first seed's outputs beside Table 1's, never over them
         path, default = Path(getattr(args, dest)), Path(parser.get_default(dest))
         if path.name == default.name:

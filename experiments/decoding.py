@@ -42,6 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from common import add_decoding_options, wilson, write_rounds_archive
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import (
@@ -51,10 +52,8 @@ from symgrasp.benchmark.runner import (
     summarise,
 )
 from symgrasp.benchmark.seeds import common_rounds, seed_contrast
-from symgrasp.config import DEFAULT_VALIDITY
-from symgrasp.detect.pretrained import OPERATING_POINT_KEYS
+from symgrasp.config import DEFAULT_VALIDITY, PlannerOptions
 from symgrasp.parallel.options import parallel_from_args
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 FALLBACKS = 8
 FLOOR = 0.02
@@ -104,12 +103,11 @@ CONTROL = (("robotiq-fb8", "robotiq-base"), ("robotiq-rotmat6d-fb8", "robotiq-ro
 
 def config(arm: str, rounds: int, seed: int, num_objects: int) -> BenchmarkConfig:
     """The benchmark of ``arm``: what ``symgrasp bench declutter --no-operating-point`` with the
-    arm's options records (options in `OPERATING_POINT_KEYS`' order)."""
+    arm's options records."""
     plays, options, _ = ARMS[arm]
-    order = (*OPERATING_POINT_KEYS, "approach_check")
     return BenchmarkConfig(
         **plays, rounds=rounds, seed=seed, num_objects=num_objects,
-        options=tuple((key, options[key]) for key in order if key in options),
+        options=PlannerOptions(**options),
     )  # fmt: skip
 
 

@@ -31,10 +31,10 @@ from collections.abc import Callable
 import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.objects.folder import set_folder
 from symgrasp.objects.urdf import read_obj_groups
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 VGN_MESHES = (
     "mug",

@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from scripts import best_seconds, command_line, parse_args, run_main, write_result
 
 from symgrasp.benchmark.sensing import Sensor
 from symgrasp.config import SceneConfig
@@ -51,7 +52,6 @@ from symgrasp.data.scenes import (
     scene_pool,
 )
 from symgrasp.perception import CameraIntrinsic, TSDFVolume, add_depth_noise, noisy_depth
-from symgrasp.scripts import best_seconds, command_line, parse_args, run_main, write_result
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, VOXEL_SIZE, WORKSPACE_SIZE
 

@@ -26,9 +26,9 @@ from typing import Any
 
 import torch
 from common import add_checkpoint_options, add_result_option, per_checkpoint
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.model.checkpoint import load_model
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 
 def gaps(checkpoint: str | Path, items: list[dict[str, torch.Tensor]], threshold: float) -> dict:

@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 from common import GRIPPERS, Watched, add_result_option, pad_extent, records_by_seed, wilson
+from scripts import command_line, parse_args, run_main, write_result
 from tqdm import tqdm
 
 from symgrasp.benchmark.declutter import run_round
@@ -60,7 +61,6 @@ from symgrasp.benchmark.failures import aimed_object, turned_about_approach
 from symgrasp.data.labels import rotation_angle_up_to_flip, voxel_of
 from symgrasp.detect import PRETRAINED, GraspDetector
 from symgrasp.objects.sets import resolve
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import BLOCKED_ERROR, BLOCKED_FORCE, execute_grasp
 from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.sim.objects import LARGE_BOX_SIZE, large_box

@@ -31,6 +31,7 @@ import time
 
 import numpy as np
 from common import prefix
+from scripts import command_line, parse_args, run_main, write_result
 from tqdm import tqdm
 
 from symgrasp.config import DatabaseConfig, SceneConfig
@@ -39,7 +40,6 @@ from symgrasp.data.directions import fibonacci_directions, interpolate
 from symgrasp.data.grasp_db import GraspDatabase, build_database
 from symgrasp.data.scenes import make_scene_record, scene_pool
 from symgrasp.names import GRIPPERS
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.grippers import get_gripper
 
 OBJECTS = "vgn-pile-train,vgn-packed-train"

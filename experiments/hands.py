@@ -43,9 +43,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 from common import add_result_option
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.objects.folder import DATA_ENV, MissingData, data_folder
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.grippers import FRANKA, PREFIX, ROBOTIQ_2F85, GripperSpec
 from symgrasp.sim.world import world_xml
 

@@ -51,6 +51,7 @@ from typing import Any
 
 from common import SHIPPED, add_result_option, add_round_options, campaign_root
 from retrain_ablation import CONDITIONS, clean_folder, ended_none_found
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.atomic import read_json
 from symgrasp.benchmark.compare import paired_change, paired_rounds, percent_change
@@ -66,7 +67,6 @@ from symgrasp.cli.options import approach_check
 from symgrasp.config import JUDGE_SEED, BenchmarkConfig
 from symgrasp.detect.pretrained import PRETRAINED, shipped_path
 from symgrasp.digest import file_sha256
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 RUNS = tuple(f"{model}-{rep}-s{seed}" for model in ("wide", "dense-franka")
              for rep in ("bingham2d", "rotmat6d") for seed in (0, 1))  # fmt: skip

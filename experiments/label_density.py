@@ -53,13 +53,13 @@ import numpy as np
 import torch
 from common import add_result_option, prefix, wilson
 from scipy.spatial import cKDTree
+from scripts import command_line, parse_args, run_main, write_result
 from tqdm import tqdm
 
 from symgrasp.config import DatabaseConfig, SceneConfig
 from symgrasp.data.grasp_db import cached_database
 from symgrasp.data.labels import VoxelLabels, added_voxels, voxel_centre, voxel_grasp, voxel_of
 from symgrasp.data.scenes import LabelledScene, labelled_scene, scene_pool, spread_labels
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim import World, execute_grasp
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.grippers import GripperSpec, get_gripper

@@ -28,11 +28,11 @@ from pathlib import Path
 from typing import Any
 
 from common import add_result_option
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.benchmark import selection as sel
 from symgrasp.benchmark.compare import paired_change, paired_rounds, percent_change
 from symgrasp.model.checkpoint import load_checkpoint
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 
 def train_scenes(checkpoint: Path) -> int:

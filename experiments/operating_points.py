@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from common import add_decoding_options, write_rounds_archive
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import (
@@ -44,9 +45,9 @@ from symgrasp.benchmark.runner import (
     summarise,
 )
 from symgrasp.benchmark.seeds import common_rounds
-from symgrasp.detect.pretrained import OPERATING_POINT_KEYS, shipped_path
+from symgrasp.config import PlannerOptions
+from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import parallel_from_args
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 MODELS = {  # model: (its choosing rounds' objects and scene, the decoding.py arm prefix)
     "bingham2d-robotiq-2f85": (("vgn-pile-train", "pile"), "robotiq"),
@@ -65,7 +66,7 @@ def _config(model: str, objects: str, scene: str, options: dict, args) -> Benchm
     return BenchmarkConfig(
         model=model, objects=objects, scene=scene, num_objects=args.num_objects,
         rounds=args.rounds, seed=args.seed,
-        options=tuple((key, options[key]) for key in OPERATING_POINT_KEYS if key in options),
+        options=PlannerOptions(**options),
     )  # fmt: skip
 
 

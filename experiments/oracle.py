@@ -31,16 +31,15 @@ grasps and 4 directions, its baseline played.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 from collections import Counter
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from common import add_approach_check, add_mode_options, add_result_option, add_table1_options
 from peers_table import baseline_rounds, cell_name
+from scripts import command_line, cpu_model, parse_args, run_main, write_result
 
 from symgrasp.benchmark.cells import objects_folder
 from symgrasp.benchmark.compare import paired_change, percent_change
@@ -54,10 +53,9 @@ from symgrasp.benchmark.runner import (
 )
 from symgrasp.benchmark.seeds import common_rounds
 from symgrasp.cli.options import approach_check
-from symgrasp.config import TRAINING_DATABASE, BenchmarkConfig
+from symgrasp.config import TRAINING_DATABASE, BenchmarkConfig, PlannerOptions
 from symgrasp.names import ORACLE
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import command_line, cpu_model, parse_args, run_main, write_result
 
 HANDS = ("robotiq-2f85", "franka")
 """The hands, the paper's first."""
@@ -78,9 +76,8 @@ CAUSES = ("cleared", "emptied", NONE_FOUND, "two_failures", "max_attempts")
 def oracle_config(hand: str, objects: str, scene: str, args: argparse.Namespace) -> BenchmarkConfig:
     """The cell's benchmark, its options as ``bench declutter --model oracle --gripper HAND
     --oracle-grasps G [--oracle-directions K]`` records them."""
-    options: tuple[tuple[str, Any], ...] = (("gripper", hand), ("grasps", args.grasps))
-    if args.directions != TRAINING_DATABASE.directions:
-        options += (("directions", args.directions),)
+    directions = None if args.directions == TRAINING_DATABASE.directions else args.directions
+    options = PlannerOptions(gripper=hand, grasps=args.grasps, directions=directions)
     return BenchmarkConfig(
         model=ORACLE, objects=objects, scene=scene, num_objects=args.num_objects,
         rounds=args.rounds, options=options, **approach_check(args),
@@ -136,7 +133,7 @@ def collate(args: argparse.Namespace, cells: list[tuple[str, str, str]]) -> list
         cell: dict[str, Any] = {"gripper": hand, "objects": objects, "scene": scene,
                                 "folder": str(folder)}  # fmt: skip
         recorded = recorded_config(folder)
-        if recorded is not None and recorded != json.loads(json.dumps(asdict(config))):
+        if recorded is not None and recorded != config.record():
             raise SystemExit(f"error: {folder} holds another benchmark than {config}")
         done = read_rounds(folder / "rounds.jsonl")
         rounds = [done[s] for s in sorted(done) if s < args.rounds and "error" not in done[s]]

@@ -14,7 +14,7 @@ rounds → experiments/results/peers_declutter.{json,md} and docs/peers.md.
   HAND``; a finished cell is read, an unfinished one resumed).
 - **Baselines**: the shipped ``bingham2d-HAND`` and ``rotmat6d-HAND`` on the same rounds. They
   are Table 1's cells of their training seed (`symgrasp.benchmark.cells`), which they replay
-  round for round (tests/benchmark/test_benchmark_shipped_replay.py): read from
+  round for round (experiments/tests/test_shipped_replay.py): read from
   ``--baselines``, the Table 1 rounds unpacked (``mkdir -p out/bench/table && tar xzf
   experiments/results/declutter_rounds.tar.gz -C out/bench/table``), else played with the
   shipped model into ``--out/HAND/REP/OBJECTS[-packed]``.
@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 from pathlib import Path
 from typing import Any
 
@@ -47,15 +46,15 @@ from common import (
     update_page,
 )
 from declutter_table import PUBLISHED
+from scripts import command_line, cpu_model, parse_args, run_main, write_result
 
 from symgrasp.benchmark.cells import objects_folder
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import percent_with_interval, run_or_reuse, saved_rounds, summarise
 from symgrasp.benchmark.seeds import common_rounds
 from symgrasp.cli.options import approach_check
-from symgrasp.config import BenchmarkConfig
+from symgrasp.config import BenchmarkConfig, PlannerOptions
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import command_line, cpu_model, parse_args, run_main, write_result
 
 CELLS = (
     ("franka", "vgn-pile-test", "pile"),
@@ -81,7 +80,7 @@ def cell_name(cell: tuple[str, str, str]) -> str:
 def vgn_config(hand: str, objects: str, scene: str, args: argparse.Namespace) -> BenchmarkConfig:
     return BenchmarkConfig(
         model="vgn", objects=objects, scene=scene, num_objects=args.num_objects,
-        rounds=args.rounds, options=(("gripper", hand),), **approach_check(args),
+        rounds=args.rounds, options=PlannerOptions(gripper=hand), **approach_check(args),
     )  # fmt: skip
 
 
@@ -194,9 +193,7 @@ def main() -> None:
     add_approach_check(parser)
     args = parse_args(parser, outputs=("out", "baselines", "result", "docs"),
                       quick={"rounds": 1, "num_objects": 2, "cells": ["franka/large-box"]},
-                      also="a copy of the page")  # fmt: skip
-    if args.quick:  # the page's copy, so that its markers are still checked
-        shutil.copyfile(parser.get_default("docs"), args.docs)
+                      pages=("docs",))  # fmt: skip
     cells = [c for c in CELLS if args.cells is None or cell_name(c) in args.cells]
 
     if not args.collate_only:

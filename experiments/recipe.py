@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from common import SHIPPED, add_approach_check, add_result_option
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.atomic import write_atomic
 from symgrasp.benchmark import selection as sel
@@ -39,7 +40,6 @@ from symgrasp.cli.options import approach_check
 from symgrasp.config import JUDGE_SEED
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 FACTORS = {
     "baseline": ("lc-7200-s0", "base-s1"),

@@ -80,6 +80,7 @@ from common import (
     verdict,
     wilson,
 )
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.atomic import read_json
 from symgrasp.benchmark.declutter import NONE_FOUND
@@ -89,7 +90,6 @@ from symgrasp.benchmark.selection import ALIASES, checkpoint_id
 from symgrasp.cli.options import approach_check
 from symgrasp.config import VALIDATION_SEED, BenchmarkConfig
 from symgrasp.digest import file_sha256
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 ARMS = {"today": (False, False, False, False), "dense": (True, False, False, False),
         "sensing": (False, True, False, False), "both": (True, True, False, False),

@@ -13,7 +13,7 @@ experiments/results/robustness.{json,md} and docs/reports/robustness.md (between
   objects from round seed ``--first-seed`` with failure diagnosis: Table 1's rounds by default
   (0–99), those no choice was made on with ``--first-seed 100``.
 - **Conditions** (`CONDITIONS`, ``symgrasp bench declutter --noise --view --views``;
-  docs/benchmark.md, "Sensing"): ``clean`` (one noiseless image from the fixed camera: Table
+  docs/sensing.md): ``clean`` (one noiseless image from the fixed camera: Table
   1's), ``noise`` (the ``dex`` depth noise), ``side`` (GIGA's side view), ``noise-side``
   (both: GIGA's published setting), ``circle6`` (VGN's six views, noiseless), and
   ``noise-table`` and ``noise-side-table``: the noisy ones with the robot reading each
@@ -27,7 +27,7 @@ experiments/results/robustness.{json,md} and docs/reports/robustness.md (between
 - **Clean rounds reused**: a model's clean rounds are its Table 1 cell's in ``--baselines``
   (the cell of its hand, representation and training seed, `symgrasp.benchmark.cells`) when
   that cell recorded the same configuration but the model file: a shipped model replays the
-  cell of its training run round for round (tests/benchmark/test_benchmark_shipped_replay.py),
+  cell of its training run round for round (experiments/tests/test_shipped_replay.py),
   so for the shipped models ``--baselines`` is Table 1's rounds unpacked (``mkdir -p
   out/bench/table && tar xzf experiments/results/declutter_rounds.tar.gz -C out/bench/table``),
   for a campaign's runs the folder its table played them into. Otherwise (Table 1 has no
@@ -70,7 +70,6 @@ import argparse
 import dataclasses
 import json
 import os
-import shutil
 from pathlib import Path
 from typing import Any
 
@@ -88,6 +87,7 @@ from common import (
     write_rounds_archive,
 )
 from declutter_table import PUBLISHED
+from scripts import command_line, cpu_model, parse_args, run_main, write_result
 
 from symgrasp.benchmark.cells import Cell, objects_folder
 from symgrasp.benchmark.compare import paired_change, percent_change
@@ -99,7 +99,6 @@ from symgrasp.detect.pretrained import resolve_model
 from symgrasp.model.checkpoint import load_checkpoint, trained_gripper
 from symgrasp.names import PRETRAINED
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import command_line, cpu_model, parse_args, run_main, write_result
 
 MODELS = ("bingham2d-franka", "rotmat6d-franka", "bingham2d-robotiq-2f85", "rotmat6d-robotiq-2f85")
 """The shipped models measured by default: the paper's detector and its strongest baseline,
@@ -221,7 +220,7 @@ def clean_rounds(model: Model, objects: str, scene: str, args: argparse.Namespac
     """The clean rounds of ``model`` from its Table 1 cell in ``--baselines`` and that folder,
     when the cell recorded the clean configuration (but the model file) and holds every round;
     else (None, its folder)."""
-    wanted = json.loads(json.dumps(dataclasses.asdict(config(model, objects, scene, CLEAN, args))))
+    wanted = config(model, objects, scene, CLEAN, args).record()
     ignored = ("model", "rounds", "pictures")
     agree = {k: v for k, v in wanted.items() if k not in ignored}
     cell = Cell(model.hand, model.rep, model.seed, objects, scene, first_seed=args.first_seed)
@@ -453,9 +452,7 @@ def main() -> None:
     args = parse_args(parser, outputs=("out", "baselines", "result", "docs"),
                       quick={"rounds": 1, "num_objects": 2, "models": [SHIPPED],
                              "sets": [("household-test", "pile")]},
-                      also="a copy of the page")  # fmt: skip
-    if args.quick:  # the page's copy, so that its markers are still checked
-        shutil.copyfile(parser.get_default("docs"), args.docs)
+                      pages=("docs",))  # fmt: skip
     if args.first_seed < 0:
         parser.error(f"--first-seed: expected a round seed ≥ 0, got {args.first_seed}")
     if args.models_from and not args.collate_only:

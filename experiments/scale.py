@@ -28,11 +28,11 @@ import time
 from pathlib import Path
 
 from common import add_result_option
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.config import DatabaseConfig, ParallelConfig, SceneConfig
 from symgrasp.parallel import Job, open_executor
 from symgrasp.parallel.cluster import import_ray
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 RUNS = (("process", 1), ("process", 2), ("ray", 1), ("ray", 2))
 MILLION = 1_000_000

@@ -19,10 +19,10 @@ import time
 
 import numpy as np
 from common import wilson
+from scripts import command_line, parse_args, run_main, write_result
 from tqdm import tqdm
 
 from symgrasp.objects.sets import resolve
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.world import World
 
 PENETRATION = 0.002

@@ -1,10 +1,11 @@
-"""What the scripts of benchmarks/ and experiments/ share: their ``--quick`` mode, how they stop
-when the data a user downloads is missing, what machine a number was measured on, how to time a
-call, and how to write a result.
+"""What the scripts of benchmarks/ and experiments/ share: their ``--quick`` mode, where their
+outputs go unless ``--publish`` is given, how they stop when the data a user downloads is
+missing, what machine a number was measured on, how to time a call, and how to write a result.
 
-The scripts are not part of the package; this module is, so that both folders (and the tests)
-import one definition. A script imports it before it does any work (its `LOAD_AT_START` is the
-machine's load when the script started) and ends with ``run_main(main)``.
+The lab's helper, outside the installed package: the experiments import it by its bare name
+(``scripts``, beside them), the benchmarks and the tests as ``experiments.scripts``. A script
+imports it before it does any work (its `LOAD_AT_START` is the machine's load when the script
+started) and ends with ``run_main(main)``.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import json
 import os
 import platform
 import shlex
+import shutil
 import sys
 import time
 from collections.abc import Callable
@@ -26,7 +28,15 @@ from symgrasp.atomic import write_atomic
 from symgrasp.objects.folder import EX_NOINPUT, MissingData
 from symgrasp.parallel import TasksFailed
 
-QUICK_DIR = Path("out/bench-quick")
+ROOT = Path(__file__).resolve().parents[1]
+"""The checkout's root (this file is experiments/scripts.py), where the scripts run from."""
+
+OUT = Path("out")
+"""Where a run without ``--publish`` writes what it would publish: each output under OUT at the
+path it is published at (experiments/results/NAME → out/experiments/results/NAME), so that a
+run leaves the committed results and docs/ as they were."""
+
+QUICK_DIR = OUT / "bench-quick"
 """Where ``--quick`` writes when given no folder."""
 
 EX_UNAVAILABLE = 69
@@ -57,16 +67,22 @@ def run_main(main: Callable[[], None]) -> None:
 
 
 def parse_args(
-    parser: argparse.ArgumentParser, outputs: tuple[str, ...], quick: dict[str, Any], also: str = ""
+    parser: argparse.ArgumentParser,
+    outputs: tuple[str, ...],
+    quick: dict[str, Any],
+    also: str = "",
+    pages: tuple[str, ...] = (),
 ) -> argparse.Namespace:
-    """Parse a script's command line, with ``--quick [DIR]`` added: a smoke run in seconds
-    through the script's real code, for the test that keeps every script running (its numbers
-    mean nothing). Quick mode gives the options in ``quick`` those values unless the command
-    line sets them, and moves the ``outputs`` (options naming a file, stem or folder) into DIR
-    under their default's name; setting one of those is an error, so a quick run never writes
-    into the committed results or docs/. ``also`` tells the help what else quick mode does. An
-    option without a help text is refused (ValueError naming it): ``--help`` explains every
-    option."""
+    """Parse a script's command line, with ``--publish`` and ``--quick [DIR]`` added. The
+    ``outputs`` (options naming a file, stem or folder) left at their defaults go where
+    `output_path` says: under `OUT` unless ``--publish`` is given. ``pages`` are outputs the
+    script edits in place (a page's text between markers): a copy of the published page is put
+    where the run writes it. Quick mode is a smoke run in seconds through the script's real
+    code, for the test that keeps every script running (its numbers mean nothing): it gives the
+    options in ``quick`` those values unless the command line sets them, and moves the outputs
+    into DIR; setting one of those, or ``--publish``, is an error there. ``also`` tells the help
+    what else quick mode does. An option without a help text is refused (ValueError naming it):
+    ``--help`` explains every option."""
 
     def option(dest: str) -> str:
         return "--" + dest.replace("_", "-")
@@ -77,6 +93,12 @@ def parse_args(
         raise ValueError(f"give every option a help text; missing: {', '.join(unexplained)}")
     sizes = "; ".join(
         filter(None, [" ".join(f"{option(dest)} {value}" for dest, value in quick.items()), also])
+    )
+    parser.add_argument(
+        "--publish",
+        action="store_true",
+        help="write the outputs left at their defaults where they are published, into the "
+        f"committed results and docs/ (without it: under {OUT}/, at the same paths)",
     )
     parser.add_argument(
         "--quick",
@@ -90,17 +112,48 @@ def parse_args(
         "results or docs/",
     )
     args = parser.parse_args()
+    actions = {action.dest: action for action in parser._actions}
+
+    def default(dest: str) -> Any:  # as parsing gives it: a string default through its type
+        value = parser.get_default(dest)
+        kind = actions[dest].type
+        return kind(value) if isinstance(value, str) and callable(kind) else value
+
     if args.quick:
-        defaults = vars(parser.parse_args([]))
+        if args.publish:
+            parser.error("--quick never publishes; drop --publish")
         for dest, value in quick.items():
-            if getattr(args, dest) == defaults[dest]:
+            if getattr(args, dest) == default(dest):
                 setattr(args, dest, value)
         for dest in outputs:
-            if getattr(args, dest) != defaults[dest]:
+            if getattr(args, dest) != default(dest):
                 parser.error(f"--quick writes its outputs under {args.quick}; drop {option(dest)}")
-            setattr(args, dest, args.quick / Path(defaults[dest]).name)
         args.quick.mkdir(parents=True, exist_ok=True)
+    for dest in outputs:
+        if default(dest) is None or getattr(args, dest) != default(dest):
+            continue  # none (the script names it), or given: written where it says
+        published = parser.get_default(dest)
+        path = output_path(published, args)
+        if path == Path(published):
+            continue
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if dest in pages:
+            shutil.copyfile(published, path)
+        setattr(args, dest, path)
     return args
+
+
+def output_path(published: str | Path, args: argparse.Namespace) -> Path:
+    """Where this run (``args`` of `parse_args`) writes an output published at ``published``:
+    in quick mode under DIR by its name; with ``--publish``, or when it lies under `OUT` already
+    (a work folder), there; else under `OUT` at its path from the checkout's root."""
+    published = Path(published)
+    if args.quick:
+        return args.quick / published.name
+    relative = published.resolve().relative_to(ROOT) if published.is_absolute() else published
+    if args.publish or relative.parts[:1] == OUT.parts:
+        return published
+    return OUT / relative
 
 
 def cpu_model() -> str:
@@ -152,14 +205,24 @@ def best_seconds(run: Callable[[], object], repeats: int) -> float:
 
 def command_line(env: str = "PYTHONPATH=src") -> str:
     """The command that ran this script, for its result: a result's command must be the one that
-    made it, options included. The environment words ``env`` as they are, ``python``, the
-    script's path from the checkout's root (where the command runs; as given when it lies
-    elsewhere) and its arguments, quoted for a shell."""
-    script = Path(sys.argv[0])
-    root = Path(__file__).resolve().parents[2]  # this file is src/symgrasp/scripts.py
-    if script.resolve().is_relative_to(root):
-        script = script.resolve().relative_to(root)
-    return " ".join(filter(None, [env, shlex.join(["python", str(script), *sys.argv[1:]])]))
+    made it, options included. The environment words ``env``, ``python``, the script's path and
+    its arguments, quoted for a shell; every absolute path among them relative to the checkout's
+    root, where the command runs (`from_checkout`), so that a result names no machine's
+    folders."""
+    script = os.path.relpath(Path(sys.argv[0]).resolve(), ROOT)
+    words = shlex.join(["python", script, *map(from_checkout, sys.argv[1:])])
+    return " ".join([*map(from_checkout, env.split()), words])
+
+
+def from_checkout(word: str) -> str:
+    """``word`` of a command line with its absolute paths relative to the checkout's root: the
+    word, or its value after the first ``=`` (``--out=/x``, ``PYTHONPATH=/a:/b``), each of its
+    ``:``-separated parts. A URL is left as it is."""
+    if "://" in word:
+        return word
+    name, sep, value = word.partition("=") if "=" in word else ("", "", word)
+    parts = (os.path.relpath(p, ROOT) if os.path.isabs(p) else p for p in value.split(os.pathsep))
+    return name + sep + os.pathsep.join(parts)
 
 
 def write_result(

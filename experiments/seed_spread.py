@@ -34,6 +34,7 @@ import itertools
 from typing import Any
 
 from common import SHIPPED, add_approach_check, add_result_option
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.runner import run_or_reuse, summarise
@@ -42,7 +43,6 @@ from symgrasp.benchmark.selection import selected_checkpoint
 from symgrasp.cli.options import approach_check
 from symgrasp.detect.pretrained import shipped_path
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 SPREAD_TARGET = 0.06
 """Issue 17's target for the SR spread between training seeds of one representation."""

@@ -39,13 +39,13 @@ from typing import Any
 import numpy as np
 from common import SHIPPED, add_approach_check, add_result_option
 from scipy.stats import spearmanr
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.benchmark import selection as sel
 from symgrasp.benchmark.runner import BOOTSTRAP, BenchmarkConfig, run_or_reuse, summarise
 from symgrasp.cli.options import approach_check
 from symgrasp.config import VALIDATION_OBJECTS, VALIDATION_SEED
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 
 def spearman(x: np.ndarray, y: np.ndarray) -> float:

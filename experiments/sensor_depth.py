@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from common import add_result_option
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.benchmark.runner import BOOTSTRAP, pooled_ratio
 from symgrasp.config import SceneConfig
@@ -37,7 +38,6 @@ from symgrasp.detect import GraspDetector
 from symgrasp.detect.files import load_depth, save_png_depth
 from symgrasp.perception import CameraIntrinsic
 from symgrasp.perception.points import edge_holes
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer
 from symgrasp.sim.world import pile_scene

@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 from common import SHIPPED, Watched, add_result_option, pad_extent, records_by_seed, wilson
+from scripts import command_line, parse_args, run_main, write_result
 from tqdm import tqdm
 
 from symgrasp.benchmark.declutter import run_round
@@ -47,7 +48,6 @@ from symgrasp.benchmark.failures import aimed_object
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.objects.sets import resolve
 from symgrasp.peers.planners import load_planner
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 

@@ -27,12 +27,12 @@ from typing import Any
 
 import numpy as np
 from common import SHIPPED, add_result_option, wilson
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.benchmark.runner import run_or_reuse
 from symgrasp.config import TABLE_CLEARANCE, VALIDATION_OBJECTS, BenchmarkConfig
 from symgrasp.detect.pretrained import resolve_model
 from symgrasp.model.checkpoint import load_checkpoint, trained_gripper
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.collision import SIGNS, hand_boxes, hand_collides
 from symgrasp.sim.grippers import GripperSpec
 from symgrasp.workspace import TABLE_HEIGHT

@@ -35,12 +35,12 @@ from typing import Any
 
 import numpy as np
 from common import add_result_option
+from scripts import command_line, parse_args, run_main, write_result
 from tqdm import tqdm
 
 from symgrasp.config import TRAINING_DATABASE, SceneConfig
 from symgrasp.data.grasp_db import build_database
 from symgrasp.data.scenes import scene_grasps, scene_pool
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.grippers import get_gripper

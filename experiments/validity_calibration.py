@@ -26,9 +26,9 @@ from typing import Any
 
 import torch
 from common import add_checkpoint_options, add_result_option, per_checkpoint
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.model.checkpoint import load_model
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 BINS = (0.0, 0.01, 0.02, 0.04, 0.08, 0.15, 0.3, 0.5, 1.0)
 """Edges of the reliability table's probability bins (fine near the threshold)."""

@@ -31,6 +31,7 @@ import math
 from pathlib import Path
 
 from common import add_approach_check, add_result_option
+from scripts import command_line, parse_args, run_main, write_result
 
 from symgrasp.benchmark.compare import paired_change, percent_change
 from symgrasp.benchmark.runner import (
@@ -41,9 +42,8 @@ from symgrasp.benchmark.runner import (
 )
 from symgrasp.benchmark.seeds import common_rounds
 from symgrasp.cli.options import approach_check
-from symgrasp.config import DEFAULT_VALIDITY, JUDGE_SEED
+from symgrasp.config import DEFAULT_VALIDITY, JUDGE_SEED, PlannerOptions
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 
 MODELS = {  # hand: (the paper's detector, the baseline it is compared with)
     "robotiq-2f85": ("bingham2d-robotiq-2f85", "rotmat6d-robotiq-2f85"),
@@ -137,7 +137,7 @@ def main() -> None:
                     config = BenchmarkConfig(
                         model=model, objects=objects, num_objects=args.num_objects,
                         rounds=rounds, seed=seed, diagnose=False,
-                        options=(("validity_threshold", validity),),
+                        options=PlannerOptions(validity_threshold=validity),
                         **approach_check(args),
                     )  # fmt: skip
                     folder = Path(args.out) / model / objects / str(validity)

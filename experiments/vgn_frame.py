@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 from common import GRIPPERS, add_result_option
+from scripts import command_line, parse_args, run_main, write_result
 from tqdm import tqdm
 
 from symgrasp.benchmark.failures import turned_about_approach
@@ -33,7 +34,6 @@ from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.objects.sets import make_scene, resolve
 from symgrasp.peers.vgn import FINGER_REACH, VGN
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.grippers import get_gripper
 from symgrasp.sim.render import make_renderer

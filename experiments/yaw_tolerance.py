@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 from common import GRIPPERS, add_result_option
+from scripts import command_line, parse_args, run_main, write_result
 from tqdm import tqdm
 
 from symgrasp.benchmark.declutter import first_free
@@ -27,7 +28,6 @@ from symgrasp.benchmark.failures import YAW_OFFSETS, aimed_object, turned_about_
 from symgrasp.benchmark.runner import BOOTSTRAP
 from symgrasp.detect import GraspDetector
 from symgrasp.perception import CameraIntrinsic, default_extrinsic
-from symgrasp.scripts import command_line, parse_args, run_main, write_result
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.objects import object_set
 from symgrasp.sim.render import make_renderer

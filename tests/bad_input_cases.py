@@ -5,10 +5,10 @@ are valid but give no grasp for a cause they show (`WARNED_CLI`, `WARNED_API`) e
 and one warning that names the cause (a ``warning:`` line, a `NoGraspWarning`).
 
 Two players read these tables: tests/test_bad_input.py runs each case in-process on every
-``make test``, and experiments/bad_input.py runs each command-line case as a real ``symgrasp``
-process with a time limit and sorts the outcomes (clear error, unclear, traceback, silent,
-hang). The cases live in the package, the one place both may import, as `symgrasp.model.synthetic`
-and `symgrasp.bingham.reference` do for tests and benchmarks.
+``make test`` (a guarantee of the library, so the tables live beside it, with the library's
+tests; its small depth images and camera serve other tests too), and the lab's bad-input study
+runs each command-line case as a real ``symgrasp`` process with a time limit and sorts the
+outcomes (clear error, unclear, traceback, silent, hang).
 """
 
 from __future__ import annotations
@@ -139,7 +139,7 @@ def make_files(folder: Path, wide_jaw: Path) -> Path:
     (folder / "mine" / "results.md").write_text("my notes")
     (folder / "mine" / "model.sha256").write_text("my hash")
     (folder / "bench").mkdir()  # a benchmark folder of the default configuration
-    config = json.loads(json.dumps(dataclasses.asdict(BenchmarkConfig())))
+    config = BenchmarkConfig().record()
     (folder / "bench" / "config.json").write_text(json.dumps(config))
     for name, text in (("manifest_list", "[]"), ("manifest_torn", '{"gripper": "fr')):
         (folder / name / "scenes").mkdir(parents=True)

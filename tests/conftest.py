@@ -9,7 +9,6 @@ instead, so that a run meant to cover the data (``pytest -m data`` in .ci/run) c
 skipping.
 """
 
-import json
 import os
 import subprocess
 import sys
@@ -151,18 +150,6 @@ def fake_rounds(monkeypatch):
             config=config, planner=Planner(), out=out, objects=None))  # fmt: skip
 
     return use
-
-
-def campaign_steps(*plans: str) -> dict[str, dict]:
-    """The steps of the campaign ``plans`` (paths from the checkout), read together as the
-    driver reads them (``experiments/campaign.py show``), by name; ``{root}`` is /root."""
-    shown = subprocess.run(
-        [sys.executable, "experiments/campaign.py", "show", *plans, "--root", "/root"],
-        cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT / "src")}, capture_output=True,
-        text=True,
-    )  # fmt: skip
-    assert shown.returncode == 0, shown.stderr
-    return {s["name"]: s for s in map(json.loads, shown.stdout.splitlines())}
 
 
 HOG_S = 300

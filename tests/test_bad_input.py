@@ -1,4 +1,4 @@
-"""Bad input, table-driven (the tables: `symgrasp.bad_input`): every case ends with a non-zero
+"""Bad input, table-driven (the tables: tests/bad_input_cases.py): every case ends with a non-zero
 exit and one line that names the argument or file (command line), or a ValueError/TypeError
 with a message (API); never a traceback, a hang or a silently wrong run. Arguments are checked
 before any work starts, so each case takes well under a second. Inputs that give no grasp for
@@ -15,8 +15,7 @@ import warnings
 
 import numpy as np
 import pytest
-
-from symgrasp.bad_input import (
+from bad_input_cases import (
     API,
     ARGUMENTS,
     CLI,
@@ -26,6 +25,7 @@ from symgrasp.bad_input import (
     detect_argv,
     make_files,
 )
+
 from symgrasp.cli import main
 from symgrasp.detect import NoGraspWarning
 

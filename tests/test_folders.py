@@ -14,9 +14,9 @@ import sys
 from pathlib import Path
 
 import pytest
+from bad_input_cases import MODEL, detect_argv, make_files
 
 import symgrasp
-from symgrasp.bad_input import MODEL, detect_argv, make_files
 from symgrasp.cli import build_parser, main
 from symgrasp.cli.options import input_folder, output_folder_path, output_path
 from symgrasp.detect.pretrained import shipped_path

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CAMPAIGN = ROOT / "experiments" / "campaign.py"
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
 

@@ -10,14 +10,13 @@ import os
 import subprocess
 import sys
 import tarfile
-from dataclasses import asdict
 from pathlib import Path
 
 import pytest
 
 from symgrasp.benchmark.cells import Cell
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "experiments" / "declutter_table.py"
 BEGIN, END = "<!-- declutter-table: begin -->", "<!-- declutter-table: end -->"
 
@@ -43,7 +42,7 @@ def _store(cell, out, rounds, model):
     folder = cell.folder(out)
     folder.mkdir(parents=True)
     config = cell.config(model, rounds=len(rounds), num_objects=5)
-    (folder / "config.json").write_text(json.dumps(asdict(config)))
+    (folder / "config.json").write_text(json.dumps(config.record()))
     (folder / "rounds.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rounds))
 
 

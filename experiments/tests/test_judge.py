@@ -12,7 +12,7 @@ import pytest
 
 from symgrasp.digest import file_sha256
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
 ROUNDS = {  # (successes, executed) of each judging round, 5 objects presented each
     "m-bingham2d-s0": [(3, 4), (2, 5), (4, 4)],

@@ -13,13 +13,14 @@ from dataclasses import asdict
 from pathlib import Path
 
 import pytest
-from conftest import campaign_steps
 
 from symgrasp.benchmark.selection import DeclutterValidation, checkpoint_id
 from symgrasp.config import JUDGE_SEED, BenchmarkConfig
 from symgrasp.detect.pretrained import shipped_path
 
-ROOT = Path(__file__).resolve().parents[1]
+from .conftest import campaign_steps
+
+ROOT = Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
 
 
@@ -75,7 +76,7 @@ def judged(tmp_path_factory):
         )
         folder.mkdir(parents=True)
         config = BenchmarkConfig(model=str(checkpoint), **asdict(validation), diagnose=False)
-        (folder / "config.json").write_text(json.dumps(asdict(config)))
+        (folder / "config.json").write_text(json.dumps(config.record()))
         (folder / "rounds.jsonl").write_text(
             "".join(json.dumps(r) + "\n" for r in _rounds(*counts))
         )

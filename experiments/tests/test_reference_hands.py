@@ -10,10 +10,11 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import missing_data
 
+from experiments.scripts import EX_NOINPUT
 from symgrasp.objects.folder import DATA_ENV
-from symgrasp.scripts import EX_NOINPUT
+
+from .conftest import missing_data
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -7,25 +7,24 @@ none_found, the effects against today and the main effects, the robustness gaps 
 of training seeds for both conditions, the runs missing or unusable named with the reason, and
 that the campaign plan writes the runs and folders the script reads."""
 
-import importlib.util
 import itertools
 import json
 import os
 import shlex
 import subprocess
 import sys
-from dataclasses import asdict
 from pathlib import Path
 
 import pytest
-from conftest import campaign_steps
 
 from symgrasp.benchmark import selection
 from symgrasp.benchmark.runner import MODEL_SHA, summarise
 from symgrasp.config import BenchmarkConfig
 from symgrasp.digest import file_sha256
 
-ROOT = Path(__file__).resolve().parents[1]
+from .conftest import campaign_steps
+
+ROOT = Path(__file__).resolve().parents[2]
 FINAL_PLANS = tuple(f"experiments/campaigns/{plan}.toml"
                     for plan in ("final", "noback", "retrain_cells", "franka_noback"))  # fmt: skip
 ROUNDS, FIRST = 20, 1_000_000
@@ -66,7 +65,7 @@ PLAYED = {  # (arm, seed): rounds of the selected checkpoint: clean, noise-side,
 
 def _write_benchmark(folder, config, rounds):
     folder.mkdir(parents=True)
-    (folder / "config.json").write_text(json.dumps(asdict(config)))
+    (folder / "config.json").write_text(json.dumps(config.record()))
     (folder / "rounds.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rounds))
 
 
@@ -90,7 +89,7 @@ def _select(run, epochs, monkeypatch, rounds=ROUNDS):
         summary = summarise(played)
         keys = ("rounds", "objects", "executed", "successes", "success_ratio",
                 "success_ratio_ci95", "clear_ratio", "clear_ratio_ci95")  # fmt: skip
-        return {**{k: summary[k] for k in keys}, "errors": 0, "config": asdict(config)}
+        return {**{k: summary[k] for k in keys}, "errors": 0, "config": config.record()}
 
     monkeypatch.setattr(selection, "declutter_validation", validate)
     validation = selection.DeclutterValidation(rounds=rounds)
@@ -445,20 +444,14 @@ def test_the_franka_data_takes_the_offset_range_its_recorded_decision_chose():
             assert step["needs"] == ["data-franka"]
 
 
-def _campaign_module():
-    spec = importlib.util.spec_from_file_location("campaign", ROOT / "experiments/campaign.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("campaign", module)  # its dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_the_bank_keeps_what_the_collations_read_each_file_by_one_step(tmp_path):
+def test_the_bank_keeps_what_the_collations_read_each_file_by_one_step(tmp_path, monkeypatch):
     """The final plans under --bank: a root holding what every step writes (a
     run's checkpoints, its selection records, each benchmark's rounds, each Table 1 cell on
     both round-seed ranges, each robustness condition) has each file the reports read kept by
     exactly one step, the one that wrote it, and no checkpoint but best.pt kept."""
-    campaign = _campaign_module()
+    monkeypatch.syspath_prepend(str(ROOT / "experiments"))  # as it runs: its neighbours by name
+    import campaign
+
     shown = campaign_steps(*FINAL_PLANS)
     steps = [campaign.Step(s["name"], s["run"], Path("plan"), s["cores"], tuple(s["needs"]),
                            tuple(s["keep"])) for s in shown.values()]  # fmt: skip

@@ -12,11 +12,12 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import campaign_steps
 
 from symgrasp.config import SURFACE_CLEARANCE, TABLE_CLEARANCE
 
-ROOT = Path(__file__).resolve().parents[1]
+from .conftest import campaign_steps
+
+ROOT = Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
 
 

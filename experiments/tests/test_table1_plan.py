@@ -11,9 +11,10 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import campaign_steps
 
-ROOT = Path(__file__).resolve().parents[1]
+from .conftest import campaign_steps
+
+ROOT = Path(__file__).resolve().parents[2]
 PLANS = ROOT / "experiments" / "campaigns"
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
 

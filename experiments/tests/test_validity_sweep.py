@@ -6,16 +6,15 @@ import json
 import os
 import subprocess
 import sys
-from dataclasses import asdict
 from pathlib import Path
 
 import pytest
 
-from symgrasp.config import DEFAULT_VALIDITY, JUDGE_SEED, BenchmarkConfig
+from experiments.scripts import EX_NOINPUT
+from symgrasp.config import DEFAULT_VALIDITY, JUDGE_SEED, BenchmarkConfig, PlannerOptions
 from symgrasp.objects.folder import DATA_ENV
-from symgrasp.scripts import EX_NOINPUT
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 MODELS = ("bingham2d-robotiq-2f85", "rotmat6d-robotiq-2f85")
 """The models ``--quick`` sweeps, at validity 0.04 and the default, one round of one object."""
 
@@ -32,10 +31,10 @@ def _store(quick: Path, model: str, objects: str, seed: int, validity: float, co
     """The quick sweep's cell folder of ``model`` on ``objects`` at ``validity`` as a finished
     benchmark of one round that had ``counts`` = (successes, executed): the sweep reads it."""
     config = BenchmarkConfig(model=model, objects=objects, num_objects=1, rounds=1, seed=seed,
-                             diagnose=False, options=(("validity_threshold", validity),))  # fmt: skip
+                             diagnose=False, options=PlannerOptions(validity_threshold=validity))  # fmt: skip
     folder = quick / "validity_sweep" / model / objects / str(validity)
     folder.mkdir(parents=True)
-    (folder / "config.json").write_text(json.dumps(asdict(config)))
+    (folder / "config.json").write_text(json.dumps(config.record()))
     successes, executed = counts
     record = {"seed": seed, "objects": 1, "renderer": "test", "successes": successes,
               "executed": executed, "attempts": []}  # fmt: skip

@@ -12,6 +12,7 @@ hold there, once (a gripper by `symgrasp.sim.grippers.get_gripper`, an object se
 
 from __future__ import annotations
 
+import json
 import math
 import numbers
 import re
@@ -506,6 +507,82 @@ def check_sensing(noise: str, view: str, views: int) -> None:
 
 
 @dataclass(frozen=True, kw_only=True)
+class PlannerOptions:
+    """What a planner is played with besides its name (`BenchmarkConfig.model`): names and
+    numbers, each field None (or off) where the planner's own default applies. Resolved once,
+    where the planner loads (`symgrasp.peers.planners.load_planner`: the hand's name to its
+    spec); each kind of planner takes only its own (`symgrasp.peers.planners.TAKES`).
+
+    A benchmark records them as the (name, value) pairs of the fields `given`, in field order
+    (`BenchmarkConfig.record`): the form ``config.json`` has always had."""
+
+    gripper: str | None = None
+    """The hand, a built-in's name or a .toml spec file, of a planner that takes any (vgn,
+    the oracle, a user's function; default: vgn's franka, the oracle's robotiq-2f85). A trained
+    model decides its own: naming another is refused."""
+    validity_threshold: float | None = None
+    """A trained model's validity threshold (default: the detector's, `DEFAULT_VALIDITY`)."""
+    confidence_threshold: float | None = None
+    """A trained model's Bingham confidence threshold; 0 turns it off (default: its
+    representation's)."""
+    validity_floor: float | None = None
+    """A trained model's forced decoding: voxels whose validity lies between this and the
+    threshold are ranked after all those above it (default: none)."""
+    fallbacks: int | None = None
+    """Other rotations a trained model offers for each voxel past a refused approach (default:
+    none)."""
+    approach_check: bool = False
+    """A trained model checks its own grasps' approach against what it sees."""
+    grasps: int | None = None
+    """Held grasps per object in the oracle's databases (default: `TRAINING_DATABASE`'s)."""
+    directions: int | None = None
+    """Disturbance directions of the oracle's scores (default: `TRAINING_DATABASE`'s)."""
+    offset: tuple[float, float] | None = None
+    """Range [m] of the TCP's offset along the approach in the oracle's databases (default:
+    `TRAINING_DATABASE`'s)."""
+    workspace_origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """World position [m] of the workspace cube's corner, for a trained model and vgn (the
+    benchmark's workspace starts at the world's origin)."""
+
+    def __post_init__(self) -> None:
+        if self.gripper is not None and not (isinstance(self.gripper, str) and self.gripper):
+            raise ValueError(
+                f"gripper must be a built-in's name or a .toml spec file, got {self.gripper!r}"
+            )
+        for name in ("validity_threshold", "validity_floor"):
+            if getattr(self, name) is not None:
+                check_range(name, getattr(self, name), 0, 1, integer=False)
+        if self.confidence_threshold is not None:
+            check_range("confidence_threshold", self.confidence_threshold, 0, 1e6, integer=False)
+        if self.fallbacks is not None:
+            check_range("fallbacks", self.fallbacks, 0, 1000)
+        if not isinstance(self.approach_check, bool):
+            raise ValueError(f"approach_check must be True or False, got {self.approach_check!r}")
+        if self.offset is not None:
+            object.__setattr__(self, "offset", tuple(self.offset))
+        origin = tuple(self.workspace_origin)
+        if len(origin) != 3 or not all(_is_number(x) and math.isfinite(x) for x in origin):
+            raise ValueError(
+                f"workspace_origin must be 3 finite numbers [m], got {self.workspace_origin!r}"
+            )
+        object.__setattr__(self, "workspace_origin", origin)
+        database = {name: getattr(self, name) for name in ORACLE_OPTIONS}
+        DatabaseConfig(**{k: v for k, v in database.items() if v is not None})  # its checks
+
+    def given(self) -> dict[str, Any]:
+        """The fields off their defaults, by name, in field order."""
+        return {
+            f.name: getattr(self, f.name)
+            for f in fields(self)
+            if getattr(self, f.name) != f.default
+        }
+
+
+ORACLE_OPTIONS = ("grasps", "directions", "offset")
+"""The `PlannerOptions` of the oracle (`DatabaseConfig`'s fields of its databases)."""
+
+
+@dataclass(frozen=True, kw_only=True)
 class BenchmarkConfig:
     """What a declutter benchmark runs (`symgrasp.benchmark.runner`): seeds ``seed … seed +
     rounds − 1``. Keyword-only, so a field added later cannot shift a caller's arguments."""
@@ -528,10 +605,10 @@ class BenchmarkConfig:
     """Rounds to play."""
     seed: int = 0
     """Seed of round 0; round r uses seed + r."""
-    options: tuple[tuple[str, Any], ...] = ()
-    """Keyword arguments of the planner (`symgrasp.peers.planners.load_planner`: a detector's
-    thresholds, VGN's options, the gripper of a planner that takes any hand), as (name, value)
-    pairs."""
+    options: PlannerOptions = field(default_factory=PlannerOptions)
+    """The planner's options (`PlannerOptions`: the hand of a planner that takes any, a
+    detector's decoding, the oracle's databases), resolved where the planner loads
+    (`symgrasp.peers.planners.load_planner`)."""
     diagnose: bool = True
     """Replay each failed grasp turned about its approach axis to name its failure mode."""
     pictures: bool = False
@@ -540,7 +617,7 @@ class BenchmarkConfig:
     """Depth noise of every image: none, or dex (GIGA's, after Dex-Net: the image times
     Gamma(k = 1000, θ = 0.001), and with probability 0.5 plus a 5 mm Gaussian field drawn on a
     4× coarser grid, upsampled), drawn from the round's seed, the attempt and the view, the same
-    for every planner (docs/benchmark.md, "Sensing")."""
+    for every planner (docs/sensing.md)."""
     view: str = "fixed"
     """Where the cameras look from: fixed (symgrasp's camera, 45° below horizontal), side (GIGA's,
     30° below horizontal from one side), circle (VGN's: --views cameras around the workspace, 60°
@@ -552,7 +629,7 @@ class BenchmarkConfig:
     """The robot reads each image's depth scale off its table (known: 5 cm above the workspace
     floor) and divides the image by it before the planner and the collision check see it
     (`symgrasp.perception.table_depth_scale`): undoes the dex noise's scale factor, for every
-    planner alike (docs/benchmark.md, "Sensing")."""
+    planner alike (docs/sensing.md)."""
     table_clearance: float = TABLE_CLEARANCE
     """Gap [m] the open hand must keep from the table for a grasp to be executed
     (`symgrasp.benchmark.declutter.first_free`); −0.002 plays the rule of the benchmarks before
@@ -578,6 +655,13 @@ class BenchmarkConfig:
         check_range("surface_clearance", self.surface_clearance, -0.01, 0.05, integer=False)
         if self.protocol not in PROTOCOLS:
             raise ValueError(f"protocol must be one of {PROTOCOLS}, got {self.protocol!r}")
+
+    def record(self) -> dict[str, Any]:
+        """The configuration as a benchmark folder records it (``config.json``): plain JSON
+        data, ``options`` the (name, value) pairs of the options given
+        (`PlannerOptions.given`), tuples as lists."""
+        record = {f.name: getattr(self, f.name) for f in fields(self)}
+        return json.loads(json.dumps({**record, "options": list(self.options.given().items())}))
 
 
 MAX_WORKERS = 4096

@@ -40,6 +40,10 @@ MESH_UNITS = ("auto", "m", "cm", "mm")
 """Length units of bare mesh files (`symgrasp.objects.mesh`); "auto" guesses metres or
 millimetres from each mesh's size."""
 
+DECOMPOSITIONS = ("vhacd-32", "vhacd", "coacd", "coacd-fast")
+"""Convex decomposition presets of bare meshes, the default first
+(`symgrasp.objects.decomposition.PRESETS`)."""
+
 SCENES = ("pile", "packed")
 """Scene kinds (`symgrasp.sim.world`)."""
 

@@ -10,7 +10,7 @@ import pytest
 
 from symgrasp.benchmark.cells import Cell
 from symgrasp.benchmark.runner import check_out
-from symgrasp.config import BenchmarkConfig
+from symgrasp.config import BenchmarkConfig, PlannerOptions
 
 
 def test_a_pile_cell_keeps_the_layout_and_configuration_the_campaign_played(tmp_path):
@@ -27,9 +27,12 @@ def test_the_ablation_and_packed_cells_have_folders_and_options_of_their_own():
     ablation = Cell("franka", "bingham2d", 0, "large-box", threshold=False)
     packed = Cell("franka", "rotmat6d", 1, "vgn-packed-test", scene="packed")
     assert ablation.folder("o") == Path("o/franka/bingham2d-noconf/s0/large-box")
-    assert dict(ablation.config("m.pt").options) == {"confidence_threshold": 0.0}
+    assert ablation.config("m.pt").options == PlannerOptions(confidence_threshold=0.0)
     assert packed.folder("o") == Path("o/franka/rotmat6d/s1/vgn-packed-test-packed")
-    assert packed.config("m.pt").scene == "packed" and packed.config("m.pt").options == ()
+    assert (
+        packed.config("m.pt").scene == "packed"
+        and packed.config("m.pt").options == PlannerOptions()
+    )
 
 
 def test_another_first_seed_plays_its_own_rounds_in_a_folder_of_its_own(tmp_path):
@@ -43,7 +46,7 @@ def test_another_first_seed_plays_its_own_rounds_in_a_folder_of_its_own(tmp_path
     # a folder of Table 1's rounds refuses to be resumed with the other first seed's
     folder = table1.folder(tmp_path)
     folder.mkdir(parents=True)
-    (folder / "config.json").write_text(json.dumps(asdict(table1.config("m.pt"))))
+    (folder / "config.json").write_text(json.dumps(table1.config("m.pt").record()))
     check_out(table1.config("m.pt"), folder, resume=True)
     with pytest.raises(ValueError, match=r"its seed differ"):
         check_out(untouched.config("m.pt"), folder, resume=True)

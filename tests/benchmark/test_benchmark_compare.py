@@ -16,7 +16,7 @@ def _bench(folder, counts, **config):
     """A benchmark folder whose round ``seed`` had ``counts[seed]`` = (successes, executed,
     objects)."""
     folder.mkdir()
-    cfg = dataclasses.asdict(dataclasses.replace(BenchmarkConfig(), **config))
+    cfg = dataclasses.replace(BenchmarkConfig(), **config).record()
     (folder / "config.json").write_text(json.dumps(cfg))
     lines = [
         json.dumps({"seed": seed, "successes": s, "executed": e, "objects": o})

@@ -8,7 +8,7 @@ import signal
 import subprocess
 import sys
 import time
-from dataclasses import asdict
+from dataclasses import fields
 from pathlib import Path
 
 import pytest
@@ -18,6 +18,7 @@ from symgrasp.benchmark import runner
 from symgrasp.benchmark.declutter import Attempt, Round
 from symgrasp.benchmark.runner import BenchmarkConfig
 from symgrasp.cli import main
+from symgrasp.config import PlannerOptions
 
 
 @pytest.fixture
@@ -70,14 +71,12 @@ def test_a_torn_last_line_is_ignored_and_dropped_before_appending(played, tmp_pa
 
 def test_stale_results_beside_an_empty_rounds_file_are_resumed_not_returned(played, tmp_path):
     config = BenchmarkConfig(rounds=3, seed=5)  # a folder that the old, buffered runner left
-    (tmp_path / "results.json").write_text(json.dumps({"config": asdict(config), "summary": {}}))
+    (tmp_path / "results.json").write_text(json.dumps({"config": config.record(), "summary": {}}))
     (tmp_path / "rounds.jsonl").write_text("")
     assert runner.saved_rounds(config, tmp_path) is None
     rounds = runner.run_or_reuse(config, tmp_path)
     assert [r["seed"] for r in rounds] == [5, 6, 7] and played == [5, 6, 7]
-    assert json.loads((tmp_path / "config.json").read_text()) == json.loads(
-        json.dumps(asdict(config))
-    )
+    assert json.loads((tmp_path / "config.json").read_text()) == config.record()
     assert runner.run_or_reuse(config, tmp_path) == rounds and played == [5, 6, 7]
 
 
@@ -200,3 +199,36 @@ def test_a_model_file_overwritten_by_other_weights_is_refused_not_reused(played,
     assert played == []
     (out / runner.MODEL_SHA).unlink()  # a folder from before the record: taken as it is
     assert len(runner.saved_rounds(config, out)) == 2
+
+
+STORED_OPTIONS = {
+    "decoding": [["validity_floor", 0.02], ["fallbacks", 8], ["approach_check", True]],
+    "oracle": [
+        ["gripper", "robotiq-2f85"],
+        ["grasps", 20],
+        ["directions", 4],
+        ["offset", [-0.02, 0.03]],
+    ],
+    "no threshold": [["confidence_threshold", 0.0]],
+    "none": [],
+}
+"""Planner options as benchmark folders recorded them while they were untyped (name, value)
+pairs (the stored rounds archives of the lab hold such folders)."""
+
+
+@pytest.mark.parametrize("kind", STORED_OPTIONS)
+def test_typed_options_are_recorded_as_the_pairs_folders_hold(played, tmp_path, kind):
+    stored = STORED_OPTIONS[kind]
+    model = "oracle" if kind == "oracle" else BenchmarkConfig.model
+    options = PlannerOptions(**{k: tuple(v) if isinstance(v, list) else v for k, v in stored})
+    config = BenchmarkConfig(model=model, rounds=2, options=options)
+    old = {f.name: getattr(config, f.name) for f in fields(config)}
+    text = json.dumps({**old, "options": stored}, indent=1) + "\n"  # the untyped writer's
+    runner.run_benchmark(config, tmp_path / "new")
+    assert (tmp_path / "new" / "config.json").read_text() == text
+    folder = tmp_path / "old"  # a folder of the untyped days: its rounds are reused, not played
+    folder.mkdir()
+    (folder / "config.json").write_text(text)
+    (folder / "rounds.jsonl").write_text((tmp_path / "new" / "rounds.jsonl").read_text())
+    assert runner.run_or_reuse(config, folder) == _lines(folder / "rounds.jsonl")
+    assert played == [0, 1]

@@ -9,6 +9,7 @@ import pytest
 
 from symgrasp.benchmark import runner
 from symgrasp.benchmark.runner import BenchmarkConfig, markdown_table, pooled_ratio, summarise
+from symgrasp.config import PlannerOptions
 from symgrasp.objects.folder import DATA_ENV, MissingData
 from symgrasp.parallel import TasksFailed
 
@@ -261,7 +262,7 @@ def test_cli_thresholds_reach_the_detector(tmp_path):
     # the given options over the model card's operating point, recorded whole
     card = shipped_operating_point(BenchmarkConfig.model)
     assert dict(options) == {**card, "confidence_threshold": 0.0, "validity_threshold": 0.3}
-    config = BenchmarkConfig(options=tuple(map(tuple, options)))
+    config = BenchmarkConfig(options=PlannerOptions(**dict(options)))
     runner._init_worker(config, tmp_path)
     detector = runner._WORKER["planner"]
     assert detector.validity_threshold == 0.3 and detector.confidence_threshold == 0.0

@@ -1,4 +1,4 @@
-"""What issue 66 found silent or late that the bad-input tables (`symgrasp.bad_input`) cannot
+"""What issue 66 found silent or late that the bad-input tables (tests/bad_input_cases.py) cannot
 state as one refused command: a shipped model exported by name, a picture written where its
 path says, a multi-process run refused before its ranks start, a planner object's grasps
 checked as a function's are, and a point cloud file whose size exactly meets its header."""

@@ -12,6 +12,7 @@ from conftest import FixedNet, bingham2d_channels, grasp_rotation
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.detect.limits import (
     CELL,
+    SHADOW,
     TABLE_BAND,
     CutObjectWarning,
     closing_box,
@@ -22,8 +23,8 @@ from symgrasp.detect.limits import (
 )
 from symgrasp.perception import CameraIntrinsic, default_extrinsic, depth_to_points
 from symgrasp.sim import FRANKA, ROBOTIQ_2F85, World
-from symgrasp.sim.collision import hand_collides
-from symgrasp.sim.objects import ObjectSpec, Part
+from symgrasp.sim.collision import hand_boxes, hand_collides
+from symgrasp.sim.objects import ObjectSpec, Part, surface_samples
 from symgrasp.sim.protocol import PREGRASP_DISTANCE
 from symgrasp.sim.render import make_renderer
 
@@ -338,10 +339,81 @@ def test_raised_points_are_the_images_points_above_the_tables_band(cut_scene):
     depth, intrinsic, T = cut_scene
     every = depth_to_points(depth, intrinsic, T, crop=False)
     expected = every[every[:, 2] > 0.05 + TABLE_BAND]
-    got = raised_points(np.stack([depth, depth]), intrinsic, np.stack([T, T]), (0, 0, 0))
+    moved = T.copy()
+    moved[:2, 3] += 0.01  # a second camera 1 cm along x and y: the same heights
+    got, eyes = raised_points(np.stack([depth, depth]), intrinsic, np.stack([T, moved]), (0, 0, 0))
     assert len(got) == 2 * len(expected) > 0
     assert np.allclose(got[: len(expected)], expected, atol=1e-6)
+    assert np.allclose(got[len(expected) :], expected + np.array([0.01, 0.01, 0]), atol=1e-6)
+    assert np.array_equal(eyes, np.repeat([T[:3, 3], moved[:3, 3]], len(expected), axis=0))
     assert left_out(got, (0, 0, 0)).sum() < len(got)  # the cube's part is there too
+
+
+# -- the shadow: what the camera cannot see behind a point left out ----------------------
+
+BEHIND = _rotation([1, 0, 0], [0, 0, 1])  # from behind the slab (the camera's far side)
+FLAT = _rotation([1, 0, 0], [0, 1, 0])  # horizontal, closing along world y: pads' width upright
+SLAB = _standing("slab", "box", (0.02, 0.03, 0.20), (0.15, 0.15))  # 4 × 6 × 40 cm
+
+
+@pytest.fixture(scope="module")
+def slab_scene():
+    return _render([SLAB])
+
+
+@pytest.mark.parametrize("gripper", HANDS, ids=lambda g: g.name)
+def test_a_hand_in_the_shadow_of_a_point_left_out_is_cut_down_to_its_depth(gripper):
+    """One point above the cube seen from straight above: its shadow runs `SHADOW` down the
+    ray. A closing box (upright across its pads' width) reaching 2 mm into the shadow's end is
+    cut, one ending 2 mm short of it, or between the point and the camera, is not; without the
+    camera, the point alone is in no hand."""
+    point, eye = np.array([0.15, 0.15, 0.50]), np.array([0.15, 0.15, 1.20])
+    centre, half = closing_box(gripper)
+    reach = half[1] + CLEARANCE  # the closing box's half height, upright
+
+    def cut_at(top: float, eyes=eye) -> bool:
+        T = _pose(FLAT, (0.15 - centre[0], 0.15, top - reach))
+        return bool(cut_grasps(T[None], gripper, point[None], viewpoints=eyes)[0])
+
+    end = point[2] - SHADOW
+    assert cut_at(end + 0.002) and cut_at(point[2] - 0.01)
+    assert not cut_at(end - 0.002)
+    assert not cut_at(point[2] + 2 * reach + 0.002)  # above the point: the camera saw it free
+    assert not cut_at(end + 0.002, eyes=None)
+
+
+@pytest.mark.parametrize("gripper", HANDS, ids=lambda g: g.name)
+def test_a_hand_meeting_only_a_tall_boxs_unseen_back_is_cut(slab_scene, gripper):
+    """A 40 cm slab, the camera in front of it: a grasp from behind, its upper finger over the
+    cube's top against the slab's back. The slab's true surface is in the hand; no depth point
+    is (the camera sees the front and the top), their shadows are. A grasp beside the slab, its
+    hand 1 cm clear of it across, stays uncut."""
+    depth, intrinsic, T = slab_scene
+    points, eyes = raised_points(depth[None], intrinsic, T[None], (0, 0, 0))
+    spec, pose = SLAB
+    truth = surface_samples(spec, 20000, np.random.default_rng(0))[0] + pose[:3, 3]
+    back = 0.15 - 0.02  # the slab's far side, x [m]
+    at_back = _pose(BEHIND, (back + 0.005 - gripper.tip_beyond_tcp, 0.15, 0.28))  # 5 mm in
+    beside = at_back.copy()
+    beside[1, 3] = 0.15 - 0.03 - hand_boxes(gripper).half[:, 1].max() - 0.01  # 1 cm clear
+    both = np.stack([at_back, beside])
+    assert cut_grasps(both, gripper, truth).tolist() == [True, False]  # the oracle
+    assert cut_grasps(both, gripper, points).tolist() == [False, False]  # what is seen
+    assert cut_grasps(both, gripper, points, viewpoints=eyes).tolist() == [True, False]
+
+
+def test_the_detector_flags_a_grasp_at_a_tall_boxs_back_from_images_and_clouds(slab_scene):
+    """`GraspDetector.detect` reads the cameras with the points; `detect_points`, the camera it
+    is given."""
+    depth, intrinsic, T = slab_scene
+    tcp = (0.13 + 0.005 - ROBOTIQ_2F85.tip_beyond_tcp, 0.15, 0.28)
+    detector = _detector({_voxel(*tcp): (0.9, BEHIND)}, ROBOTIQ_2F85, approach_check=False)
+    with pytest.warns(CutObjectWarning, match=r"^1 of 1 grasps flagged .* or the unseen space"):
+        (grasp,) = detector.detect(depth, intrinsic, T)
+    assert grasp.cut
+    cloud = depth_to_points(depth, intrinsic, T, crop=False)
+    with pytest.warns(CutObjectWarning, match="^1 of 1"):
+        assert detector.detect_points(cloud, T)[0].cut
 
 
 def test_mark_cut_flags_in_place_and_keeps_the_rest_of_each_grasp():

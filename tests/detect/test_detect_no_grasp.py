@@ -1,6 +1,6 @@
 """A detector that says why it found nothing: no grasp is an answer, and when the input or the
 network's output shows why, a `NoGraspWarning` names it; a real empty scene gives none. The
-single bad inputs are the tables of `symgrasp.bad_input` (tests/test_bad_input.py); here are
+single bad inputs are the tables of tests/bad_input_cases.py (tests/test_bad_input.py); here are
 the rules behind them."""
 
 import warnings
@@ -8,9 +8,9 @@ import warnings
 import numpy as np
 import pytest
 import torch
+from bad_input_cases import CAMERA, FOOT, INTRINSIC, MODEL, table_depth
 from PIL import Image
 
-from symgrasp.bad_input import CAMERA, FOOT, INTRINSIC, MODEL, table_depth
 from symgrasp.detect import GraspDetector, NoGraspWarning
 from symgrasp.detect.files import load_depth, save_png_depth
 from symgrasp.model.network import GraspNet, NetworkConfig

@@ -119,6 +119,29 @@ def test_one_cube_per_group_of_objects_each_grasp_on_its_objects(depth):
     assert timing["total"] >= timing["network"] > 0
 
 
+@pytest.mark.parametrize(("span", "cubes"), [(0.18, 1), (0.225, 2), (0.70, 2)])
+def test_two_groups_share_a_cube_where_both_fit_its_core_whole(span, cubes):
+    """Two 4 cm boxes whose far sides lie ``span`` apart: one cube where the span fits its core
+    (the cube less the open hand's half span each side: 30 − 2 × 4.85 = 20.3 cm for the
+    2F-85), whichever grouping; two where it does not, each centred on its box, so that every
+    box keeps the hand's margin in its cube."""
+    core = WORKSPACE_SIZE - 2 * hand_margin(ROBOTIQ_2F85)
+    assert core == pytest.approx(0.203)
+    x = 0.15 - span / 2 + 0.02  # the boxes' centres, symmetric about x = 0.15
+    boxes = {"left": (x, 0.15, 0.04, 0.04), "right": (x + span - 0.04, 0.15, 0.04, 0.04)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NoGraspWarning)  # the stand-in's grasp may hold nothing
+        found = detect_table(_fixed({CENTRE: 0.9}), _render(boxes), K, CAMERA)
+    assert len(found.origins) == cubes
+    centres = np.sort(found.origins[:, 0]) + WORKSPACE_SIZE / 2
+    expected = [0.15] if cubes == 1 else [x, x + span - 0.04]
+    assert np.allclose(centres, expected, atol=0.01)
+    margin = (WORKSPACE_SIZE - core) / 2
+    low, high = found.origins[:, 0] + margin, found.origins[:, 0] + WORKSPACE_SIZE - margin
+    for bx, *_ in boxes.values():  # whole in a cube's core, to the pixels' 4 mm
+        assert np.any((low <= bx - 0.02 + 0.004) & (bx + 0.02 <= high + 0.004))
+
+
 def test_grasps_that_close_on_no_object_of_their_cube_are_dropped(depth):
     """A voxel 12 cm off every cube's centre lies over bare table in each cube: its grasps hold
     no object point; only the centre voxel's remain."""

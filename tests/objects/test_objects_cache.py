@@ -15,14 +15,14 @@ PARTS = [np.eye(3), np.eye(3) + 1]
 
 @pytest.fixture
 def calls(monkeypatch):
-    """CoACD replaced by a stand-in returning `PARTS`; its calls counted."""
+    """The decomposition library replaced by a stand-in returning `PARTS`; its calls counted."""
     made = []
 
     def fake(vertices, faces, settings):
         made.append(settings)
         return [p.copy() for p in PARTS]
 
-    monkeypatch.setattr(decomposition, "run_coacd", fake)
+    monkeypatch.setattr(decomposition, "run_library", fake)
     return made
 
 

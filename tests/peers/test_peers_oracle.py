@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from symgrasp.cli import main
-from symgrasp.config import TRAINING_DATABASE, DatabaseConfig
+from symgrasp.config import TRAINING_DATABASE, DatabaseConfig, PlannerOptions
 from symgrasp.data.grasp_db import build_database
 from symgrasp.detect import GraspPlanner, Observation
 from symgrasp.names import ORACLE_GRIPPER, planner_kind
@@ -25,7 +25,7 @@ TINY = {"grasps": 20, "directions": 4}
 @pytest.fixture(scope="module")
 def scene():
     """A pile of three blocks, the oracle of tiny databases for the Robotiq hand and its plan."""
-    oracle = OraclePlanner("robotiq-2f85", **TINY)
+    oracle = OraclePlanner(get_gripper("robotiq-2f85"), **TINY)
     world = make_scene("pile", "blocks", 3, 0, gripper=oracle.gripper)
     intrinsic = CameraIntrinsic()
     depth = np.zeros((intrinsic.height, intrinsic.width), np.float32)
@@ -91,7 +91,7 @@ def test_the_oracle_scores_only_what_it_reads_the_scores_of_the_whole_database(s
 
 
 def test_the_oracle_keeps_the_databases_it_read_last():
-    oracle = OraclePlanner("robotiq-2f85", grasps=2, directions=4)
+    oracle = OraclePlanner(grasps=2, directions=4)
     objects = [
         make_scene("pile", "blocks", 1, seed, gripper=oracle.gripper).objects[0]
         for seed in range(KEEP + 1)
@@ -104,7 +104,7 @@ def test_the_oracle_keeps_the_databases_it_read_last():
 
 
 def test_the_oracle_refuses_to_plan_without_a_world():
-    oracle = OraclePlanner("franka", **TINY)
+    oracle = OraclePlanner(get_gripper("franka"), **TINY)
     intrinsic = CameraIntrinsic()
     depth = np.zeros((intrinsic.height, intrinsic.width), np.float32)
     with pytest.raises(ValueError, match="reads the simulator's state"):
@@ -127,18 +127,20 @@ def test_the_oracle_is_named_and_versioned_by_its_databases():
     oracle = load_planner("oracle")
     assert isinstance(oracle, GraspPlanner)
     assert oracle.gripper == get_gripper(ORACLE_GRIPPER) and oracle.database == TRAINING_DATABASE
-    small = load_planner("oracle", "franka", grasps=40)
+    small = load_planner("oracle", PlannerOptions(gripper="franka", grasps=40))
     assert small.gripper == get_gripper("franka")
     assert small.database == DatabaseConfig(grasps=40, directions=TRAINING_DATABASE.directions)
     assert small.version != oracle.version
-    assert planner_version("oracle", "franka", grasps=40) == small.version
-    tips = load_planner("oracle", "franka", grasps=40, offset=(-0.03, 0.03))
+    assert planner_version("oracle", PlannerOptions(grasps=40)) == small.version
+    tips = load_planner("oracle", PlannerOptions(gripper="franka", grasps=40, offset=(-0.03, 0.03)))
     assert tips.database == DatabaseConfig(
         grasps=40, directions=TRAINING_DATABASE.directions, offset=(-0.03, 0.03)
     )
     assert tips.version not in (small.version, oracle.version)
     with pytest.raises(ValueError, match="offset"):
-        load_planner("oracle", "franka", offset=(-0.5, 0.03))
+        PlannerOptions(gripper="franka", offset=(-0.5, 0.03))
+    with pytest.raises(ValueError, match="planner oracle takes no validity_threshold"):
+        load_planner("oracle", PlannerOptions(validity_threshold=0.5))
 
 
 def test_the_oracle_plays_a_round_through_bench_declutter(tmp_path, capsys):
@@ -153,7 +155,7 @@ def test_the_oracle_plays_a_round_through_bench_declutter(tmp_path, capsys):
     assert config["options"] == [["gripper", "robotiq-2f85"], ["grasps", 20], ["directions", 4],
                                  ["offset", [-0.02, 0.03]]]  # fmt: skip
     assert (out / "model.sha256").read_text().strip() == planner_version(
-        "oracle", "robotiq-2f85", **TINY, offset=(-0.02, 0.03)
+        "oracle", PlannerOptions(**TINY, offset=(-0.02, 0.03))
     )
     (record,) = [json.loads(line) for line in (out / "rounds.jsonl").read_text().splitlines()]
     assert "error" not in record and record["attempts"]

@@ -10,6 +10,7 @@ import pytest
 
 from symgrasp.benchmark.declutter import run_round
 from symgrasp.cli import main
+from symgrasp.config import PlannerOptions
 from symgrasp.detect import GraspDetector, GraspPlanner, Observation
 from symgrasp.digest import file_sha256
 from symgrasp.names import is_plugin_name, planner_kind
@@ -50,7 +51,7 @@ def test_the_shipped_detector_is_a_planner_whose_version_is_its_files_hash():
 
     assert detector.version == file_sha256(shipped_path("bingham2d-franka"))
     with pytest.raises(ValueError, match="trained for the 'franka' gripper, not 'robotiq-2f85'"):
-        load_planner("bingham2d-franka", "robotiq-2f85")
+        load_planner("bingham2d-franka", PlannerOptions(gripper="robotiq-2f85"))
 
 
 def test_a_detector_plans_what_it_detects():
@@ -63,24 +64,25 @@ def test_a_detector_plans_what_it_detects():
 
 
 def test_a_function_becomes_a_planner_for_the_hand_named():
-    planner = load_planner(PLUGIN, "franka")
+    franka = PlannerOptions(gripper="franka")
+    planner = load_planner(PLUGIN, franka)
     assert isinstance(planner, FunctionPlanner) and isinstance(planner, GraspPlanner)
     assert planner.gripper == get_gripper("franka") and planner.name == PLUGIN
-    assert planner.version == file_sha256(SOURCE) == planner_version(PLUGIN, "franka")
+    assert planner.version == file_sha256(SOURCE) == planner_version(PLUGIN, franka)
     with pytest.raises(ValueError, match="is a function: name the hand"):
         load_planner(PLUGIN)
     with pytest.raises(ValueError, match="is a int: expected a function"):
-        load_planner("tests.peers.plugin_planner:not_a_planner", "franka")
+        load_planner("tests.peers.plugin_planner:not_a_planner", franka)
     with pytest.raises(ValueError, match="has no 'missing'"):
-        load_planner("tests.peers.plugin_planner:missing", "franka")
+        load_planner("tests.peers.plugin_planner:missing", franka)
     with pytest.raises(ValueError, match="cannot import no_such_package"):
-        load_planner("no_such_package.module:plan", "franka")
-    with pytest.raises(ValueError, match="takes no detector options"):
-        load_planner(PLUGIN, "franka", validity_threshold=0.5)
+        load_planner("no_such_package.module:plan", franka)
+    with pytest.raises(ValueError, match="takes no validity_threshold, fallbacks"):
+        load_planner(PLUGIN, PlannerOptions(gripper="franka", validity_threshold=0.5, fallbacks=2))
 
 
 def test_a_user_planner_plays_a_round_through_the_api():
-    planner = load_planner(PLUGIN, "franka")
+    planner = load_planner(PLUGIN, PlannerOptions(gripper="franka"))
     record = run_round(planner, resolve("large-box"), 1, seed=0, diagnose=False)
     assert record.objects == 1 and record.attempts
     grasp = record.attempts[0].grasp
@@ -159,3 +161,19 @@ def test_without_vgns_weights_detect_and_bench_stop_with_one_line_and_status_66(
         err = capsys.readouterr().err.strip()
         assert exit_.value.code == EX_NOINPUT and len(err.splitlines()) == 1
         assert "VGN's weights are not in the data folder" in err and "peers/vgn/vgn_conv.pth" in err
+
+
+@pytest.mark.parametrize(
+    "bad, named",
+    [({"validity_threshold": 1.5}, "validity_threshold"), ({"fallbacks": -1}, "fallbacks"),
+     ({"offset": (0.05, 0.01)}, "offset"), ({"workspace_origin": (0.0, 0.0)}, "workspace_origin"),
+     ({"gripper": ""}, "gripper"), ({"approach_check": "yes"}, "approach_check")],
+)  # fmt: skip
+def test_bad_planner_options_are_refused_naming_the_option(bad, named):
+    with pytest.raises(ValueError, match=f"^{named}"):
+        PlannerOptions(**bad)
+
+
+def test_a_planner_refuses_options_of_another_kind():
+    with pytest.raises(ValueError, match="planner vgn takes no grasps"):
+        load_planner("vgn", PlannerOptions(grasps=10))

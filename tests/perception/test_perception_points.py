@@ -4,8 +4,8 @@ filling, against closed forms."""
 
 import numpy as np
 import pytest
+from bad_input_cases import CAMERA, INTRINSIC, table_depth
 
-from symgrasp.bad_input import CAMERA, INTRINSIC, table_depth
 from symgrasp.perception import CameraIntrinsic, depth_to_points, fill_holes, points_view
 from symgrasp.perception.points import (
     DEFAULT_PIXEL_SIZE,

@@ -13,8 +13,8 @@ import tracemalloc
 
 import numpy as np
 import pytest
+from bad_input_cases import CAMERA, INTRINSIC, MODEL, table_depth
 
-from symgrasp.bad_input import CAMERA, INTRINSIC, MODEL, table_depth
 from symgrasp.detect import GraspDetector
 from symgrasp.serve import DETECT_PATH, HEALTH_PATH, protocol
 from symgrasp.serve.client import GraspClient, ServerError

@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from bad_input_cases import MODEL
 
-from symgrasp.bad_input import MODEL
 from symgrasp.detect import GraspDetector
 from symgrasp.detect.grasp import Grasp, T_flange_tcp
 from symgrasp.perception import default_extrinsic

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bad_input_cases import CAMERA, INTRINSIC, MODEL, table_depth
 
-from symgrasp.bad_input import CAMERA, INTRINSIC, MODEL, table_depth
 from symgrasp.detect import GraspDetector
 from symgrasp.perception import default_extrinsic, depth_to_points, fit_table
 from symgrasp.perception.camera import CameraIntrinsic

@@ -4,6 +4,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from symgrasp.objects.sets import make_scene
 from symgrasp.sim import (
     FRANKA,
     ROBOTIQ_2F85,
@@ -11,7 +12,6 @@ from symgrasp.sim import (
     execute_grasp,
     get_gripper,
     large_box,
-    make_scene,
 )
 from symgrasp.sim.execute import (
     Outcome,

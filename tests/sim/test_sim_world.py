@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from symgrasp.sim import FRANKA, World, large_box, make_scene, object_set
+from symgrasp.objects.sets import make_scene
+from symgrasp.sim import FRANKA, World, large_box, object_set
 from symgrasp.sim.objects import TEST_FAMILIES, TRAIN_FAMILIES, ConvexPart, ObjectSpec, Part
 from symgrasp.workspace import TABLE_HEIGHT, WORKSPACE_SIZE
 

@@ -19,9 +19,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from symgrasp.config import SCENES, SURFACE_CLEARANCE, TABLE_CLEARANCE, BenchmarkConfig
+from symgrasp.config import (
+    SCENES,
+    SURFACE_CLEARANCE,
+    TABLE_CLEARANCE,
+    BenchmarkConfig,
+    PlannerOptions,
+)
 
-NO_THRESHOLD = (("confidence_threshold", 0.0),)
+NO_THRESHOLD = PlannerOptions(confidence_threshold=0.0)
 """The detector options of the paper's "2D Bingham" row: its confidence threshold off."""
 
 
@@ -79,6 +85,6 @@ class Cell:
         return BenchmarkConfig(
             model=str(Path(model).resolve()), objects=self.objects, scene=self.scene,
             num_objects=num_objects, rounds=rounds, seed=self.first_seed,
-            options=() if self.threshold else NO_THRESHOLD, table_clearance=table_clearance,
-            surface_clearance=surface_clearance,
+            options=PlannerOptions() if self.threshold else NO_THRESHOLD,
+            table_clearance=table_clearance, surface_clearance=surface_clearance,
         )  # fmt: skip

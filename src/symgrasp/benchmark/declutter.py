@@ -33,7 +33,7 @@ from symgrasp.detect import Grasp
 from symgrasp.detect.detector import fuse
 from symgrasp.detect.planner import GraspPlanner
 from symgrasp.names import PROTOCOLS
-from symgrasp.objects.sets import ObjectSource, make_scene
+from symgrasp.objects.sets import ObjectSource
 from symgrasp.sim.collision import hand_collides
 from symgrasp.sim.execute import execute_grasp
 from symgrasp.sim.grippers import GripperSpec
@@ -156,7 +156,7 @@ def run_round(
         raise ValueError(f"protocol must be one of {PROTOCOLS}, got {protocol!r}")
     sensor = sensor or Sensor()
     renderer = make_renderer(sensor.intrinsic)
-    world = make_scene(scene, objects, num_objects, seed, gripper=planner.gripper)
+    world = objects.scene(scene, objects.draw(num_objects, seed, scene), seed, planner.gripper)
     record = Round(seed, len(world.objects), renderer.name,
                    presented=[spec.family for spec in world.objects])  # fmt: skip
     max_attempts = 2 * num_objects if max_attempts is None else max_attempts

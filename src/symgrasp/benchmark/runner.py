@@ -46,7 +46,6 @@ import os
 from collections import Counter
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -145,7 +144,7 @@ def _init_worker(config: BenchmarkConfig, out: Path) -> None:
     _WORKER["config"] = config
     _WORKER["out"] = out
     _WORKER["objects"] = resolve(config.objects, config.mesh_unit)  # once for all its rounds
-    _WORKER["planner"] = load_planner(config.model, device="cpu", **dict(config.options))
+    _WORKER["planner"] = load_planner(config.model, config.options, device="cpu")
 
 
 def _round_task(seed: int) -> dict[str, Any]:
@@ -352,11 +351,6 @@ def _strict_json(value: Any) -> Any:
 # --- the output folder: configuration record, streamed rounds, derived results ------------
 
 
-def _plain(config: BenchmarkConfig) -> dict[str, Any]:
-    """``config`` as the JSON data recorded in a folder (tuples read back as lists)."""
-    return json.loads(json.dumps(asdict(config)))
-
-
 def recorded_config(out: str | Path) -> dict[str, Any] | None:
     """The configuration recorded in ``out``: its ``config.json``, or, in a folder finished
     before ``config.json`` was written, its ``results.json``'s; None when it has neither."""
@@ -368,7 +362,7 @@ def recorded_config(out: str | Path) -> dict[str, Any] | None:
         recorded = check_json(results["config"], out / "results.json", "benchmark configuration")
     else:
         return None
-    return {**_plain(BenchmarkConfig()), **PLAYED_BEFORE, **recorded}
+    return {**BenchmarkConfig().record(), **PLAYED_BEFORE, **recorded}
 
 
 PLAYED_BEFORE = {"table_clearance": -0.002, "surface_clearance": -0.002}
@@ -391,7 +385,7 @@ def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) ->
             f"out {out} already holds a benchmark; pass resume=True (--resume) to finish it, "
             "or choose another out (--out)"
         )
-    recorded, wanted = recorded_config(out), _plain(config)
+    recorded, wanted = recorded_config(out), config.record()
     if recorded is None:
         raise ValueError(
             f"out {out} holds rounds of an unrecorded configuration (no config.json); "
@@ -442,9 +436,7 @@ def _check_model(config: BenchmarkConfig, out: Path) -> None:
 def _version(config: BenchmarkConfig) -> str:
     """The SHA-256 of what ``config`` plays (`planner_version`: the model file, VGN's weights,
     the oracle's source and databases, a user's planner's source)."""
-    options = dict(config.options)
-    gripper = options.pop("gripper", None)
-    return planner_version(config.model, gripper, **options)
+    return planner_version(config.model, config.options)
 
 
 def read_rounds(path: str | Path) -> dict[int, dict[str, Any]]:
@@ -519,7 +511,7 @@ def run_benchmark(
     with open_executor(parallel if missing else ParallelConfig()) as executor:
         if not (out / "config.json").exists():
             _write_text(out / MODEL_SHA, _version(config) + "\n")
-            _write_text(out / "config.json", json.dumps(asdict(config), indent=1) + "\n")
+            _write_text(out / "config.json", json.dumps(config.record(), indent=1) + "\n")
         _write_rounds(path, done.values())  # without failed rounds or a torn last line
         if missing:
             with open(path, "a") as lines:
@@ -529,7 +521,7 @@ def run_benchmark(
     rounds = [done[seed] for seed in round_seeds(config)]  # seed order: the bootstrap's order
     _write_rounds(path, rounds)
     summary = summarise(rounds, config.seed)
-    result = _strict_json({"config": asdict(config), "summary": summary})
+    result = _strict_json({"config": config.record(), "summary": summary})
     _write_text(out / "results.json", json.dumps(result, indent=1, allow_nan=False) + "\n")
     _write_text(out / "results.md", markdown_table(summary, config))
     _check_finished(rounds, out)
@@ -558,7 +550,7 @@ def saved_rounds(
     (failed ones included, as their records: a reader counts them apart), else None (no benchmark, an unfinished one, or another configuration's). ValueError when
     the model file has changed since they were played; ``check_model=False`` skips that check,
     for stored rounds whose model file is not on this machine."""
-    if recorded_config(out) != _plain(config):
+    if recorded_config(out) != config.record():
         return None
     if check_model:
         _check_model(config, Path(out))

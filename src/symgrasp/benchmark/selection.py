@@ -46,6 +46,7 @@ from symgrasp.config import (
     VALIDATION_SEED,
     BenchmarkConfig,
     ParallelConfig,
+    PlannerOptions,
     TrainConfig,
 )
 from symgrasp.data.dataset import GraspDataset, collate_scenes
@@ -175,7 +176,7 @@ def declutter_validation(
     mesh_unit: str = "auto",
     table_clearance: float = TABLE_CLEARANCE,
     surface_clearance: float = SURFACE_CLEARANCE,
-    options: tuple[tuple[str, Any], ...] = (),
+    options: PlannerOptions = PlannerOptions(),
     workers: int | None = None,
     parallel: ParallelConfig | None = None,
 ) -> dict[str, Any]:
@@ -184,9 +185,8 @@ def declutter_validation(
 
     Rounds use seeds ``seed … seed + rounds − 1`` (refused when they reach the test seeds,
     `check_validation_rounds`), ``num_objects`` objects of ``objects`` as a ``scene``, the
-    detector's default thresholds unless ``options`` (keyword arguments of
-    `GraspDetector.from_pretrained`) say otherwise, the approach check's ``table_clearance`` and
-    ``surface_clearance``, and no failure diagnosis (its replays cost time and change no ratio). ``workers`` local processes, or the executor ``parallel``.
+    detector's default thresholds unless ``options`` (its `PlannerOptions`) say otherwise, the
+    approach check's ``table_clearance`` and ``surface_clearance``, and no failure diagnosis (its replays cost time and change no ratio). ``workers`` local processes, or the executor ``parallel``.
 
     Returns the pooled ``success_ratio`` and ``clear_ratio`` with their bootstrap 95 %
     intervals (``*_ci95``), the counts (``rounds``, ``objects``, ``executed``, ``successes``,
@@ -198,7 +198,7 @@ def declutter_validation(
     check_validation_rounds(objects, rounds, seed)
     config = BenchmarkConfig(
         model=str(checkpoint), objects=objects, mesh_unit=mesh_unit, scene=scene,
-        num_objects=num_objects, rounds=rounds, seed=seed, options=tuple(options),
+        num_objects=num_objects, rounds=rounds, seed=seed, options=options,
         diagnose=False, table_clearance=table_clearance,
         surface_clearance=surface_clearance,
     )  # fmt: skip
@@ -212,7 +212,7 @@ def declutter_validation(
     return {
         **{key: summary[key] for key in keys},
         "errors": len(summary["errors"]),
-        "config": json.loads(json.dumps(asdict(config))),
+        "config": config.record(),
     }
 
 

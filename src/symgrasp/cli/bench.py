@@ -23,6 +23,7 @@ from symgrasp.config import (
     TRAINING_DATABASE,
     BenchmarkConfig,
     DatabaseConfig,
+    PlannerOptions,
 )
 from symgrasp.fields import field_docs
 from symgrasp.names import ORACLE_GRIPPER, planner_kind
@@ -143,7 +144,7 @@ def _run_declutter(args: argparse.Namespace) -> None:
     given = decoding_options(args)
     oracle = {"grasps": args.oracle_grasps, "directions": args.oracle_directions,
               "offset": None if args.oracle_offset is None else tuple(args.oracle_offset)}  # fmt: skip
-    oracle = tuple((k, v) for k, v in oracle.items() if v is not None)
+    oracle = {k: v for k, v in oracle.items() if v is not None}
     if oracle and kind != "oracle":
         raise SystemExit(f"error: --oracle-* options are the oracle's, not --model {args.model}'s")
     if kind != "model":
@@ -153,19 +154,17 @@ def _run_declutter(args: argparse.Namespace) -> None:
                 "--fallbacks, --no-operating-point, --approach-check and --rep are a trained "
                 f"model's; --model {args.model} takes none of them"
             )
-        options = (() if args.gripper is None else (("gripper", args.gripper),)) + oracle
+        options = PlannerOptions(gripper=args.gripper, **oracle)
     if kind == "plugin" and os.getcwd() not in sys.path:
         sys.path.insert(0, os.getcwd())  # the planner's module, found as `python -m` finds it
     config = config_from_args(BenchmarkConfig, args)
     parallel = parallel_from_args(args)
     if kind == "model":
-        from symgrasp.detect.pretrained import OPERATING_POINT_KEYS, shipped_operating_point
+        from symgrasp.detect.pretrained import shipped_operating_point
 
         # the card's operating point, resolved here so that config.json records it whole
         card = {} if args.no_operating_point else shipped_operating_point(args.model)
-        chosen = {**card, **given}
-        options = tuple((key, chosen[key]) for key in OPERATING_POINT_KEYS if key in chosen)
-        options += (("approach_check", True),) if args.approach_check else ()
+        options = PlannerOptions(**{**card, **given}, approach_check=args.approach_check)
     config = dataclasses.replace(config, options=options)
 
     from symgrasp.benchmark.runner import check_out, markdown_table, run_benchmark

@@ -220,7 +220,7 @@ def add_detector_options(parser: argparse.ArgumentParser, planners: bool = False
         help="what to do with the grasps whose hand, approaching or closed, meets depth points "
         "above the workspace's top or past its sides, on an object the cube cuts: flag them "
         '("cut": true, the default), remove them, or ignore them; a warning says how many '
-        "(docs/detect.md, 'Objects the cube cuts')",
+        "(docs/robot.md, 'Objects the cube cuts')",
     )
     parser.add_argument(
         "--optimize",
@@ -461,6 +461,7 @@ def _planner(args: argparse.Namespace):
     kind = planner_kind(args.model)
     if kind == "model":
         return load_detector(args)
+    from symgrasp.config import PlannerOptions
     from symgrasp.peers.planners import load_planner
 
     if kind == "plugin":
@@ -468,13 +469,11 @@ def _planner(args: argparse.Namespace):
 
         if os.getcwd() not in sys.path:  # the planner's module, found as `python -m` finds it
             sys.path.insert(0, os.getcwd())
-        return load_planner(args.model, args.gripper)
+        return load_planner(args.model, PlannerOptions(gripper=args.gripper))
     from symgrasp.device import resolve_device
 
-    return load_planner(
-        args.model, args.gripper, str(resolve_device(args.device)),
-        workspace_origin=tuple(args.workspace_origin),
-    )  # fmt: skip
+    options = PlannerOptions(gripper=args.gripper, workspace_origin=tuple(args.workspace_origin))
+    return load_planner(args.model, options, str(resolve_device(args.device)))
 
 
 def _fused(planner, depth, intrinsic, extrinsic, origin):

@@ -58,8 +58,7 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
 
 def _run_sim_show(args: argparse.Namespace) -> None:
     from symgrasp.folders import PICTURES, output_folder
-    from symgrasp.objects.sets import resolve
-    from symgrasp.sim import make_scene
+    from symgrasp.objects.sets import make_scene, resolve
     from symgrasp.sim.show import save_scene_pictures
 
     with output_folder(args.out, PICTURES, "--out"):  # checked before the objects load

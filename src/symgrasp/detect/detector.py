@@ -148,8 +148,9 @@ class GraspDetector:
             first detection (`symgrasp.sim.collision.hand_boxes`). `detect_tsdf` checks
             against the given grid's surface.
         cut_objects: what to do with the grasps whose hand, approaching from the pre-grasp or
-            closed, meets depth points above the workspace's top or past its sides, on an object
-            the cube cuts, whose cut reads as an edge (`symgrasp.detect.limits`): ``"flag"``
+            closed, meets depth points above the workspace's top or past its sides, or the
+            space up to `symgrasp.detect.limits.SHADOW` behind them along their camera's rays
+            (the unseen back of an object the cube cuts, whose cut reads as an edge): ``"flag"``
             (default) sets their `Grasp.cut` and keeps the ranking, ``"remove"`` leaves them
             out, each with one `CutObjectWarning` naming how many; ``"ignore"`` does not look.
             Timed as the ``cut`` stage. The default changes no grasp (the benchmark's rounds
@@ -382,7 +383,7 @@ class GraspDetector:
         views = check_views(depth, intrinsic, extrinsic)
         grasps, out = self._detect_views(views, start)
         if not grasps:
-            _warn_no_grasp(_output_cause(out), self._depth_cause(*views))
+            _warn_no_grasp(self.no_grasp_cause(out, views))
         return grasps
 
     def detect_points(
@@ -433,18 +434,47 @@ class GraspDetector:
         were made of."""
         volume = self._fuse(*views)
         tsdf_ms = _ms_since(start, self.device)
-        grasps, out = self._detect(volume.grid())
-        self.timing = {"tsdf": tsdf_ms, **self.timing}
-        kept = self._approach_free(grasps, volume.tsdf)
+        begin = time.perf_counter()
+        out = self.predict(volume.grid())
+        network_ms = _ms_since(begin, self.device)
+        kept = self.grasps_from(out, volume.tsdf, views, cloud)
+        self.timing = {"tsdf": tsdf_ms, "network": network_ms, **self.timing}
+        return kept, out
+
+    def grasps_from(
+        self,
+        out: dict[str, Tensor],
+        tsdf: Tensor,
+        views: tuple[np.ndarray, CameraIntrinsic, np.ndarray],
+        cloud: np.ndarray | None = None,
+        viewpoints: np.ndarray | None = None,
+    ) -> list[Grasp]:
+        """The grasps of the network's outputs ``out`` (`predict`, `predict_many`) on the
+        workspace TSDF ``tsdf`` (40, 40, 40) fused from the checked ``views`` (`check_views`):
+        decoded, past the approach check, the cut check (on the views' points, or the world
+        points ``cloud`` (N, 3) [m] they were made of, seen from ``viewpoints`` (N, 3) [m],
+        by default the one view's camera; `raised_points`) and with the opening each hand
+        needs (`measured_widths`); sets `timing` (``decode`` and the stages after it)."""
+        begin = time.perf_counter()
+        grasps = self._decode(out)
+        self.timing = {"decode": _ms_since(begin, self.device)}
+        kept = self._approach_free(grasps, tsdf)
         if self.cut_objects != "ignore" and kept:
             begin = time.perf_counter()
-            seen = raised_points(*views, self.origin) if cloud is None else cloud
-            kept = mark_cut(kept, self.gripper, seen, self.origin, self.cut_objects, stacklevel=3)
+            if cloud is None:
+                cloud, viewpoints = raised_points(*views, self.origin)
+            elif viewpoints is None and len(views[2]) == 1:
+                viewpoints = views[2][0, :3, 3]
+            # stacklevel 4: the line that called detect, detect_points or detect_table
+            kept = mark_cut(
+                kept, self.gripper, cloud, self.origin, self.cut_objects, stacklevel=4,
+                viewpoints=viewpoints,
+            )  # fmt: skip
             self.timing["cut"] = _ms_since(begin, self.device)
         begin = time.perf_counter()
-        kept = measured_widths(kept, self.gripper, volume.tsdf, self.origin)
+        kept = measured_widths(kept, self.gripper, tsdf, self.origin)
         self.timing["width"] = _ms_since(begin, self.device)
-        return kept, out
+        return kept
 
     def _approach_free(self, grasps: list[Grasp], grid: np.ndarray | Tensor) -> list[Grasp]:
         """With ``approach_check``, the grasps of ``grasps`` whose approach keeps the
@@ -489,13 +519,25 @@ class GraspDetector:
         """The network's per-voxel outputs for a TSDF (40, 40, 40) in [-1, 1]: ``score``,
         ``validity`` (probability) ``[40, 40, 40]`` and ``rotation`` channels
         ``[40, 40, 40, C]``."""
-        tsdf = _check_tsdf(tsdf, self.device)[None, None]
-        out = self.model(tsdf) if self._graph is None else torchscript.forward(self._graph, tsdf)
-        return {
-            "score": out.score[0],
-            "validity": torch.sigmoid(out.validity[0]),
-            "rotation": out.rotation[0].movedim(0, -1),
-        }
+        return self.predict_many(_check_tsdf(tsdf, self.device)[None])[0]
+
+    @torch.no_grad()
+    def predict_many(self, tsdfs: Tensor) -> list[dict[str, Tensor]]:
+        """`predict` of each checked TSDF of ``tsdfs`` (B, 40, 40, 40) on the detector's device,
+        in one forward pass: each cube's outputs are its own pass's up to the float rounding
+        of a batched convolution (≈ 1e-4 of an output's largest magnitude: the network's
+        GroupNorm normalises each cube apart)."""
+        batch = tsdfs[:, None]
+        out = self.model(batch) if self._graph is None else torchscript.forward(self._graph, batch)
+        validity = torch.sigmoid(out.validity)
+        return [
+            {
+                "score": out.score[b],
+                "validity": validity[b],
+                "rotation": out.rotation[b].movedim(0, -1),
+            }
+            for b in range(len(tsdfs))
+        ]
 
     def detect_tsdf(self, tsdf: np.ndarray | Tensor) -> list[Grasp]:
         """Ranked grasps from a workspace TSDF (40, 40, 40) in [-1, 1] (ValueError outside it
@@ -522,6 +564,14 @@ class GraspDetector:
         grasps = self._decode(out)
         self.timing = {"network": network_ms, "decode": _ms_since(start, self.device)}
         return grasps, out
+
+    def no_grasp_cause(
+        self, out: dict[str, Tensor], views: tuple[np.ndarray, CameraIntrinsic, np.ndarray]
+    ) -> str | None:
+        """Why the network's outputs ``out`` on the checked ``views`` (`check_views`) gave no
+        grasp, where that is visible (a non-finite output, the depth's `_depth_cause`): the
+        `NoGraspWarning`'s message `detect` gives; None: not seen."""
+        return _no_grasp_message(_output_cause(out), self._depth_cause(*views))
 
     def _depth_cause(
         self, views: np.ndarray, intrinsic: CameraIntrinsic, T: np.ndarray, hint: str = ""
@@ -661,10 +711,15 @@ def _fuse_views(
 
 def _warn_no_grasp(*causes: str | None) -> None:
     """Warn that no grasp was found, naming the visible ``causes`` (None: not seen)."""
-    seen = [cause for cause in causes if cause]
-    if seen:
+    if message := _no_grasp_message(*causes):
         # stacklevel 3: the line that called detect or detect_tsdf
-        warnings.warn("no grasp found: " + "; ".join(seen), NoGraspWarning, stacklevel=3)
+        warnings.warn(message, NoGraspWarning, stacklevel=3)
+
+
+def _no_grasp_message(*causes: str | None) -> str | None:
+    """The `NoGraspWarning` naming the visible ``causes`` (None: not seen); None if none is."""
+    seen = [cause for cause in causes if cause]
+    return "no grasp found: " + "; ".join(seen) if seen else None
 
 
 def _output_cause(out: dict[str, Tensor]) -> str | None:

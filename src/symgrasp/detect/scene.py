@@ -20,6 +20,13 @@ fitted cube's frame, ``fit.T_workspace_camera``, as for `GraspDetector.detect`):
   u1, v1)`` selects an object's pixels; one cube is centred on them (their points' centroid on
   the table, the cube's floor `TABLE_HEIGHT` below the table top, as in training).
 
+The cubes share what one detection of the images needs once: the images are prepared
+(`GraspDetector.prepared`) and checked once, the depth points left out of the cubes for the
+cut check found once (`symgrasp.detect.limits.raised_points`: the cubes' floors lie at one
+height), and the cubes' TSDFs go through the network `NETWORK_BATCH` at a time, one forward pass
+each (`GraspDetector.predict_many`); each cube's grasps are those its own detection gives, up to
+the float rounding of a batched pass.
+
 Each cube keeps the grasps that close on its own objects (`holds`): the object points between
 the open pads, the swept region the closing fingers cross, mostly its objects' and at least
 `MIN_HELD_POINTS` of them. A grasp on a neighbour the cube sees cut at its side is left to the
@@ -37,11 +44,13 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+import torch
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from symgrasp.detect.detector import GraspDetector, NoGraspWarning, check_views
 from symgrasp.detect.grasp import Grasp
+from symgrasp.detect.limits import raised_points
 from symgrasp.model.ranking import DEFAULT_NMS_RADIUS
 from symgrasp.perception import CameraIntrinsic
 from symgrasp.perception.table import CLUSTER_CELL, MAX_HEIGHT, MIN_CLUSTER_POINTS, MIN_HEIGHT
@@ -60,6 +69,11 @@ few stray points of sensor noise are not an object."""
 OBJECT_EDGE = 0.02
 """[m] a depth jump between neighbouring pixels over this parts two objects (`detect_object`'s
 pixel and box): a surface seen at 1–2 mm per pixel steps far less, except at grazing angles."""
+
+NETWORK_BATCH = 4
+"""Cubes per forward pass of the network: on one thread of the 2-core CPU a batch of 2–5 cubes
+cost ≈ 20 ms a cube against ≈ 32 ms alone, one of 8 more again (its activations outgrow the
+caches; docs/reports/real_scenes.md)."""
 
 TABLE_STRIDE = 8
 """Every how many of the table's points mark its extent's cells: a 1 cm cell seen at 1–2 mm per
@@ -116,14 +130,18 @@ def detect_table(
     start = time.perf_counter()
     views, intrinsic, T = check_views(depth, intrinsic, T_world_camera)
     views = detector.prepared(views, intrinsic, T)
-    points = _points(views, intrinsic, T)[views > 0]
-    height = points[:, 2] - _table_z(detector)
-    cluster = _clusters(points[:, :2], height)
+    rays = intrinsic.pixel_rays()
+    height = _heights(views, rays, T) - _table_z(detector)
+    seen = views > 0
+    standing = seen & (height > MIN_HEIGHT) & (height < MAX_HEIGHT)
+    table = np.flatnonzero(seen & (np.abs(height) <= MIN_HEIGHT))[::TABLE_STRIDE]
+    points = _world_points(views, rays, T, np.flatnonzero(standing))
+    cluster = _clusters(points[:, :2], _world_points(views, rays, T, table)[:, :2])
     groups = _groups(points[:, :2], cluster, WORKSPACE_SIZE - 2 * hand_margin(detector.gripper))
     timing = {"objects": _ms(start)}
     if not groups:
         warnings.warn(
-            f"no grasp found: no object stands on the table: none of the {len(points)} seen "
+            f"no grasp found: no object stands on the table: none of the {int(seen.sum())} seen "
             f"points lies {MIN_HEIGHT * 100:g}–{MAX_HEIGHT * 100:g} cm above the table top z = "
             f"{_table_z(detector):.3f} m in clusters of ≥ {MIN_CLUSTER_POINTS} beside the "
             "table's own points (is the table at workspace_origin z + 5 cm, z up?)",
@@ -131,22 +149,18 @@ def detect_table(
             stacklevel=2,
         )
     objects, cloud = cluster[cluster >= 0], points[cluster >= 0]
-    found, origins, causes, count = [], [], [], 0
-    for members, centre in groups:
-        origin = np.r_[centre - WORKSPACE_SIZE / 2, detector.origin[2]]
-        grasps, cube_timing, cause = _run_cube(detector, origin, views, intrinsic, T)
-        mine = np.isin(objects, members)
-        held = holds(detector.gripper, grasps, cloud[mine], cloud[~mine])
-        found += [(grasp, len(origins)) for grasp, ok in zip(grasps, held, strict=True) if ok]
-        origins.append(origin)
-        causes.append(cause)
-        count += len(grasps)
-        _add(timing, cube_timing)
+    origins = [np.r_[centre - WORKSPACE_SIZE / 2, detector.origin[2]] for _, centre in groups]
+    cubes = _run_cubes(detector, origins, (views, intrinsic, T), timing)
     selecting = time.perf_counter()
+    tree = cKDTree(cloud)
+    found = []
+    for k, ((members, _), (_, grasps, _)) in enumerate(zip(groups, cubes, strict=True)):
+        held = _holds(detector.gripper, grasps, tree, np.isin(objects, members))
+        found += [(grasp, k) for grasp, ok in zip(grasps, held, strict=True) if ok]
     kept = _merged(found, detector.validity_threshold, merge_radius)
-    if groups and not kept:
-        _warn_missed(count, "their objects", causes)
     timing["select"] = _ms(selecting)
+    if groups and not kept:
+        _warn_missed(cubes, "their objects", (views, intrinsic, T))
     return _result(detector, kept, origins, timing, start)
 
 
@@ -178,20 +192,21 @@ def detect_object(
     if len(views) != 1:
         raise ValueError(f"mask, pixel and box select in one depth image, got {len(views)}")
     views = detector.prepared(views, intrinsic, T)
-    points = _points(views, intrinsic, T)[0]
-    above = (views[0] > 0) & (points[..., 2] - _table_z(detector) > MIN_HEIGHT)
+    rays = intrinsic.pixel_rays()
+    above = (views[0] > 0) & (_heights(views, rays, T)[0] - _table_z(detector) > MIN_HEIGHT)
     target = _selected(views[0], above, mask, pixel, box)
-    centre = points[target][:, :2].mean(axis=0)
-    origin = np.r_[centre - WORKSPACE_SIZE / 2, detector.origin[2]]
+    points = _world_points(views, rays, T, np.flatnonzero(target))
+    origin = np.r_[points[:, :2].mean(axis=0) - WORKSPACE_SIZE / 2, detector.origin[2]]
     timing = {"objects": _ms(start)}
-    grasps, cube_timing, cause = _run_cube(detector, origin, views, intrinsic, T)
-    _add(timing, cube_timing)
+    cubes = _run_cubes(detector, [origin], (views, intrinsic, T), timing)
     selecting = time.perf_counter()
-    held = holds(detector.gripper, grasps, points[target], points[above & ~target])
+    other = _world_points(views, rays, T, np.flatnonzero(above & ~target))
+    grasps = cubes[0][1]
+    held = holds(detector.gripper, grasps, points, other)
     kept = [(grasp, 0) for grasp, ok in zip(grasps, held, strict=True) if ok]
-    if not kept:
-        _warn_missed(len(grasps), "the object", [cause])
     timing["select"] = _ms(selecting)
+    if not kept:
+        _warn_missed(cubes, "the object", (views, intrinsic, T))
     return _result(detector, kept, [origin], timing, start)
 
 
@@ -204,11 +219,20 @@ def holds(
     ``target`` and more of them than of ``other`` (M, 3) (the other objects' points)."""
     if not grasps:
         return np.zeros(0, dtype=bool)
+    cloud = np.concatenate([target, other])
+    return _holds(gripper, grasps, cKDTree(cloud), np.arange(len(cloud)) < len(target))
+
+
+def _holds(
+    gripper: GripperSpec, grasps: list[Grasp], tree: cKDTree, is_target: np.ndarray
+) -> np.ndarray:
+    """`holds` on the points of ``tree`` (N, 3) [m], ``is_target`` (N,) marking the target's:
+    one tree for every cube of a table."""
+    if not grasps:
+        return np.zeros(0, dtype=bool)
     half = np.array([gripper.finger_depth / 2, gripper.pad_width / 2, gripper.max_width / 2])
     centre_x = gripper.tip_beyond_tcp - half[0]  # the region's middle along e_x from the TCP
-    cloud = np.concatenate([target, other])
-    is_target = np.arange(len(cloud)) < len(target)
-    tree = cKDTree(cloud)
+    cloud = tree.data
     held = np.zeros(len(grasps), dtype=bool)
     for g, grasp in enumerate(grasps):
         R, tcp = grasp.pose[:3, :3], grasp.pose[:3, 3]
@@ -225,29 +249,40 @@ def _table_z(detector: GraspDetector) -> float:
     return float(detector.origin[2] + TABLE_HEIGHT)
 
 
-def _points(views: np.ndarray, intrinsic: CameraIntrinsic, T: np.ndarray) -> np.ndarray:
-    """(V, H, W, 3) [m]: each pixel's point in the world frame (a missing pixel's at the
-    camera)."""
-    camera = views[..., None] * intrinsic.pixel_rays()
-    return camera @ T[:, None, :3, :3].transpose(0, 1, 3, 2) + T[:, None, None, :3, 3]
+def _heights(views: np.ndarray, rays: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """(V, H, W) [m]: the world z of each pixel's point of depth images ``views`` (V, H, W) [m]
+    seen along ``rays`` (H, W, 3) (`CameraIntrinsic.pixel_rays`) from ``T`` (V, 4, 4)
+    ``T_world_camera`` (a missing pixel's: the camera's); one product per pixel, the points
+    themselves made only where needed (`_world_points`)."""
+    # einsum, not @: a BLAS call leaves OpenBLAS' threads spinning beside the next network
+    rise = np.einsum("hwj,vj->vhw", rays, T[:, 2, :3])  # world z per metre of depth
+    return views * rise + T[:, 2, 3, None, None]
+
+
+def _world_points(
+    views: np.ndarray, rays: np.ndarray, T: np.ndarray, pixels: np.ndarray
+) -> np.ndarray:
+    """(N, 3) [m]: the world points of ``pixels`` (N,), flat indices into ``views`` (V, H, W)
+    [m], seen along ``rays`` (H, W, 3) from ``T`` (V, 4, 4) ``T_world_camera``."""
+    view, row, col = np.unravel_index(pixels, views.shape)
+    camera = views[view, row, col, None] * rays[row, col]
+    return np.einsum("nj,nij->ni", camera, T[view, :3, :3]) + T[view, :3, 3]
 
 
 def _cells(xy: np.ndarray, low: np.ndarray) -> np.ndarray:
     return np.floor((xy - low) / CLUSTER_CELL).astype(int)
 
 
-def _clusters(xy: np.ndarray, height: np.ndarray) -> np.ndarray:
-    """(N,) the cluster of each point (−1: none) of ``xy`` (N, 2) [m] at ``height`` (N,) [m]
-    above the table: points `MIN_HEIGHT` – `MAX_HEIGHT` above it joined on the `CLUSTER_CELL`
-    grid (8-connected), clusters of at least `MIN_CLUSTER_POINTS` beside a cell of the table's
-    own points (within `MIN_HEIGHT` of it)."""
+def _clusters(xy: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """(N,) the cluster of each point (−1: none) of ``xy`` (N, 2) [m], the points standing
+    `MIN_HEIGHT` – `MAX_HEIGHT` above the table: joined on the `CLUSTER_CELL` grid
+    (8-connected), clusters of at least `MIN_CLUSTER_POINTS` beside a cell of the table's own
+    points ``table`` (M, 2) [m] (within `MIN_HEIGHT` of it)."""
     cluster = np.full(len(xy), -1)
-    standing = (height > MIN_HEIGHT) & (height < MAX_HEIGHT)
-    table = xy[np.abs(height) <= MIN_HEIGHT][::TABLE_STRIDE]
-    if not (standing.any() and len(table)):
+    if not (len(xy) and len(table)):
         return cluster
-    low = np.minimum(xy[standing].min(axis=0), table.min(axis=0))
-    cell, table_cell = _cells(xy[standing], low), _cells(table, low)
+    low = np.minimum(xy.min(axis=0), table.min(axis=0))
+    cell, table_cell = _cells(xy, low), _cells(table, low)
     size = np.maximum(cell.max(axis=0), table_cell.max(axis=0)) + 1
     grid, on_table = np.zeros(size, dtype=bool), np.zeros(size, dtype=bool)
     grid[tuple(cell.T)] = True
@@ -260,8 +295,7 @@ def _clusters(xy: np.ndarray, height: np.ndarray) -> np.ndarray:
     keep[beside] = True
     keep &= big
     keep[0] = False
-    cluster[np.flatnonzero(standing)] = np.where(keep[label], label, -1)
-    return cluster
+    return np.where(keep[label], label, -1)
 
 
 def _groups(xy: np.ndarray, cluster: np.ndarray, core: float) -> list[tuple[list[int], np.ndarray]]:
@@ -274,6 +308,9 @@ def _groups(xy: np.ndarray, cluster: np.ndarray, core: float) -> list[tuple[list
         own = xy[cluster == label]
         low, high = own.min(axis=0), own.max(axis=0)
         cuts = np.maximum(np.ceil((high - low) / core), 1)
+        if np.all(cuts == 1):  # most clusters: np.unique over rows costs a millisecond
+            pieces.append((int(label), low, high, len(own)))
+            continue
         piece = np.minimum(np.floor((own - low) / (high - low + 1e-12) * cuts), cuts - 1)
         for key in np.unique(piece, axis=0):
             part = own[np.all(piece == key, axis=1)]
@@ -379,29 +416,45 @@ def _regions(depth: np.ndarray, candidates: np.ndarray) -> np.ndarray:
     return ndimage.label(candidates & ~jump)[0]
 
 
-def _run_cube(
+def _run_cubes(
     detector: GraspDetector,
-    origin: np.ndarray,
-    views: np.ndarray,
-    intrinsic: CameraIntrinsic,
-    T: np.ndarray,
-) -> tuple[list[Grasp], dict[str, float], str | None]:
-    """``detector``'s grasps in the cube from ``origin`` (3,) [m] of the prepared images
-    ``views`` (`GraspDetector.prepared`: fused as they are), its stage timing, and the cause its
-    `NoGraspWarning` gave, if any (held back: other cubes may find grasps)."""
-    cube = copy.copy(detector)  # shares the network; the images are prepared once for all
+    origins: list[np.ndarray],
+    views: tuple[np.ndarray, CameraIntrinsic, np.ndarray],
+    timing: dict[str, float],
+) -> list[tuple[GraspDetector, list[Grasp], dict[str, torch.Tensor]]]:
+    """Each cube (``detector`` with its workspace from ``origins[k]`` (3,) [m]), its grasps and
+    its network outputs, of the prepared images ``views`` (`GraspDetector.prepared`: fused as they
+    are; checked, `check_views`): one TSDF per cube, `NETWORK_BATCH` cubes per forward pass,
+    the points the cubes leave out found once. Adds each stage's milliseconds over the cubes
+    to ``timing``."""
+    cubes = [_cube(detector, origin) for origin in origins]
+    start = time.perf_counter()
+    volumes = [cube.fuse(*views).tsdf for cube in cubes]
+    _add(timing, {"tsdf": _ms(start)})
+    start = time.perf_counter()
+    outs = []
+    for first in range(0, len(volumes), NETWORK_BATCH):
+        outs += detector.predict_many(torch.stack(volumes[first : first + NETWORK_BATCH]))
+    _add(timing, {"network": _ms(start)})
+    raised = None, None
+    if detector.cut_objects != "ignore" and cubes:
+        start = time.perf_counter()
+        raised = raised_points(*views, detector.origin)  # the cubes' floors: one height
+        _add(timing, {"cut": _ms(start)})
+    found = []
+    for cube, volume, out in zip(cubes, volumes, outs, strict=True):
+        found.append((cube, cube.grasps_from(out, volume, views, *raised), out))
+        _add(timing, cube.timing)
+    return found
+
+
+def _cube(detector: GraspDetector, origin: np.ndarray) -> GraspDetector:
+    """``detector`` with its workspace from ``origin``, sharing its network; the images are
+    prepared once for all cubes."""
+    cube = copy.copy(detector)
     cube.origin = origin
     cube.fill_holes, cube.table_scale, cube.depth_scale = 0, False, None
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", NoGraspWarning)
-        grasps = cube.detect(views, intrinsic, T)
-    for warning in caught:
-        if not issubclass(warning.category, NoGraspWarning):
-            warnings.warn_explicit(
-                warning.message, warning.category, warning.filename, warning.lineno
-            )
-    causes = [str(w.message) for w in caught if issubclass(w.category, NoGraspWarning)]
-    return grasps, cube.timing, causes[0] if causes else None
+    return cube
 
 
 def _merged(
@@ -448,10 +501,16 @@ def _add(timing: dict[str, float], stages: dict[str, float]) -> None:
         timing[stage] = timing.get(stage, 0.0) + ms
 
 
-def _warn_missed(count: int, what: str, causes: list[str | None]) -> None:
-    """Warn that none of the ``count`` grasps the cubes gave closes on ``what`` or, when they
-    gave none, the first cause a cube's detector saw, if any."""
+def _warn_missed(
+    cubes: list[tuple[GraspDetector, list[Grasp], dict[str, torch.Tensor]]],
+    what: str,
+    views: tuple[np.ndarray, CameraIntrinsic, np.ndarray],
+) -> None:
+    """Warn that none of the grasps the ``cubes`` (`_run_cubes`) gave closes on ``what`` or,
+    when they gave none, the first cause a cube's detector sees in ``views``
+    (`GraspDetector.no_grasp_cause`), if any."""
     # stacklevel 3: the line that called detect_table or detect_object
+    count = sum(len(grasps) for _, grasps, _ in cubes)
     if count:
         warnings.warn(
             f"no grasp found: none of the {count} grasps of the cubes closes on {what} (as many "
@@ -459,8 +518,11 @@ def _warn_missed(count: int, what: str, causes: list[str | None]) -> None:
             NoGraspWarning,
             stacklevel=3,
         )
-    elif cause := next((c for c in causes if c), None):
-        warnings.warn(cause, NoGraspWarning, stacklevel=3)
+        return
+    for cube, _, out in cubes:
+        if cause := cube.no_grasp_cause(out, views):
+            warnings.warn(cause, NoGraspWarning, stacklevel=3)
+            return
 
 
 def _ms(start: float) -> float:

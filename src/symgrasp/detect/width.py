@@ -1,5 +1,5 @@
 """What a hand needs of each grasp beyond its pose: how far to open, measured on the fused
-scene between its fingers (docs/detect.md, "What a robot needs of each grasp").
+scene between its fingers (docs/robot.md, "What a robot needs of each grasp").
 
 The closing region of a grasp, in its frame (e_x approach, e_y, e_z closing; origin the TCP),
 is the box the open hand's fingers enclose: along e_x from the palm face to the fingertips
@@ -34,7 +34,7 @@ from symgrasp.workspace import RESOLUTION, TABLE_HEIGHT, VOXEL_SIZE, WORKSPACE_S
 OPENING_MARGIN = 0.02
 """[m] added to the opening the points need, 1 cm per finger: on rendered single views of 40
 boxes the true box reached up to 9 mm past the points the TSDF holds (its unseen back, edges
-the TSDF rounds), so that no finger met it (docs/detect.md)."""
+the TSDF rounds), so that no finger met it (docs/robot.md)."""
 
 TABLE_BAND = VOXEL_SIZE
 """[m] points less than this above the table are the table's, not the object's: the table's

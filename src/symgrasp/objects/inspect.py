@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -15,11 +16,13 @@ from symgrasp.config import ParallelConfig
 from symgrasp.objects.mesh import MILLIMETRE_HINT, read_mesh
 from symgrasp.objects.sets import ObjectSource
 from symgrasp.parallel import Failure, Job, TasksFailed, open_executor
+from symgrasp.sim.objects import ObjectSpec
 
 
 @dataclass(frozen=True)
 class ObjectReport:
-    """One object of a folder, as `inspect_objects` found it."""
+    """One object of a folder, as `inspect_objects` found it: ``obj`` the object itself (for
+    `contact_sheet`, without reading its file again)."""
 
     name: str
     units: str
@@ -27,6 +30,7 @@ class ObjectReport:
     mass_kg: float
     parts: int
     watertight: bool | None
+    obj: ObjectSpec = field(repr=False, compare=False)
 
     def row(self) -> str:
         size = " × ".join(f"{s:.0f}" for s in self.size_mm)
@@ -116,27 +120,20 @@ def _inspect_task(index: int) -> ObjectReport | str:
     else:
         units, watertight = _bare_mesh(path, source.mesh_unit)
     return ObjectReport(
-        obj.name, units, tuple(float(s) * 1e3 for s in size), obj.mass, len(obj.parts), watertight
-    )
+        obj.name, units, tuple(float(s) * 1e3 for s in size), obj.mass, len(obj.parts),
+        watertight, obj,
+    )  # fmt: skip
 
 
-def contact_sheet(source: ObjectSource, path: str | Path, limit: int = 48) -> Path:
-    """Draw up to ``limit`` objects of ``source`` (their convex parts, each its own colour)
-    into one picture at ``path``."""
+def contact_sheet(objects: Sequence[ObjectSpec], path: str | Path) -> Path:
+    """Draw ``objects`` (their convex parts, each its own colour) into one picture at
+    ``path``."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    objects = []
-    for k in range(len(source.files)):
-        if len(objects) == limit:
-            break
-        try:
-            objects.append(source.load(k))
-        except (ValueError, OSError):
-            continue  # listed by `inspect_objects`
     count = max(1, len(objects))
     columns = min(8, count)
     rows = math.ceil(count / columns)

@@ -37,7 +37,7 @@ import numpy as np
 
 from symgrasp.folders import check_file_name
 from symgrasp.names import MESH_UNITS
-from symgrasp.objects.decomposition import decompose
+from symgrasp.objects.decomposition import DEFAULT_PRESET, decompose
 from symgrasp.objects.urdf import DEFAULT_FRICTION, convex_parts, object_colour
 from symgrasp.sim.objects import ObjectSpec
 
@@ -123,9 +123,16 @@ def read_mesh(path: str | Path, mesh_unit: str = "auto") -> BareMesh:
     return BareMesh(path, mesh, "mm" if mesh.extents.max() > MILLIMETRE_HINT else "m", True)
 
 
-def load_mesh(path: str | Path, mesh_unit: str = "auto", name: str | None = None) -> ObjectSpec:
+def load_mesh(
+    path: str | Path,
+    mesh_unit: str = "auto",
+    name: str | None = None,
+    decomposition: str = DEFAULT_PRESET,
+) -> ObjectSpec:
     """The object of the bare mesh file ``path`` (module doc), named ``name`` (default: the
-    file's stem). Raises ValueError naming the file when it is refused."""
+    file's stem), a concave one cut into convex parts by the preset ``decomposition``
+    (`symgrasp.objects.decomposition.PRESETS`). Raises ValueError naming the file when it is
+    refused."""
     import trimesh
 
     bare = read_mesh(path, mesh_unit)
@@ -161,7 +168,7 @@ def load_mesh(path: str | Path, mesh_unit: str = "auto", name: str | None = None
     if hull.volume <= (1 + CONVEX_TOLERANCE) * volume:
         groups = [hull.vertices]
     else:
-        groups = decompose(path, mesh.vertices, mesh.faces)
+        groups = decompose(path, mesh.vertices, mesh.faces, decomposition)
     parts = convex_parts([np.asarray(g) * bare.metres for g in groups], path)
     mass = DEFAULT_DENSITY * volume * bare.metres**3
     return ObjectSpec(name, name, parts, mass, DEFAULT_FRICTION, object_colour(name))

@@ -25,7 +25,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from symgrasp.names import MESH_OBJECT_SETS, MESH_UNITS, PROCEDURAL_OBJECT_SETS, SCENES
+from symgrasp.names import (
+    DECOMPOSITIONS,
+    MESH_OBJECT_SETS,
+    MESH_UNITS,
+    PROCEDURAL_OBJECT_SETS,
+    SCENES,
+)
 from symgrasp.objects.folder import data_folder, set_folder
 from symgrasp.sim.objects import ObjectSpec, object_set
 from symgrasp.workspace import WORKSPACE_SIZE
@@ -48,11 +54,13 @@ _MESH_STREAM = 1000  # random streams of mesh sets, apart from the procedural se
 class ObjectSource:
     """Where a scene's objects come from: ``name`` (a procedural set, no ``folders``) or the
     URDF files or bare meshes of ``folders``, bare meshes read in ``mesh_unit`` (one of
-    `MESH_UNITS`)."""
+    `MESH_UNITS`) and cut into convex parts by the preset ``decomposition``
+    (`symgrasp.objects.decomposition.PRESETS`)."""
 
     name: str
     folders: tuple[Path, ...] = ()
     mesh_unit: str = "auto"
+    decomposition: str = DECOMPOSITIONS[0]
 
     @property
     def meshes(self) -> bool:
@@ -67,7 +75,7 @@ class ObjectSource:
     def load(self, index: int) -> ObjectSpec:
         """Object ``index`` of a mesh set, unscaled."""
         path = self.files[index]
-        return _load(path, self.mesh_unit, path.parent not in self.folders)
+        return _load(path, self.mesh_unit, path.parent not in self.folders, self.decomposition)
 
     def check(self) -> None:
         """Read every object of a mesh set once (`load`), so that a broken file or an object
@@ -128,7 +136,7 @@ def folder_files(folder: Path) -> tuple[Path, ...]:
 
 
 @functools.lru_cache(maxsize=1024)
-def _load(path: Path, mesh_unit: str, in_subfolder: bool) -> ObjectSpec:
+def _load(path: Path, mesh_unit: str, in_subfolder: bool, decomposition: str) -> ObjectSpec:
     """The object of a URDF file or bare mesh at ``path`` (one in its own sub-folder is named
     after the sub-folder), refused when longer than the workspace."""
     from symgrasp.objects.mesh import load_mesh
@@ -138,7 +146,7 @@ def _load(path: Path, mesh_unit: str, in_subfolder: bool) -> ObjectSpec:
         obj, hint = load_urdf(path), "is the mesh in millimetres?"
     else:
         name = path.parent.name if in_subfolder else None
-        obj, hint = load_mesh(path, mesh_unit, name), "check its units: --mesh-unit"
+        obj, hint = load_mesh(path, mesh_unit, name, decomposition), "check its units: --mesh-unit"
     size = np.ptp(obj.hull_points(), axis=0)
     if size.max() > WORKSPACE_SIZE:
         raise ValueError(

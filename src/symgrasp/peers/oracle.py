@@ -40,6 +40,9 @@ from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.sim.objects import ObjectSpec
 from symgrasp.workspace import RESOLUTION
 
+HAND = get_gripper(ORACLE_GRIPPER)
+"""The oracle's hand when none is given."""
+
 KEEP = 16
 """Databases the oracle keeps in memory (the most recently read): more than a scene's objects,
 so the objects of a round are closed once; a new round's objects are new ones."""
@@ -49,7 +52,7 @@ class OraclePlanner:
     """The oracle (module docstring) as a `symgrasp.detect.planner.GraspPlanner`.
 
     Args:
-        gripper: the hand (a `GripperSpec` or a built-in's name; default `ORACLE_GRIPPER`).
+        gripper: the hand (default `HAND`, the built-in `ORACLE_GRIPPER`).
         grasps: held grasps per object database (`DatabaseConfig.grasps`; default the
             training data's, `symgrasp.config.TRAINING_DATABASE`).
         directions: disturbance directions K of the score (`DatabaseConfig.directions`).
@@ -66,14 +69,14 @@ class OraclePlanner:
 
     def __init__(
         self,
-        gripper: GripperSpec | str = ORACLE_GRIPPER,
+        gripper: GripperSpec = HAND,
         *,
         grasps: int = TRAINING_DATABASE.grasps,
         directions: int = TRAINING_DATABASE.directions,
         offset: tuple[float, float] = TRAINING_DATABASE.offset,
         seed: int = 0,
     ) -> None:
-        self.gripper = gripper if isinstance(gripper, GripperSpec) else get_gripper(gripper)
+        self.gripper = gripper
         self.database = DatabaseConfig(
             grasps=int(grasps), directions=int(directions), offset=tuple(map(float, offset))
         )

@@ -49,7 +49,7 @@ from symgrasp.digest import file_sha256
 from symgrasp.objects.folder import DATA_ENV, MissingData, data_folder
 from symgrasp.perception import CameraIntrinsic, TSDFVolume
 from symgrasp.rotation.geometry import quaternion_to_matrix
-from symgrasp.sim.grippers import GripperSpec, get_gripper
+from symgrasp.sim.grippers import FRANKA, GripperSpec
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 Tensor = torch.Tensor
@@ -278,8 +278,8 @@ class VGN:
     """VGN's network as a `symgrasp.detect.planner.GraspPlanner` (module docstring).
 
     Args:
-        gripper: the hand to execute its grasps with (a `GripperSpec` or a built-in's name;
-            default ``franka``, the Panda hand VGN was trained for).
+        gripper: the hand to execute its grasps with (default `FRANKA`, the Panda hand VGN
+            was trained for).
         weights: the weights file (default: the data folder's, `check_weights`).
         quality_threshold: quality a grasp needs (`QUALITY_THRESHOLD`).
         force_detection: when none reaches it, return the single best grasp of quality ≥
@@ -293,7 +293,7 @@ class VGN:
 
     def __init__(
         self,
-        gripper: GripperSpec | str = "franka",
+        gripper: GripperSpec = FRANKA,
         weights: str | Path | None = None,
         *,
         quality_threshold: float = QUALITY_THRESHOLD,
@@ -311,7 +311,7 @@ class VGN:
             raise ValueError(
                 f"workspace_origin must be 3 finite numbers [m], got {workspace_origin}"
             )
-        self.gripper = gripper if isinstance(gripper, GripperSpec) else get_gripper(gripper)
+        self.gripper = gripper
         path = check_weights(weights)
         self.version = file_sha256(path)
         self.device = torch.device(device)

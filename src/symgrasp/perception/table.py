@@ -469,7 +469,7 @@ def table_depth_scale(
         raise ValueError(f"table_depth_scale needs ≥ 100 seen depth pixels, got {seen.sum()}")
     # h' = −depth · (ray · up), each pixel's ray · up summed from its column and its row: no
     # (N, 3) points, no matrix product (a threaded BLAS call, whose idle threads then spin
-    # beside the network's: docs/detect.md, "Depth from real sensors")
+    # beside the network's: docs/robot.md, "Depth from real sensors")
     up = T[2, :3]
     u = (np.arange(intrinsic.width) - intrinsic.cx) / intrinsic.fx
     v = (np.arange(intrinsic.height) - intrinsic.cy) / intrinsic.fy

@@ -19,7 +19,6 @@ _LAZY = {
     "large_box": "symgrasp.sim.objects",
     "object_set": "symgrasp.sim.objects",
     "World": "symgrasp.sim.world",
-    "make_scene": "symgrasp.objects.sets",
 }
 
 
