@@ -22,6 +22,7 @@ from typing import Any
 
 from symgrasp.names import (
     BACKENDS,
+    DECOMPOSITIONS,
     MESH_UNITS,
     NOISES,
     PROTOCOLS,
@@ -200,6 +201,12 @@ class SceneConfig:
     mesh_unit: str = "auto"
     """Length unit of bare mesh files: m, cm, mm, or auto (millimetres when a mesh is longer
     than 2 units, else metres)."""
+    decomposition: str = DECOMPOSITIONS[0]
+    """How bare meshes are cut into convex parts, each collided as one convex geom: vhacd-32
+    (V-HACD, at most 32 parts), vhacd (V-HACD's defaults, at most 64), coacd (CoACD's
+    defaults, the only decomposition before these presets) or coacd-fast (CoACD, a shorter
+    search); each preset's parts are cached apart (docs/objects.md). URDF objects and the
+    procedural sets are not cut."""
     gripper: str = "robotiq-2f85"
     """The gripper whose grasps are labelled: a built-in's name or a .toml spec file (the
     dataset stores the whole spec)."""
@@ -247,6 +254,7 @@ class SceneConfig:
 
     def __post_init__(self) -> None:
         _check_mesh_unit(self.mesh_unit)
+        _check_choice("decomposition", self.decomposition, DECOMPOSITIONS)
         check_noise(self.noise)
         if self.table_scale and self.noise == "none":
             raise ValueError(
@@ -597,6 +605,12 @@ class BenchmarkConfig:
     mesh_unit: str = "auto"
     """Length unit of bare mesh files: m, cm, mm, or auto (millimetres when a mesh is longer
     than 2 units, else metres)."""
+    decomposition: str = DECOMPOSITIONS[0]
+    """How bare meshes are cut into convex parts, each collided as one convex geom: vhacd-32
+    (V-HACD, at most 32 parts), vhacd (V-HACD's defaults, at most 64), coacd (CoACD's
+    defaults, the only decomposition before these presets) or coacd-fast (CoACD, a shorter
+    search); each preset's parts are cached apart (docs/objects.md). URDF objects and the
+    procedural sets are not cut."""
     scene: str = "pile"
     """How each round's objects are laid out: "pile" or "packed"."""
     num_objects: int = 5
@@ -647,6 +661,7 @@ class BenchmarkConfig:
         if self.scene not in SCENES:
             raise ValueError(f"scene must be one of {SCENES}, got {self.scene!r}")
         _check_mesh_unit(self.mesh_unit)
+        _check_choice("decomposition", self.decomposition, DECOMPOSITIONS)
         check_range("num_objects", self.num_objects, 1, MAX_OBJECTS)
         check_range("rounds", self.rounds, 1, 100_000)
         check_range("seed", self.seed, 0, SEED_MAX - self.rounds)

@@ -21,7 +21,7 @@ import numpy as np
 from symgrasp.benchmark.declutter import Attempt, Round, run_round, save_attempt_png
 from symgrasp.detect import Grasp, GraspDetector
 from symgrasp.folders import PICTURES, writes_folder
-from symgrasp.names import demo_model
+from symgrasp.names import DECOMPOSITIONS, demo_model
 from symgrasp.objects.sets import resolve
 from symgrasp.sim import World
 from symgrasp.sim.grippers import get_gripper
@@ -36,9 +36,10 @@ def run_demo(
     num_objects: int = 5,
     model: str | None = None,
     mesh_unit: str = "auto",
+    decomposition: str = DECOMPOSITIONS[0],
 ) -> Round:
     """Play one declutter round and write its pictures, ``demo.html`` and ``summary.json``
-    (bare meshes of ``objects`` read in ``mesh_unit``). ``gripper``: a built-in's name, whose
+    (bare meshes of ``objects`` read in ``mesh_unit`` and cut by the preset ``decomposition``). ``gripper``: a built-in's name, whose
     shipped model plays unless ``model`` is given, or a spec file (then ``model`` is needed).
     ``out`` holds pictures only, and is held for the call (`symgrasp.folders`)."""
     start = time.perf_counter()
@@ -66,7 +67,7 @@ def run_demo(
             )
         )
 
-    source = resolve(objects, mesh_unit)
+    source = resolve(objects, mesh_unit, decomposition)
     record = run_round(detector, source, num_objects, seed, observer=observe)
     summary = {
         "model": name,

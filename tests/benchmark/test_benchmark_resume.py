@@ -19,6 +19,7 @@ from symgrasp.benchmark.declutter import Attempt, Round
 from symgrasp.benchmark.runner import BenchmarkConfig
 from symgrasp.cli import main
 from symgrasp.config import PlannerOptions
+from symgrasp.names import DECOMPOSITIONS
 
 
 @pytest.fixture
@@ -232,3 +233,32 @@ def test_typed_options_are_recorded_as_the_pairs_folders_hold(played, tmp_path, 
     (folder / "rounds.jsonl").write_text((tmp_path / "new" / "rounds.jsonl").read_text())
     assert runner.run_or_reuse(config, folder) == _lines(folder / "rounds.jsonl")
     assert played == [0, 1]
+
+
+def test_a_folder_recorded_before_the_decomposition_presets_reads_as_coacd(played, tmp_path):
+    """Bare meshes were cut by CoACD before the presets: a config.json without the key reads
+    ``coacd`` where the objects may hold bare meshes, so a resume with the new default is
+    refused naming it and one with ``coacd`` reuses the rounds; a named set (VGN's URDFs, the
+    procedural sets) decomposes nothing and reads as the default, its stored rounds reused."""
+    meshes = tmp_path / "meshes"
+    meshes.mkdir()
+    (meshes / "cup.obj").write_text("v 0 0 0\nv 0.05 0 0\nv 0 0.05 0\nv 0 0 0.05\nf 1 2 3\n")
+    for objects, before in ((str(meshes), "coacd"), ("vgn-pile-test", DECOMPOSITIONS[0])):
+        folder = tmp_path / "bench" / Path(objects).name
+        folder.mkdir(parents=True)
+        config = BenchmarkConfig(objects=objects, rounds=2, decomposition=before)
+        recorded = config.record()
+        del recorded["decomposition"]  # as written before the field
+        (folder / "config.json").write_text(json.dumps(recorded))
+        (folder / "rounds.jsonl").write_text(  # failed rounds: no renderer to agree with here
+            "".join(json.dumps({"seed": s, "error": "x"}) + "\n" for s in (0, 1))
+        )
+        assert runner.recorded_config(folder)["decomposition"] == before
+        runner.check_out(config, folder, resume=True)
+        assert len(runner.saved_rounds(config, folder)) == 2
+        if before != DECOMPOSITIONS[0]:
+            now = BenchmarkConfig(objects=objects, rounds=2)
+            with pytest.raises(ValueError, match=r"another configuration \(its decomposition"):
+                runner.check_out(now, folder, resume=True)
+            assert runner.saved_rounds(now, folder) is None
+    assert played == []

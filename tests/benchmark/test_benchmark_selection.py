@@ -342,7 +342,7 @@ def test_failed_validation_rounds_name_their_cause_and_are_not_cached(
             raise RuntimeError("mesh file unreadable")
         return Round(seed, num_objects, "gl", [Attempt("success", None, 1, 0, 0.1, 1)])
 
-    monkeypatch.setattr(runner, "resolve", lambda objects, unit: None)  # the set is "there"
+    monkeypatch.setattr(runner, "resolve", lambda *names: None)  # the set is "there"
     fake_rounds(fake_round)
     with pytest.raises(SystemExit, match=r"1 of the 2 rounds .* failed; .*mesh file unreadable"):
         main(["select", str(run), "--by", "declutter", "--rounds", "2"])

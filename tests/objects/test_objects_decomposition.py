@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import json
+import re
 
 import numpy as np
 import pytest
@@ -65,11 +67,12 @@ def test_each_preset_is_its_own_cache_entry(tmp_path, calls):
 def test_a_preset_reaches_the_decomposition_through_the_object_source(tmp_path, calls):
     from symgrasp.objects.sets import resolve
 
-    _cup(tmp_path / "cup.stl")
+    folder = tmp_path / "set"  # beside the data folder, whose cache the first load makes
+    folder.mkdir()
+    _cup(folder / "cup.stl")
     other = DECOMPOSITIONS[-1]
-    source = resolve(tmp_path)
-    source.load(0)
-    dataclasses.replace(source, decomposition=other).load(0)
+    resolve(folder).load(0)
+    resolve(folder, decomposition=other).load(0)
     assert calls == [decomposition.PRESETS[DECOMPOSITIONS[0]], decomposition.PRESETS[other]]
 
 
@@ -126,3 +129,60 @@ def test_objects_inspect_cuts_with_the_preset_it_is_given(tmp_path, calls, capsy
           "--out", str(tmp_path / "sheet.png")])  # fmt: skip
     assert calls == [decomposition.PRESETS[other]]
     assert f"({other}, once;" in capsys.readouterr().err
+
+
+def test_the_configurations_and_resolve_refuse_an_unknown_preset_naming_it_and_the_choices():
+    from symgrasp.config import BenchmarkConfig, SceneConfig
+    from symgrasp.objects.sets import resolve
+
+    refused = rf"^decomposition must be one of {re.escape(', '.join(DECOMPOSITIONS))}, got 'vhcd'$"
+    for make in (
+        lambda: SceneConfig(decomposition="vhcd"),
+        lambda: BenchmarkConfig(decomposition="vhcd"),
+        lambda: resolve("household-train", decomposition="vhcd"),
+    ):
+        with pytest.raises(ValueError, match=refused):
+            make()
+
+
+def test_a_dataset_recorded_before_the_presets_reads_as_made_with_coacd(tmp_path, monkeypatch):
+    """A manifest without the key was made by CoACD at the ``coacd`` preset's settings where
+    its objects may hold bare meshes (a folder of them, or one no longer there to tell); named
+    sets and URDF folders cut nothing and read as the default. A resume is refused with the new
+    default and taken with ``coacd``."""
+    from symgrasp.config import SceneConfig
+    from symgrasp.data import generate as generation
+
+    meshes, urdfs = tmp_path / "meshes", tmp_path / "urdfs"
+    meshes.mkdir()
+    urdfs.mkdir()
+    _cup(meshes / "cup.obj")
+    (urdfs / "thing.urdf").write_text("<robot name='thing'/>")
+    default = DECOMPOSITIONS[0]
+    expected = {str(meshes): "coacd", str(tmp_path / "gone"): "coacd", str(urdfs): default,
+                "vgn-pile-train": default, "household-train": default,
+                f"vgn-pile-train,{meshes}": "coacd"}  # fmt: skip
+    for objects, before in expected.items():
+        old = dataclasses.asdict(SceneConfig(object_set=objects))
+        del old["decomposition"]
+        assert generation.config_from_dict(old).decomposition == before, objects
+    old = dataclasses.asdict(SceneConfig(object_set=str(meshes)))
+    del old["decomposition"]
+    root = tmp_path / "dataset"
+    root.mkdir()
+    (root / "manifest.json").write_text(json.dumps({"config": old, "seed": 0}))
+    refused = f"decomposition: 'coacd' recorded, '{default}' given"
+    with pytest.raises(ValueError, match=refused):
+        generation.generate(root, SceneConfig(object_set=str(meshes)), 1, resume=True)
+
+    class Taken(Exception):
+        """The configuration passed the resume check; its objects would load now."""
+
+    def taken(cfg):
+        raise Taken
+
+    monkeypatch.setattr(generation, "scene_pool", taken)
+    with pytest.raises(Taken):
+        generation.generate(
+            root, SceneConfig(object_set=str(meshes), decomposition="coacd"), 1, resume=True
+        )

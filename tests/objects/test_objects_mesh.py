@@ -4,7 +4,6 @@ procedural cup whose cavity must stay empty, the decomposer's calls counted."""
 
 from __future__ import annotations
 
-import argparse
 import re
 import sys
 import warnings
@@ -13,7 +12,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from symgrasp.cli import build_parser, main
+from symgrasp.cli import main
 from symgrasp.objects import decomposition
 from symgrasp.objects import mesh as mesh_module
 from symgrasp.objects.folder import DATA_ENV
@@ -267,26 +266,6 @@ def test_a_missing_decomposition_library_names_the_extra(tmp_path, monkeypatch, 
     _cup(tmp_path / "cup.stl")
     with pytest.raises(SystemExit, match=r"^error: .*pip install 'symgrasp\[meshes\]'$"):
         main(["objects", "inspect", str(tmp_path), "--out", str(tmp_path / "sheet.png")])
-
-
-def test_every_command_that_takes_objects_takes_mesh_unit():
-    def commands(parser, name="symgrasp"):
-        for action in parser._actions:
-            if isinstance(action, argparse._SubParsersAction):
-                for sub, subparser in action.choices.items():
-                    yield from commands(subparser, f"{name} {sub}")
-        yield name, {flag for action in parser._actions for flag in action.option_strings}
-
-    taking = {name: flags for name, flags in commands(build_parser()) if "--objects" in flags}
-    assert set(taking) >= {
-        "symgrasp demo",
-        "symgrasp sim show",
-        "symgrasp data generate",
-        "symgrasp bench declutter",
-    }
-    assert all("--mesh-unit" in flags for flags in taking.values()), taking.keys()
-    inspect = build_parser().parse_args(["objects", "inspect", "blocks", "--mesh-unit", "cm"])
-    assert inspect.mesh_unit == "cm"
 
 
 def test_a_scene_of_bare_meshes_settles_in_the_workspace(tmp_path, decomposer):

@@ -45,7 +45,6 @@ import math
 import os
 from collections import Counter
 from collections.abc import Iterable, Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -57,8 +56,8 @@ from symgrasp.benchmark.failures import MODES, STRUCK
 from symgrasp.benchmark.sensing import Sensor
 from symgrasp.config import BenchmarkConfig, ParallelConfig
 from symgrasp.folders import Outputs, check_folder, check_owned, writes_folder
-from symgrasp.objects.sets import resolve
-from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor
+from symgrasp.objects.sets import resolve, unrecorded_decomposition
+from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor, torch_threads
 from symgrasp.peers.planners import load_planner, planner_version
 
 MODEL_SHA = "model.sha256"
@@ -143,7 +142,9 @@ _WORKER: dict[str, Any] = {}
 def _init_worker(config: BenchmarkConfig, out: Path) -> None:
     _WORKER["config"] = config
     _WORKER["out"] = out
-    _WORKER["objects"] = resolve(config.objects, config.mesh_unit)  # once for all its rounds
+    _WORKER["objects"] = resolve(  # once for all its rounds
+        config.objects, config.mesh_unit, config.decomposition
+    )
     _WORKER["planner"] = load_planner(config.model, config.options, device="cpu")
 
 
@@ -166,19 +167,6 @@ def _round_task(seed: int) -> dict[str, Any]:
     return round_record(record)
 
 
-@contextmanager
-def _torch_threads(threads: int) -> Iterator[None]:
-    """Torch's intra-op threads set to ``threads`` meanwhile, then restored."""
-    import torch
-
-    before = torch.get_num_threads()
-    torch.set_num_threads(threads)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(before)
-
-
 def _played_round(renderer: str, seed: int) -> dict[str, Any]:
     """The benchmark's task: round ``seed`` on `ROUND_THREADS` torch threads, refused where
     depth images come from another renderer than ``renderer`` (the driver's)."""
@@ -189,7 +177,7 @@ def _played_round(renderer: str, seed: int) -> dict[str, Any]:
             f"{renderer}: its rounds would differ; give every worker the driver's OpenGL "
             f"(MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r} here)"
         )
-    with _torch_threads(ROUND_THREADS):
+    with torch_threads(ROUND_THREADS):
         return _round_task(seed)
 
 
@@ -353,7 +341,9 @@ def _strict_json(value: Any) -> Any:
 
 def recorded_config(out: str | Path) -> dict[str, Any] | None:
     """The configuration recorded in ``out``: its ``config.json``, or, in a folder finished
-    before ``config.json`` was written, its ``results.json``'s; None when it has neither."""
+    before ``config.json`` was written, its ``results.json``'s; None when it has neither. Fields
+    the record predates read as what its rounds were played with (`PLAYED_BEFORE`; the
+    decomposition by its objects, `symgrasp.objects.sets.unrecorded_decomposition`)."""
     out = Path(out)
     if (out / "config.json").exists():
         recorded = read_json(out / "config.json", "benchmark configuration")
@@ -362,12 +352,15 @@ def recorded_config(out: str | Path) -> dict[str, Any] | None:
         recorded = check_json(results["config"], out / "results.json", "benchmark configuration")
     else:
         return None
-    return {**BenchmarkConfig().record(), **PLAYED_BEFORE, **recorded}
+    objects = recorded.get("objects", BenchmarkConfig.objects)
+    before = {**PLAYED_BEFORE, "decomposition": unrecorded_decomposition(objects)}
+    return {**BenchmarkConfig().record(), **before, **recorded}
 
 
 PLAYED_BEFORE = {"table_clearance": -0.002, "surface_clearance": -0.002}
 """What a folder recorded before a field was added played, where it is not the field's
-default; other fields added later read as their defaults."""
+default; the decomposition, which depends on the objects, apart (`recorded_config`); other
+fields added later read as their defaults."""
 
 
 def check_out(config: BenchmarkConfig, out: str | Path, resume: bool = False) -> None:
@@ -506,7 +499,7 @@ def run_benchmark(
     done = {seed: r for seed, r in read_rounds(path).items() if "error" not in r}  # failed: again
     missing = [seed for seed in round_seeds(config) if seed not in done]
     if missing:  # here, once, rather than in every round a worker plays
-        resolve(config.objects, config.mesh_unit)
+        resolve(config.objects, config.mesh_unit, config.decomposition)
     # a cluster is joined (or refused) before anything is written, and not at all for no rounds
     with open_executor(parallel if missing else ParallelConfig()) as executor:
         if not (out / "config.json").exists():

@@ -191,7 +191,8 @@ def _run_declutter(args: argparse.Namespace) -> None:
             )
     from symgrasp.objects.sets import resolve
 
-    resolve(config.objects, config.mesh_unit).check()  # every object, before the first round
+    objects = resolve(config.objects, config.mesh_unit, config.decomposition)
+    objects.check()  # every object, before the first round
     summary = run_benchmark(config, args.out, args.resume, parallel)
     print(markdown_table(summary, config), end="")
     print(f"outcomes {summary['outcomes']}")

@@ -8,7 +8,7 @@ from symgrasp.arguments import integer
 from symgrasp.cli.options import (
     MODEL_METAVAR,
     SEED,
-    add_mesh_unit,
+    add_mesh_options,
     add_shared,
     output_folder_path,
     parse_model,
@@ -57,7 +57,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
         metavar=MODEL_METAVAR,
         help="another shipped model or a checkpoint path instead of the gripper's bingham2d model",
     )
-    add_mesh_unit(parser)
+    add_mesh_options(parser)
     parser.set_defaults(run=_run_demo)
 
 
@@ -69,5 +69,5 @@ def _run_demo(args: argparse.Namespace) -> None:
 
     run_demo(
         args.out, args.seed, args.gripper, args.objects, args.num_objects, args.model,
-        args.mesh_unit,
+        args.mesh_unit, args.decomposition,
     )  # fmt: skip

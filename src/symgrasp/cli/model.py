@@ -10,7 +10,7 @@ from symgrasp.cli.fields import add_config_options, config_from_args
 from symgrasp.cli.options import (
     SEED,
     add_approach_check,
-    add_mesh_unit,
+    add_mesh_options,
     add_shared,
     approach_check,
     input_folder,
@@ -132,7 +132,7 @@ def _add_select(subparsers: argparse._SubParsersAction) -> None:
         "--scene", choices=SCENES, default="pile",
         help="layout of the declutter validation's rounds (default: pile)",
     )  # fmt: skip
-    add_mesh_unit(parser)
+    add_mesh_options(parser, ("mesh_unit",))  # the validation plays the default parts
     add_approach_check(parser, "the declutter validation rounds")
     add_parallel_options(parser, "declutter validation rounds")
     parser.add_argument(

@@ -4,12 +4,16 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from pathlib import Path
 
 from symgrasp.arguments import integer
-from symgrasp.cli.options import add_mesh_unit, output_folder_path, output_path, parse_object_set
-from symgrasp.names import DECOMPOSITIONS, PROCEDURAL_OBJECT_SETS
+from symgrasp.cli.options import (
+    add_mesh_options,
+    output_folder_path,
+    output_path,
+    parse_object_set,
+)
+from symgrasp.names import PROCEDURAL_OBJECT_SETS
 from symgrasp.parallel.options import add_parallel_options, parallel_from_args
 
 
@@ -62,13 +66,7 @@ def add(subparsers: argparse._SubParsersAction) -> None:
     inspect.add_argument(
         "--limit", type=integer(1, 500), default=48, help="objects drawn (default: 48)"
     )
-    add_mesh_unit(inspect)
-    inspect.add_argument(
-        "--decomposition", choices=DECOMPOSITIONS, default=DECOMPOSITIONS[0],
-        help="how a concave bare mesh is cut into convex parts, V-HACD's or CoACD's settings "
-        f"by name (default: {DECOMPOSITIONS[0]}; docs/reports/decomposition.md); each preset's "
-        "parts are cached apart",
-    )  # fmt: skip
+    add_mesh_options(inspect)
     add_parallel_options(inspect, "per-object reads and convex decompositions")
     inspect.set_defaults(run=_run_objects_inspect)
 
@@ -86,8 +84,7 @@ def _run_objects_inspect(args: argparse.Namespace) -> None:
     from symgrasp.objects.inspect import HEADER, contact_sheet, inspect_objects
     from symgrasp.objects.sets import resolve
 
-    source = resolve(args.objects, args.mesh_unit)
-    source = dataclasses.replace(source, decomposition=args.decomposition)
+    source = resolve(args.objects, args.mesh_unit, args.decomposition)
     reports, refused = inspect_objects(source, parallel_from_args(args))
     where = ", ".join(map(str, source.folders))
     print(f"{len(reports)} objects in {where}, {len(refused)} refused")

@@ -1,6 +1,7 @@
 """The options several ``symgrasp`` commands share, defined once: ``--objects``, ``--gripper``,
 ``--model``, ``--rep`` and the other names of `SHARED` (their choices from `symgrasp.names`),
-``--mesh-unit``, the confidence pair, and the seed, probability and output path types."""
+``--mesh-unit`` and ``--decomposition``, the confidence pair, and the seed, probability and
+output path types."""
 
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from symgrasp.config import (
 from symgrasp.fields import field_docs
 from symgrasp.folders import check_folder, check_path
 from symgrasp.names import (
+    DECOMPOSITIONS,
     GRIPPER_SPEC_SUFFIX,
     GRIPPERS,
     MESH_OBJECT_SETS,
@@ -198,6 +200,7 @@ SHARED = {
     "kinds": ("--kinds", {"choices": SCENES}),
     "label_spread": ("--label-spread", {"metavar": ("BACK", "FORWARD", "E_Y", "E_Z")}),
     "mesh_unit": ("--mesh-unit", {"choices": MESH_UNITS}),
+    "decomposition": ("--decomposition", {"choices": DECOMPOSITIONS}),
     "schedule": ("--schedule", {"choices": SCHEDULES}),
     "validity.kind": ("--validity-loss", {"choices": VALIDITY_LOSSES}),
     "out": ("--out", {"type": output_folder_path}),
@@ -221,11 +224,19 @@ def add_shared(parser: argparse.ArgumentParser, name: str, help: str, default: A
     parser.add_argument(flag, dest=name, default=default, help=help, **options)
 
 
-def add_mesh_unit(parser: argparse.ArgumentParser) -> None:
-    """``--mesh-unit``, as `SceneConfig.mesh_unit` documents it, on a command without a
-    configuration."""
-    help = sentence(field_docs(SceneConfig)["mesh_unit"])
-    add_shared(parser, "mesh_unit", f"{help} (default: auto)", "auto")
+MESH_OPTIONS = ("mesh_unit", "decomposition")
+"""`SceneConfig`'s fields of how bare meshes are read: their units and their convex parts."""
+
+
+def add_mesh_options(
+    parser: argparse.ArgumentParser, names: tuple[str, ...] = MESH_OPTIONS
+) -> None:
+    """``--mesh-unit`` and ``--decomposition`` (``names``: those of `MESH_OPTIONS` wanted), as
+    `SceneConfig` documents them, on a command without a configuration."""
+    docs, defaults = field_docs(SceneConfig), SceneConfig()
+    for name in names:
+        default = getattr(defaults, name)
+        add_shared(parser, name, f"{sentence(docs[name])} (default: {default})", default)
 
 
 APPROACH_CHECK = ("table_clearance", "surface_clearance")

@@ -10,7 +10,7 @@ from symgrasp.arguments import integer
 from symgrasp.cli.options import (
     GRIPPER_METAVAR,
     SEED,
-    add_mesh_unit,
+    add_mesh_options,
     add_shared,
     output_folder_path,
     output_path,
@@ -52,7 +52,7 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
     show.add_argument(
         "--out", type=output_folder_path, default="out/sim", help="output folder (default: out/sim)"
     )
-    add_mesh_unit(show)
+    add_mesh_options(show)
     show.set_defaults(run=_run_sim_show)
 
 
@@ -62,7 +62,7 @@ def _run_sim_show(args: argparse.Namespace) -> None:
     from symgrasp.sim.show import save_scene_pictures
 
     with output_folder(args.out, PICTURES, "--out"):  # checked before the objects load
-        source = resolve(args.objects, args.mesh_unit)
+        source = resolve(args.objects, args.mesh_unit, args.decomposition)
         world = make_scene(args.scene, source, n=args.n, seed=args.seed)
         stem = f"{args.scene}_{Path(args.objects).name}_seed{args.seed}"
         paths, renderer = save_scene_pictures(world, args.out, stem)

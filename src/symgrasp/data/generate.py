@@ -37,17 +37,26 @@ from symgrasp.data.dataset import dataset_hash, load_scene, scene_path
 from symgrasp.data.grasp_db import GraspDatabase, build_database, database_path, read_cached
 from symgrasp.data.scenes import ScenePool, make_scene_record, scene_pool
 from symgrasp.folders import Outputs, writes_folder
+from symgrasp.objects.sets import unrecorded_decomposition
 from symgrasp.parallel import Executor, Failure, Job, TasksFailed, open_executor, torch_threads
 from symgrasp.parallel.base import versions
 from symgrasp.sim.grippers import GripperSpec, get_gripper
 from symgrasp.workspace import RESOLUTION, VOXEL_SIZE
 
 
+def _as_made(config: dict[str, Any]) -> dict[str, Any]:
+    """A manifest's ``config`` with the decomposition its scenes were made with where it
+    predates the field (`symgrasp.objects.sets.unrecorded_decomposition`); the other fields it
+    predates read as their defaults, which it was made with."""
+    objects = config.get("object_set", SceneConfig.object_set)
+    return {"decomposition": unrecorded_decomposition(objects), **config}
+
+
 def config_from_dict(d: dict[str, Any], path: str | Path | None = None) -> SceneConfig:
-    """The :class:`SceneConfig` saved in the manifest ``path``; ValueError naming that file
-    and the field when ``d`` is not one (a hand-edited ``"k_max": "eight"``)."""
+    """The :class:`SceneConfig` saved in the manifest ``path`` (`_as_made`); ValueError naming
+    that file and the field when ``d`` is not one (a hand-edited ``"k_max": "eight"``)."""
     try:
-        d = dict(d)
+        d = _as_made(dict(d))
         db = d.pop("database")
         db["offset"] = tuple(db["offset"])
         for key in ("kinds", "camera_distance", "camera_polar", "label_spread"):
@@ -213,7 +222,8 @@ def generate(
         if not resume:
             raise ValueError(f"out {root} already holds a dataset; pass resume=True (--resume)")
         defaults = dataclasses.asdict(SceneConfig())  # fields added later: their defaults
-        recorded = json.loads(json.dumps({**defaults, **old["config"], "seed": old["seed"]}))
+        recorded = {**defaults, **_as_made(old["config"]), "seed": old["seed"]}
+        recorded = json.loads(json.dumps(recorded))
         wanted = json.loads(json.dumps({**dataclasses.asdict(cfg), "seed": seed}))
         differ = sorted(
             k for k in recorded.keys() | wanted.keys() if recorded.get(k) != wanted.get(k)

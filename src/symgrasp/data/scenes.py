@@ -56,9 +56,10 @@ class ScenePool:
 
 def scene_pool(cfg: SceneConfig) -> ScenePool:
     """The pool of ``cfg``: its object set resolved (`symgrasp.objects.sets.resolve`, bare meshes
-    read in ``mesh_unit``) and ``pool_size`` of its objects drawn from ``pool_seed``
-    (`ObjectSource.pool`). Made once per process, shared by its scenes and databases."""
-    source = resolve(cfg.object_set, cfg.mesh_unit)
+    read in ``mesh_unit`` and cut by ``decomposition``) and ``pool_size`` of its objects drawn
+    from ``pool_seed`` (`ObjectSource.pool`). Made once per process, shared by its scenes and
+    databases."""
+    source = resolve(cfg.object_set, cfg.mesh_unit, cfg.decomposition)
     return ScenePool(source, tuple(source.pool(cfg.pool_size, cfg.pool_seed)))
 
 

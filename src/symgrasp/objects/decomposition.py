@@ -54,6 +54,11 @@ worker is one core, and its parts are the same on every run."""
 DEFAULT_PRESET = DECOMPOSITIONS[0]
 """The preset every command uses unless told otherwise (docs/reports/decomposition.md)."""
 
+BEFORE_PRESETS = "coacd"
+"""The preset whose settings were symgrasp's only decomposition before the presets: what a
+record without a ``decomposition`` was made with
+(`symgrasp.objects.sets.unrecorded_decomposition`)."""
+
 LIBRARIES = {"coacd": "coacd", "vhacdx": "vhacdx"}
 """The module each preset's ``library`` imports."""
 
@@ -115,7 +120,9 @@ def decompose(
                 return np.split(stored["vertices"], np.cumsum(stored["counts"])[:-1])
     folder = next((f for f in cache_folders() if _writable(f)), None)
     where = f"cached in {folder}" if folder else "not cached: no cache folder can be written"
-    print(f"decomposing {path} into convex parts ({preset}, once; {where})", file=sys.stderr)
+    from tqdm import tqdm  # its write keeps the line off a progress bar of this process
+
+    tqdm.write(f"decomposing {path} into convex parts ({preset}, once; {where})", sys.stderr)
     parts = run_library(vertices, faces, settings)
     if folder is not None:
         counts = np.array([len(p) for p in parts])

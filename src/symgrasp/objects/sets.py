@@ -156,15 +156,22 @@ def _load(path: Path, mesh_unit: str, in_subfolder: bool, decomposition: str) ->
     return obj
 
 
-def resolve(objects: str | Path, mesh_unit: str = "auto") -> ObjectSource:
+def resolve(
+    objects: str | Path, mesh_unit: str = "auto", decomposition: str = DECOMPOSITIONS[0]
+) -> ObjectSource:
     """The source named ``objects``: a procedural set, one of VGN's sets (from the data
     folder), a folder holding URDF files or bare meshes (read in ``mesh_unit``, one of
-    `MESH_UNITS`), or several of the last two joined by commas. Raises ValueError listing the
-    known names when a part is none of these (or a procedural set is joined to others), or
+    `MESH_UNITS`, and cut into convex parts by the preset ``decomposition``, one of
+    `DECOMPOSITIONS`), or several of the last two joined by commas. Raises ValueError listing
+    the known names when a part is none of these (or a procedural set is joined to others), or
     when a part is empty (it would name the current folder), and
     `symgrasp.objects.folder.MissingData` when a named mesh set is not in the data folder."""
     if mesh_unit not in MESH_UNITS:
         raise ValueError(f"mesh_unit must be one of {MESH_UNITS}, got {mesh_unit!r}")
+    if decomposition not in DECOMPOSITIONS:
+        raise ValueError(
+            f"decomposition must be one of {', '.join(DECOMPOSITIONS)}, got {decomposition!r}"
+        )
     name = str(objects)
     if name in PROCEDURAL_OBJECT_SETS:
         return ObjectSource(name)
@@ -181,7 +188,23 @@ def resolve(objects: str | Path, mesh_unit: str = "auto") -> ObjectSource:
             raise ValueError(
                 f"objects folder {folder} holds no .urdf file, nor any .obj, .stl or .ply mesh"
             )
-    return ObjectSource(name, folders, mesh_unit)
+    return ObjectSource(name, folders, mesh_unit, decomposition)
+
+
+def unrecorded_decomposition(objects: str) -> str:
+    """The decomposition preset a record of the object set ``objects`` (a benchmark's
+    ``config.json``, a dataset's manifest) was made with when it predates the field:
+    `symgrasp.objects.decomposition.BEFORE_PRESETS` where the set may hold bare meshes (a
+    folder without a URDF file, or one no longer there to tell), else the default: the named
+    sets are built in code or read from URDF files, whose parts no preset changes, so their
+    records reuse as they always did."""
+    from symgrasp.objects.decomposition import BEFORE_PRESETS
+
+    named = PROCEDURAL_OBJECT_SETS + MESH_OBJECT_SETS
+    folders = [Path(p).expanduser() for p in str(objects).split(",") if p not in named]
+    if any(not f.is_dir() or not any(f.glob("*.urdf")) for f in folders):
+        return BEFORE_PRESETS
+    return DECOMPOSITIONS[0]
 
 
 def _mesh_folder(part: str) -> Path:
